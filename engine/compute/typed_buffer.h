@@ -1,0 +1,42 @@
+// A GPU buffer with a name, a shape and an element type: user shared buffers (read-write in
+// custom passes) and the engine's internal buffers (read-only there) are both this.
+#pragma once
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "gpu/buffer.h"
+
+namespace cressim::compute {
+
+enum class DType { NONE = 0, FLOAT32, INT32, UINT32, FLOAT64 };
+
+struct DTypeInfo {
+  const char* name;
+  uint32_t size;
+  uint8_t dlpack_code;  // kDLInt 0, kDLUInt 1, kDLFloat 2
+};
+
+DTypeInfo dtype_info(DType t);
+DType parse_dtype(const std::string& name);  // "float32", "f4", "int32", "uint32", "float64"
+
+struct TypedBuffer {
+  std::string key;               // shared buffer name, or internal key like "transform.positions"
+  std::vector<int64_t> shape;    // element shape; float4 rows are (rows, 4)
+  DType dtype = DType::NONE;
+  bool read_only = false;        // internal buffers: custom passes may not write them
+  uint64_t generation = 0;       // internal buffers: the upload_world() that made them
+  std::shared_ptr<gpu::OwnedBuffer> storage;
+
+  uint64_t elements() const;
+  uint64_t bytes() const { return elements() * dtype_info(dtype).size; }
+  bool host_visible() const { return storage && storage->buffer.mapped; }
+  std::string describe() const;  // "'name' (64, 1000) float32"
+};
+
+std::shared_ptr<TypedBuffer> make_typed_buffer(std::shared_ptr<gpu::Context> ctx, std::string key,
+                                               std::vector<int64_t> shape, DType dtype, bool read_only,
+                                               bool exportable = false);
+
+}  // namespace cressim::compute

@@ -1,0 +1,118 @@
+#include "gpu/commands.h"
+
+#include "gpu/context.h"
+#include "gpu/error.h"
+
+namespace cressim::gpu {
+
+VkCommandBuffer allocate_command_buffer(Context& ctx) {
+  VkCommandBufferAllocateInfo ai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+  ai.commandPool = ctx.command_pool;
+  ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+  ai.commandBufferCount = 1;
+  VkCommandBuffer cmd = VK_NULL_HANDLE;
+  check(vkAllocateCommandBuffers(ctx.device, &ai, &cmd), "vkAllocateCommandBuffers");
+  return cmd;
+}
+
+void free_command_buffer(Context& ctx, VkCommandBuffer cmd) {
+  if (cmd) vkFreeCommandBuffers(ctx.device, ctx.command_pool, 1, &cmd);
+}
+
+void begin_commands(VkCommandBuffer cmd, bool one_time) {
+  VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+  bi.flags = one_time ? VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT : 0;
+  check(vkBeginCommandBuffer(cmd, &bi), "vkBeginCommandBuffer");
+}
+
+void end_commands(VkCommandBuffer cmd) { check(vkEndCommandBuffer(cmd), "vkEndCommandBuffer"); }
+
+static void memory_barrier(VkCommandBuffer cmd, VkPipelineStageFlags2 dst_stage, VkAccessFlags2 dst_access) {
+  VkMemoryBarrier2 mb{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
+  mb.srcStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_TRANSFER_BIT;
+  mb.srcAccessMask = VK_ACCESS_2_SHADER_WRITE_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT;
+  mb.dstStageMask = dst_stage;
+  mb.dstAccessMask = dst_access;
+  VkDependencyInfo di{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+  di.memoryBarrierCount = 1;
+  di.pMemoryBarriers = &mb;
+  vkCmdPipelineBarrier2(cmd, &di);
+}
+
+void compute_barrier(VkCommandBuffer cmd) {
+  memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
+                 VK_ACCESS_2_SHADER_READ_BIT | VK_ACCESS_2_SHADER_WRITE_BIT | VK_ACCESS_2_TRANSFER_READ_BIT |
+                     VK_ACCESS_2_TRANSFER_WRITE_BIT);
+}
+
+void host_read_barrier(VkCommandBuffer cmd) {
+  memory_barrier(cmd, VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
+}
+
+void submit_now(Context& ctx, const std::function<void(VkCommandBuffer)>& record) {
+  VkCommandBuffer cmd = allocate_command_buffer(ctx);
+  begin_commands(cmd, true);
+  record(cmd);
+  host_read_barrier(cmd);
+  end_commands(cmd);
+  VkFenceCreateInfo fi{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+  VkFence fence = VK_NULL_HANDLE;
+  check(vkCreateFence(ctx.device, &fi, nullptr, &fence), "vkCreateFence");
+  VkCommandBufferSubmitInfo ci{VK_STRUCTURE_TYPE_COMMAND_BUFFER_SUBMIT_INFO};
+  ci.commandBuffer = cmd;
+  VkSubmitInfo2 si{VK_STRUCTURE_TYPE_SUBMIT_INFO_2};
+  si.commandBufferInfoCount = 1;
+  si.pCommandBufferInfos = &ci;
+  VkResult r = vkQueueSubmit2(ctx.queue, 1, &si, fence);
+  if (r == VK_SUCCESS) r = vkWaitForFences(ctx.device, 1, &fence, VK_TRUE, UINT64_MAX);
+  vkDestroyFence(ctx.device, fence, nullptr);
+  free_command_buffer(ctx, cmd);
+  check(r, "one-off transfer submit", "transfer");
+}
+
+Timeline create_timeline(Context& ctx) {
+  VkSemaphoreTypeCreateInfo ti{VK_STRUCTURE_TYPE_SEMAPHORE_TYPE_CREATE_INFO};
+  ti.semaphoreType = VK_SEMAPHORE_TYPE_TIMELINE;
+  ti.initialValue = 0;
+  VkSemaphoreCreateInfo si{VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO};
+  si.pNext = &ti;
+  Timeline t;
+  check(vkCreateSemaphore(ctx.device, &si, nullptr, &t.semaphore), "vkCreateSemaphore(timeline)");
+  return t;
+}
+
+void destroy_timeline(Context& ctx, Timeline& t) {
+  if (t.semaphore) vkDestroySemaphore(ctx.device, t.semaphore, nullptr);
+  t = Timeline{};
+}
+
+uint64_t submit(Context& ctx, Timeline& t, const std::vector<VkCommandBuffer>& cmds, const std::string& stage) {
+  std::vector<VkCommandBufferSubmitInfo> infos;
+  infos.reserve(cmds.size());
+  for (VkCommandBuffer c : cmds) {
+    VkCommandBufferSubmitInfo ci{VK_STRUCTURE_TYPE_COMMAND_BUFFER_SUBMIT_INFO};
+    ci.commandBuffer = c;
+    infos.push_back(ci);
+  }
+  VkSemaphoreSubmitInfo signal{VK_STRUCTURE_TYPE_SEMAPHORE_SUBMIT_INFO};
+  signal.semaphore = t.semaphore;
+  signal.value = t.value + 1;
+  signal.stageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
+  VkSubmitInfo2 si{VK_STRUCTURE_TYPE_SUBMIT_INFO_2};
+  si.commandBufferInfoCount = uint32_t(infos.size());
+  si.pCommandBufferInfos = infos.data();
+  si.signalSemaphoreInfoCount = 1;
+  si.pSignalSemaphoreInfos = &signal;
+  check(vkQueueSubmit2(ctx.queue, 1, &si, VK_NULL_HANDLE), "vkQueueSubmit2", stage);
+  return ++t.value;
+}
+
+void wait(Context& ctx, const Timeline& t, uint64_t value, const std::string& stage) {
+  VkSemaphoreWaitInfo wi{VK_STRUCTURE_TYPE_SEMAPHORE_WAIT_INFO};
+  wi.semaphoreCount = 1;
+  wi.pSemaphores = &t.semaphore;
+  wi.pValues = &value;
+  check(vkWaitSemaphores(ctx.device, &wi, UINT64_MAX), "vkWaitSemaphores", stage);
+}
+
+}  // namespace cressim::gpu

@@ -1,0 +1,40 @@
+// Command recording helpers, barriers and timeline-semaphore submits.
+#pragma once
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <vulkan/vulkan.h>
+
+namespace cressim::gpu {
+
+struct Context;
+
+VkCommandBuffer allocate_command_buffer(Context& ctx);
+void free_command_buffer(Context& ctx, VkCommandBuffer cmd);
+void begin_commands(VkCommandBuffer cmd, bool one_time);
+void end_commands(VkCommandBuffer cmd);
+
+// Every shader/transfer write before is visible to every shader/transfer access after.
+void compute_barrier(VkCommandBuffer cmd);
+// Makes transfer and shader writes visible to host reads after the submit completes.
+void host_read_barrier(VkCommandBuffer cmd);
+
+// Records with `record`, submits and waits; for set-up and explicit copies, never per step.
+void submit_now(Context& ctx, const std::function<void(VkCommandBuffer)>& record);
+
+struct Timeline {
+  VkSemaphore semaphore = VK_NULL_HANDLE;
+  uint64_t value = 0;  // last value signalled by a submit
+};
+
+Timeline create_timeline(Context& ctx);
+void destroy_timeline(Context& ctx, Timeline& t);
+
+// One vkQueueSubmit2 of `cmds` that signals the next timeline value; returns that value.
+uint64_t submit(Context& ctx, Timeline& t, const std::vector<VkCommandBuffer>& cmds, const std::string& stage);
+// Waits on the host until the timeline reaches `value`; device loss names `stage`.
+void wait(Context& ctx, const Timeline& t, uint64_t value, const std::string& stage);
+
+}  // namespace cressim::gpu

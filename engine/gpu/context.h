@@ -1,0 +1,60 @@
+// The Vulkan instance, the chosen device and its one compute queue.
+#pragma once
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include <vulkan/vulkan.h>
+
+namespace cressim::gpu {
+
+struct DeviceInfo {
+  uint32_t index = 0;
+  std::string name;
+  std::string type;  // "discrete", "integrated", "virtual", "cpu", "other"
+  uint32_t api_version = 0;
+  std::string driver;
+};
+
+struct ContextOptions {
+  bool validation = false;  // VK_LAYER_KHRONOS_validation + a messenger that collects messages
+  std::string device;       // index or name substring; empty: CRESSIM_DEVICE or the best device
+};
+
+struct Context {
+  VkInstance instance = VK_NULL_HANDLE;
+  VkPhysicalDevice physical = VK_NULL_HANDLE;
+  VkDevice device = VK_NULL_HANDLE;
+  VkQueue queue = VK_NULL_HANDLE;
+  uint32_t queue_family = 0;
+  VkCommandPool command_pool = VK_NULL_HANDLE;
+  VkDebugUtilsMessengerEXT messenger = VK_NULL_HANDLE;
+
+  DeviceInfo info;
+  VkPhysicalDeviceProperties properties{};
+  VkPhysicalDeviceMemoryProperties memory{};
+  uint32_t subgroup_size = 0;
+  bool validation = false;
+  bool unified_memory = false;  // CPU/integrated device: device-local memory is host-visible
+  bool external_memory_fd = false;
+  bool external_semaphore_fd = false;
+
+  // Validation messages (warnings and errors) collected since creation.
+  std::mutex messages_mutex;
+  std::vector<std::string> validation_messages;
+
+  ~Context();
+};
+
+// Lists the physical devices the loader sees (for `cressim info` and CRESSIM_DEVICE).
+std::vector<DeviceInfo> list_devices();
+
+// Creates instance and device; the chosen device is logged once per process.
+std::shared_ptr<Context> create_context(const ContextOptions& options = {});
+
+// Environment switches: CRESSIM_VALIDATION=1, CRESSIM_DEVICE=<index|name substring>.
+ContextOptions options_from_environment();
+
+}  // namespace cressim::gpu

@@ -1,0 +1,99 @@
+#include "gpu/pipeline.h"
+
+#include "gpu/context.h"
+#include "gpu/error.h"
+
+namespace cressim::gpu {
+
+ComputePipeline create_compute_pipeline(Context& ctx, const std::vector<uint32_t>& spirv, const std::string& entry,
+                                        const std::string& name) {
+  ComputePipeline p;
+  p.reflection = reflect_spirv(spirv);
+  for (const auto& b : p.reflection.bindings)
+    if (b.set != 0)
+      throw VulkanError(VK_ERROR_INITIALIZATION_FAILED,
+                        name + ": binding '" + b.name + "' is in descriptor set " + std::to_string(b.set) +
+                            "; compute passes use set 0 only");
+
+  VkShaderModuleCreateInfo mi{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
+  mi.codeSize = spirv.size() * 4;
+  mi.pCode = spirv.data();
+  check(vkCreateShaderModule(ctx.device, &mi, nullptr, &p.module), ("vkCreateShaderModule " + name).c_str());
+
+  std::vector<VkDescriptorSetLayoutBinding> bindings;
+  for (const auto& b : p.reflection.bindings) {
+    VkDescriptorSetLayoutBinding lb{};
+    lb.binding = b.binding;
+    lb.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    lb.descriptorCount = 1;
+    lb.stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
+    bindings.push_back(lb);
+  }
+  VkDescriptorSetLayoutCreateInfo li{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
+  li.bindingCount = uint32_t(bindings.size());
+  li.pBindings = bindings.data();
+  check(vkCreateDescriptorSetLayout(ctx.device, &li, nullptr, &p.set_layout), "vkCreateDescriptorSetLayout");
+
+  VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, p.reflection.push_constant_size};
+  VkPipelineLayoutCreateInfo pli{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+  pli.setLayoutCount = 1;
+  pli.pSetLayouts = &p.set_layout;
+  pli.pushConstantRangeCount = range.size ? 1 : 0;
+  pli.pPushConstantRanges = &range;
+  check(vkCreatePipelineLayout(ctx.device, &pli, nullptr, &p.layout), "vkCreatePipelineLayout");
+
+  VkComputePipelineCreateInfo ci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
+  ci.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+  ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+  ci.stage.module = p.module;
+  ci.stage.pName = entry.c_str();
+  ci.layout = p.layout;
+  check(vkCreateComputePipelines(ctx.device, VK_NULL_HANDLE, 1, &ci, nullptr, &p.pipeline),
+        ("vkCreateComputePipelines " + name).c_str());
+
+  if (!bindings.empty()) {
+    VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, uint32_t(bindings.size())};
+    VkDescriptorPoolCreateInfo dpi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
+    dpi.maxSets = 1;
+    dpi.poolSizeCount = 1;
+    dpi.pPoolSizes = &size;
+    check(vkCreateDescriptorPool(ctx.device, &dpi, nullptr, &p.pool), "vkCreateDescriptorPool");
+    VkDescriptorSetAllocateInfo ai{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
+    ai.descriptorPool = p.pool;
+    ai.descriptorSetCount = 1;
+    ai.pSetLayouts = &p.set_layout;
+    check(vkAllocateDescriptorSets(ctx.device, &ai, &p.set), "vkAllocateDescriptorSets");
+  }
+  return p;
+}
+
+void destroy_compute_pipeline(Context& ctx, ComputePipeline& p) {
+  if (p.pool) vkDestroyDescriptorPool(ctx.device, p.pool, nullptr);
+  if (p.pipeline) vkDestroyPipeline(ctx.device, p.pipeline, nullptr);
+  if (p.layout) vkDestroyPipelineLayout(ctx.device, p.layout, nullptr);
+  if (p.set_layout) vkDestroyDescriptorSetLayout(ctx.device, p.set_layout, nullptr);
+  if (p.module) vkDestroyShaderModule(ctx.device, p.module, nullptr);
+  p = ComputePipeline{};
+}
+
+void bind_buffer(Context& ctx, ComputePipeline& p, uint32_t binding, VkBuffer buffer) {
+  VkDescriptorBufferInfo info{buffer, 0, VK_WHOLE_SIZE};
+  VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+  w.dstSet = p.set;
+  w.dstBinding = binding;
+  w.descriptorCount = 1;
+  w.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+  w.pBufferInfo = &info;
+  vkUpdateDescriptorSets(ctx.device, 1, &w, 0, nullptr);
+}
+
+void record_dispatch(VkCommandBuffer cmd, const ComputePipeline& p, const void* push_constants,
+                     const uint32_t groups[3]) {
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.pipeline);
+  if (p.set) vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.layout, 0, 1, &p.set, 0, nullptr);
+  if (p.reflection.push_constant_size && push_constants)
+    vkCmdPushConstants(cmd, p.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, p.reflection.push_constant_size, push_constants);
+  if (groups[0] && groups[1] && groups[2]) vkCmdDispatch(cmd, groups[0], groups[1], groups[2]);
+}
+
+}  // namespace cressim::gpu

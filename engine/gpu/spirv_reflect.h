@@ -1,0 +1,41 @@
+// What a compute shader declares, read from its SPIR-V: descriptor bindings (by HLSL name),
+// push-constant members and the thread-group size. Bindings are written once, in the shader.
+#pragma once
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace cressim::gpu {
+
+enum class ScalarKind { NONE = 0, UINT, INT, FLOAT };
+
+struct ReflectedBinding {
+  std::string name;
+  uint32_t set = 0;
+  uint32_t binding = 0;
+  bool writable = true;  // false for StructuredBuffer/ByteAddressBuffer (NonWritable)
+  uint32_t stride = 0;   // element stride of the runtime array, 0 if unknown
+};
+
+struct ReflectedConstant {
+  std::string name;
+  uint32_t offset = 0;
+  uint32_t size = 0;
+  ScalarKind kind = ScalarKind::NONE;
+  uint32_t components = 1;
+};
+
+struct ShaderReflection {
+  std::vector<ReflectedBinding> bindings;
+  std::vector<ReflectedConstant> constants;  // push-constant members
+  uint32_t push_constant_size = 0;
+  std::array<uint32_t, 3> local_size{1, 1, 1};
+
+  const ReflectedBinding* find_binding(const std::string& name) const;
+  const ReflectedConstant* find_constant(const std::string& name) const;
+};
+
+ShaderReflection reflect_spirv(const std::vector<uint32_t>& code);
+
+}  // namespace cressim::gpu

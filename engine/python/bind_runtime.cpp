@@ -1,0 +1,157 @@
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <fstream>
+#include <sstream>
+
+#include "python/bindings.h"
+#include "runtime/engine.h"
+
+namespace py = pybind11;
+
+namespace cressim::python {
+namespace {
+
+using runtime::Engine;
+
+template <class T>
+py::array_t<T> to_numpy(const std::vector<T>& v) {
+  py::array_t<T> a(py::ssize_t(v.size()));
+  std::copy(v.begin(), v.end(), a.mutable_data());
+  return a;
+}
+
+py::dict device_dict(const gpu::Context& c) {
+  py::dict d;
+  d["index"] = c.info.index;
+  d["name"] = c.info.name;
+  d["type"] = c.info.type;
+  d["vulkan"] = std::to_string(VK_API_VERSION_MAJOR(c.info.api_version)) + "." +
+                std::to_string(VK_API_VERSION_MINOR(c.info.api_version)) + "." +
+                std::to_string(VK_API_VERSION_PATCH(c.info.api_version));
+  d["driver"] = c.info.driver;
+  d["subgroup_size"] = c.subgroup_size;
+  d["max_storage_buffer_range"] = c.properties.limits.maxStorageBufferRange;
+  d["max_compute_work_group_count"] = std::vector<uint32_t>(c.properties.limits.maxComputeWorkGroupCount,
+                                                            c.properties.limits.maxComputeWorkGroupCount + 3);
+  d["max_compute_work_group_invocations"] = c.properties.limits.maxComputeWorkGroupInvocations;
+  d["timestamp_period_ns"] = c.properties.limits.timestampPeriod;
+  d["unified_memory"] = c.unified_memory;
+  d["external_memory_fd"] = c.external_memory_fd;
+  d["external_semaphore_fd"] = c.external_semaphore_fd;
+  d["validation"] = c.validation;
+  return d;
+}
+
+gpu::ContextOptions options(py::object validation, py::object device) {
+  auto o = gpu::options_from_environment();
+  if (!validation.is_none()) o.validation = validation.cast<bool>();
+  if (!device.is_none()) o.device = py::str(device).cast<std::string>();
+  return o;
+}
+
+}  // namespace
+
+void bind_runtime(py::module_& m) {
+  m.def("list_devices", [] {
+    py::list out;
+    for (auto& d : gpu::list_devices()) {
+      py::dict e;
+      e["index"] = d.index;
+      e["name"] = d.name;
+      e["type"] = d.type;
+      e["vulkan"] = std::to_string(VK_API_VERSION_MAJOR(d.api_version)) + "." +
+                    std::to_string(VK_API_VERSION_MINOR(d.api_version));
+      e["driver"] = d.driver;
+      out.append(e);
+    }
+    return out;
+  });
+
+  py::class_<Engine>(m, "Engine")
+      .def(py::init([](std::shared_ptr<scene::World> w, py::object validation, py::object device) {
+             return std::make_unique<Engine>(std::move(w), options(validation, device));
+           }),
+           py::arg("world"), py::kw_only(), py::arg("validation") = py::none(), py::arg("device") = py::none())
+      .def_property_readonly("device", [](const Engine& e) { return device_dict(*e.context()); })
+      .def_property_readonly("validation_enabled", [](const Engine& e) { return e.context()->validation; })
+      .def_property_readonly("validation_messages", &Engine::validation_messages)
+      .def_property_readonly("world", [](Engine& e) { return e.world(); })
+      .def("prepare", &Engine::prepare, py::call_guard<py::gil_scoped_release>())
+      .def("upload_world", &Engine::upload_world, py::call_guard<py::gil_scoped_release>())
+      .def("step_physics", &Engine::step_physics)
+      .def("step_visual_sensors", &Engine::step_visual_sensors)
+      .def("step_simulation_sensors", &Engine::step_simulation_sensors)
+      .def("execute_compute_pass", &Engine::execute_compute_pass, py::arg("compute_pass"))
+      .def("end_frame", &Engine::end_frame, py::call_guard<py::gil_scoped_release>())
+      .def("create_shared_buffer",
+           [](Engine& e, const std::string& name, py::object shape, py::object dtype) {
+             std::vector<int64_t> s;
+             if (py::isinstance<py::int_>(shape)) s.push_back(shape.cast<int64_t>());
+             else s = shape.cast<std::vector<int64_t>>();
+             std::string dt = py::str(py::module_::import("numpy").attr("dtype")(dtype).attr("name"));
+             return e.create_shared_buffer(name, s, compute::parse_dtype(dt));
+           },
+           py::arg("name"), py::arg("shape"), py::arg("dtype") = "float32")
+      .def("create_compute_pass",
+           [](Engine& e, const std::string& source, const std::string& name, const std::string& entry,
+              py::dict bindings, py::object dispatch, py::object threads, py::dict constants) {
+             compute::PassSpec spec;
+             spec.name = name;
+             spec.source = source;
+             spec.entry = entry;
+             std::map<std::string, std::string> keys;
+             for (auto [k, v] : bindings) {
+               if (py::isinstance<compute::TypedBuffer>(v)) spec.bindings[py::str(k)] = v.cast<std::shared_ptr<compute::TypedBuffer>>();
+               else if (py::isinstance<py::str>(v)) keys[py::str(k)] = py::str(v);
+               else throw py::type_error("binding '" + std::string(py::str(k)) + "' must be a Buffer or a key string");
+             }
+             auto three = [](py::object o) {
+               std::array<uint64_t, 3> a{1, 1, 1};
+               if (py::isinstance<py::int_>(o)) { a[0] = o.cast<uint64_t>(); return a; }
+               auto v = o.cast<std::vector<uint64_t>>();
+               if (v.empty() || v.size() > 3) throw py::value_error("dispatch/threads: give 1 to 3 numbers");
+               std::copy(v.begin(), v.end(), a.begin());
+               return a;
+             };
+             if (dispatch.is_none() == threads.is_none())
+               throw py::value_error("create_compute_pass '" + name + "': give exactly one of dispatch=(groups) or threads=n");
+             if (!threads.is_none()) spec.threads = three(threads);
+             else { auto g = three(dispatch); spec.groups = {uint32_t(g[0]), uint32_t(g[1]), uint32_t(g[2])}; }
+             std::shared_ptr<compute::ComputePass> pass;
+             {
+               py::gil_scoped_release release;
+               pass = e.create_compute_pass(spec, keys);
+             }
+             py::object p = py::cast(pass);
+             for (auto [k, v] : constants) p.attr("set_constant")(k, v);
+             return pass;
+           },
+           py::arg("source"), py::kw_only(), py::arg("name"), py::arg("entry") = "main",
+           py::arg("bindings") = py::dict(), py::arg("dispatch") = py::none(), py::arg("threads") = py::none(),
+           py::arg("constants") = py::dict())
+      .def("buffer", &Engine::lookup, py::arg("key"), "A shared buffer by name or an internal buffer by key.")
+      .def_property_readonly("internal_keys", &Engine::internal_keys)
+      .def_property_readonly("shared_buffers", &Engine::shared_names)
+      .def("reset_envs", &Engine::reset_envs, py::arg("envs"))
+      .def_property_readonly("mapping", [](const Engine& e) {
+        const auto& m = e.mapping();
+        py::dict d;
+        d["entity_id"] = to_numpy(m.row_entity);
+        d["env_index"] = to_numpy(m.row_env);
+        d["entity_row"] = to_numpy(m.entity_row);
+        d["env_offset"] = to_numpy(m.env_offset);
+        d["env_count"] = to_numpy(m.env_count);
+        return d;
+      })
+      .def_property_readonly("prepared", &Engine::prepared)
+      .def_property_readonly("uploaded", &Engine::uploaded)
+      .def_property_readonly("frame_count", &Engine::frame_count)
+      .def_property_readonly("recorded_frames", &Engine::recorded_frames)
+      .def_property_readonly("submits", &Engine::submits)
+      .def_property("profiling", &Engine::profiling, &Engine::set_profiling)
+      .def_property_readonly("last_timings", &Engine::last_timings);
+}
+
+}  // namespace cressim::python

@@ -1,0 +1,10 @@
+// One function per area, called from module.cpp in order.
+#pragma once
+#include <pybind11/pybind11.h>
+
+namespace cressim::python {
+void bind_errors(pybind11::module_& m);
+void bind_scene(pybind11::module_& m);
+void bind_compute(pybind11::module_& m);
+void bind_runtime(pybind11::module_& m);
+}  // namespace cressim::python

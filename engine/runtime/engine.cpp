@@ -1,0 +1,345 @@
+#include "runtime/engine.h"
+
+#include <algorithm>
+#include <cstring>
+
+#include "gpu/error.h"
+#include "cressim/layout.h"
+
+namespace cressim::runtime {
+namespace {
+
+constexpr size_t kFrameCacheSize = 8;      // distinct frame shapes kept recorded at once
+constexpr uint32_t kMaxProfiledOps = 255;  // timestamp slots per profiled frame
+
+using compute::DType;
+
+std::string join(const std::vector<std::string>& v) {
+  std::string s;
+  for (auto& x : v) s += (s.empty() ? "" : ", ") + x;
+  return s;
+}
+
+}  // namespace
+
+Engine::Engine(std::shared_ptr<scene::World> world, const gpu::ContextOptions& options)
+    : world_(std::move(world)), ctx_(gpu::create_context(options)) {
+  if (!world_) throw std::invalid_argument("Engine needs a World");
+  timeline_ = gpu::create_timeline(*ctx_);
+  upload_cmd_ = gpu::allocate_command_buffer(*ctx_);
+}
+
+Engine::~Engine() {
+  if (ctx_->device) vkDeviceWaitIdle(ctx_->device);
+  release_frames();
+  release_world_buffers();
+  shared_.clear();
+  gpu::free_command_buffer(*ctx_, upload_cmd_);
+  gpu::destroy_buffer(*ctx_, staging_);
+  if (timestamps_) vkDestroyQueryPool(ctx_->device, timestamps_, nullptr);
+  gpu::destroy_timeline(*ctx_, timeline_);
+}
+
+// ---- authoring -> GPU ----------------------------------------------------------------------
+
+void Engine::prepare() {
+  mapping_ = scene::build_layout_mapping(*world_);
+  prepared_ = true;
+  uploaded_ = false;
+}
+
+void Engine::upload_world() {
+  if (!prepared_ || mapping_.topology_version != world_->topology_version())
+    throw TopologyError("upload_world(): call prepare() first" +
+                        std::string(prepared_ ? " (the world changed since: " + world_->last_topology_change() + ")" : ""));
+  vkDeviceWaitIdle(ctx_->device);
+  release_frames();
+  release_world_buffers();
+  ++generation_;
+  ++epoch_;
+  const auto rows = int64_t(mapping_.rows()), envs = int64_t(mapping_.num_envs);
+
+  auto internal = [&](const std::string& key, std::vector<int64_t> shape, DType t) {
+    auto b = compute::make_typed_buffer(ctx_, key, std::move(shape), t, true);
+    b->generation = generation_;
+    internal_[key] = b;
+    return b;
+  };
+  auto put = [&](const std::shared_ptr<compute::TypedBuffer>& b, const void* data) {
+    gpu::upload(*ctx_, b->storage->buffer, data, b->bytes());
+  };
+
+  // entity rows and the per-env ranges, as prepared
+  put(internal("entity.id", {rows}, DType::UINT32), mapping_.row_entity.data());
+  put(internal("entity.env", {rows}, DType::UINT32), mapping_.row_env.data());
+  put(internal("env.entity_offset", {envs}, DType::UINT32), mapping_.env_offset.data());
+  put(internal("env.entity_count", {envs}, DType::UINT32), mapping_.env_count.data());
+
+  // transforms as float4 rows (xyz + pad, quaternion xyzw, scale + pad)
+  std::vector<float> pos(size_t(rows) * 4, 0.f), rot(size_t(rows) * 4, 0.f), scl(size_t(rows) * 4, 0.f);
+  for (int64_t r = 0; r < rows; ++r) {
+    const auto e = mapping_.row_entity[size_t(r)];
+    scene::Transform t = world_->has<scene::Transform>(e) ? world_->get<scene::Transform>(e) : scene::Transform{};
+    std::copy(t.position.begin(), t.position.end(), &pos[size_t(r) * 4]);
+    pos[size_t(r) * 4 + 3] = 1.f;
+    std::copy(t.rotation.begin(), t.rotation.end(), &rot[size_t(r) * 4]);
+    std::copy(t.scale.begin(), t.scale.end(), &scl[size_t(r) * 4]);
+  }
+  for (const char* k : {"transform.positions", "transform.initial_positions"}) put(internal(k, {rows, 4}, DType::FLOAT32), pos.data());
+  for (const char* k : {"transform.rotations", "transform.initial_rotations"}) put(internal(k, {rows, 4}, DType::FLOAT32), rot.data());
+  put(internal("transform.scales", {rows, 4}, DType::FLOAT32), scl.data());
+  world_->take_dirty();  // uploaded just now
+
+  // the engine's own read-write buffer: tasks and the health check flag envs to reset
+  auto mask = compute::make_typed_buffer(ctx_, "env.reset_mask", {envs}, DType::UINT32, false);
+  gpu::fill(*ctx_, mask->storage->buffer, 0);
+  shared_[mask->key] = mask;
+
+  reset_pass_ = compute::create_builtin_pass(
+      ctx_, "scene/reset_envs",
+      {{"entity_env", internal_["entity.env"]}, {"reset_mask", mask},
+       {"initial_positions", internal_["transform.initial_positions"]},
+       {"initial_rotations", internal_["transform.initial_rotations"]},
+       {"positions", internal_["transform.positions"]}, {"rotations", internal_["transform.rotations"]}});
+  shader::ResetEnvsConstants rc{uint32_t(rows)};
+  reset_pass_->set_constant_bits("row_count", &rc.row_count, sizeof(rc.row_count));
+  reset_pass_->set_threads({uint64_t(std::max<int64_t>(rows, 1)), 1, 1});
+  uploaded_ = true;
+}
+
+void Engine::release_world_buffers() {
+  reset_pass_.reset();
+  internal_.clear();
+  shared_.erase("env.reset_mask");
+}
+
+// ---- resources ---------------------------------------------------------------------------
+
+std::shared_ptr<compute::TypedBuffer> Engine::create_shared_buffer(const std::string& name, std::vector<int64_t> shape,
+                                                                   DType dtype) {
+  if (name.empty()) throw std::invalid_argument("create_shared_buffer: name must not be empty");
+  if (internal_.count(name) || shared_.count(name))
+    throw std::invalid_argument("create_shared_buffer: the name '" + name + "' is taken");
+  if (name.find('.') != std::string::npos)
+    throw std::invalid_argument("create_shared_buffer: '" + name + "': dotted names are reserved for engine buffers");
+  auto b = compute::make_typed_buffer(ctx_, name, std::move(shape), dtype, false, ctx_->external_memory_fd &&
+                                                                                      !ctx_->unified_memory);
+  gpu::fill(*ctx_, b->storage->buffer, 0);
+  shared_[name] = b;
+  return b;
+}
+
+std::shared_ptr<compute::TypedBuffer> Engine::lookup(const std::string& key) const {
+  if (auto it = shared_.find(key); it != shared_.end()) return it->second;
+  if (auto it = internal_.find(key); it != internal_.end()) return it->second;
+  std::string hint = uploaded_ ? "" : " (internal buffers exist after upload_world())";
+  throw compute::BindingError("unknown buffer key '" + key + "'" + hint + "; valid keys: " +
+                              join(shared_names()) + (shared_.empty() ? "" : ", ") + join(internal_keys()));
+}
+
+std::vector<std::string> Engine::internal_keys() const {
+  std::vector<std::string> k;
+  for (auto& [name, b] : internal_) k.push_back(name);
+  return k;
+}
+
+std::vector<std::string> Engine::shared_names() const {
+  std::vector<std::string> k;
+  for (auto& [name, b] : shared_) k.push_back(name);
+  return k;
+}
+
+std::shared_ptr<compute::ComputePass> Engine::create_compute_pass(compute::PassSpec spec,
+                                                                  const std::map<std::string, std::string>& keys) {
+  for (auto& [hlsl_name, key] : keys) {
+    try {
+      spec.bindings[hlsl_name] = lookup(key);
+    } catch (const compute::BindingError& e) {
+      throw compute::BindingError("pass '" + spec.name + "', binding '" + hlsl_name + "': " + e.what());
+    }
+  }
+  return compute::create_compute_pass(ctx_, spec);
+}
+
+const scene::LayoutMapping& Engine::mapping() const {
+  if (!prepared_) throw TopologyError("the layout mapping exists after prepare()");
+  return mapping_;
+}
+
+std::vector<std::string> Engine::validation_messages() {
+  std::lock_guard<std::mutex> lock(ctx_->messages_mutex);
+  return ctx_->validation_messages;
+}
+
+void Engine::add_stage_recorder(Stage stage, StageRecorder r) {
+  recorders_[size_t(stage)].push_back(std::move(r));
+  ++epoch_;
+}
+
+// ---- host writes -------------------------------------------------------------------------
+
+void Engine::write_rows(compute::TypedBuffer& dst, uint32_t row, const void* data, uint32_t row_bytes) {
+  const VkDeviceSize offset = VkDeviceSize(row) * row_bytes;
+  if (dst.storage->buffer.mapped) {
+    std::memcpy(static_cast<char*>(dst.storage->buffer.mapped) + offset, data, row_bytes);
+    return;
+  }
+  VkBufferCopy c{staged_bytes_.size(), offset, row_bytes};
+  staged_bytes_.insert(staged_bytes_.end(), static_cast<const uint8_t*>(data),
+                       static_cast<const uint8_t*>(data) + row_bytes);
+  staged_copies_.push_back({dst.storage->buffer.buffer, c});
+}
+
+void Engine::reset_envs(const std::vector<uint32_t>& envs) {
+  require_current_topology("reset_envs()");
+  auto& mask = *shared_.at("env.reset_mask");
+  const uint32_t one = 1;
+  for (uint32_t env : envs) {
+    if (env >= mapping_.num_envs)
+      throw std::out_of_range("reset_envs: env " + std::to_string(env) + " is out of range (" +
+                              std::to_string(mapping_.num_envs) + " envs)");
+    write_rows(mask, env, &one, 4);
+  }
+}
+
+void Engine::flush_host_writes() {
+  // authored values changed since the last frame (poses, targets): O(changed entities)
+  for (scene::EntityId e : world_->take_dirty()) {
+    if (!world_->has<scene::Transform>(e)) continue;
+    const auto& t = world_->get<scene::Transform>(e);
+    const uint32_t row = mapping_.entity_row[e];
+    const float p[4] = {t.position[0], t.position[1], t.position[2], 1.f};
+    const float s[4] = {t.scale[0], t.scale[1], t.scale[2], 0.f};
+    for (const char* k : {"transform.positions", "transform.initial_positions"}) write_rows(*internal_.at(k), row, p, 16);
+    for (const char* k : {"transform.rotations", "transform.initial_rotations"})
+      write_rows(*internal_.at(k), row, t.rotation.data(), 16);
+    write_rows(*internal_.at("transform.scales"), row, s, 16);
+  }
+}
+
+// ---- the frame ---------------------------------------------------------------------------
+
+void Engine::require_current_topology(const char* what) const {
+  if (!uploaded_) throw TopologyError(std::string(what) + ": call prepare() and upload_world() first");
+  if (mapping_.topology_version != world_->topology_version())
+    throw TopologyError(std::string(what) + ": the scene's topology changed after prepare() (" +
+                        world_->last_topology_change() + "); call prepare() and upload_world() again");
+}
+
+void Engine::push(Stage stage) {
+  require_current_topology(stage_name(stage));
+  ops_.push_back({stage, nullptr, 0, 0});
+}
+
+void Engine::execute_compute_pass(const std::shared_ptr<compute::ComputePass>& pass) {
+  require_current_topology("execute_compute_pass()");
+  if (!pass) throw std::invalid_argument("execute_compute_pass: no pass");
+  for (auto& [name, b] : pass->bindings)
+    if (b->read_only && b->generation != generation_)
+      throw TopologyError("pass '" + pass->name + "' binds '" + b->key +
+                          "' from an earlier upload_world(); create the pass again");
+  ops_.push_back({Stage::CUSTOM_PASS, pass, pass->uid, pass->version});
+}
+
+RecordedFrame& Engine::frame_for(const std::vector<FrameOp>& ops) {
+  for (auto& f : frames_cache_)
+    if (f.epoch == epoch_ && f.profiled == profiling_ && f.ops == ops) return f;
+  // evict the least recently used, then record the new shape once
+  if (frames_cache_.size() >= kFrameCacheSize) {
+    auto lru = std::min_element(frames_cache_.begin(), frames_cache_.end(),
+                                [](auto& a, auto& b) { return a.last_used < b.last_used; });
+    gpu::free_command_buffer(*ctx_, lru->cmd);
+    frames_cache_.erase(lru);
+  }
+  frames_cache_.push_back({ops, epoch_, profiling_, gpu::allocate_command_buffer(*ctx_), 0});
+  record(frames_cache_.back());
+  return frames_cache_.back();
+}
+
+void Engine::record_op(VkCommandBuffer cmd, const FrameOp& op) {
+  if (op.stage == Stage::CUSTOM_PASS) op.pass->record(cmd);
+  else if (op.stage == Stage::UPLOAD) {
+    // env resets requested by the host, a task pass or the health check, then clear the flags
+    if (mapping_.rows()) reset_pass_->record(cmd);
+    gpu::compute_barrier(cmd);
+    vkCmdFillBuffer(cmd, shared_.at("env.reset_mask")->storage->buffer.buffer, 0, VK_WHOLE_SIZE, 0);
+  }
+  for (auto& r : recorders_[size_t(op.stage)]) r(cmd);
+}
+
+void Engine::record(RecordedFrame& f) {
+  if (f.profiled && !timestamps_) {
+    VkQueryPoolCreateInfo qi{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
+    qi.queryType = VK_QUERY_TYPE_TIMESTAMP;
+    qi.queryCount = kMaxProfiledOps + 1;
+    gpu::check(vkCreateQueryPool(ctx_->device, &qi, nullptr, &timestamps_), "vkCreateQueryPool");
+  }
+  VkCommandBuffer cmd = f.cmd;
+  gpu::begin_commands(cmd, false);
+  std::vector<FrameOp> all{{Stage::UPLOAD, nullptr, 0, 0}};
+  all.insert(all.end(), f.ops.begin(), f.ops.end());
+  const bool stamps = f.profiled && all.size() <= kMaxProfiledOps;
+  if (stamps) {
+    vkCmdResetQueryPool(cmd, timestamps_, 0, uint32_t(all.size()) + 1);
+    vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, timestamps_, 0);
+  }
+  for (size_t i = 0; i < all.size(); ++i) {
+    record_op(cmd, all[i]);
+    gpu::compute_barrier(cmd);
+    if (stamps) vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, timestamps_, uint32_t(i) + 1);
+  }
+  gpu::host_read_barrier(cmd);
+  gpu::end_commands(cmd);
+  ++recorded_;
+}
+
+void Engine::end_frame() {
+  require_current_topology("end_frame()");
+  flush_host_writes();
+  RecordedFrame& frame = frame_for(ops_);
+  frame.last_used = frames_;
+
+  std::vector<VkCommandBuffer> cmds;
+  if (!staged_copies_.empty()) {
+    if (staging_.size < staged_bytes_.size()) {
+      gpu::destroy_buffer(*ctx_, staging_);
+      staging_ = gpu::create_buffer(*ctx_, std::max<VkDeviceSize>(staged_bytes_.size(), 1 << 16), {gpu::Memory::UPLOAD});
+    }
+    std::memcpy(staging_.mapped, staged_bytes_.data(), staged_bytes_.size());
+    gpu::begin_commands(upload_cmd_, true);
+    for (auto& [dst, region] : staged_copies_) vkCmdCopyBuffer(upload_cmd_, staging_.buffer, dst, 1, &region);
+    gpu::compute_barrier(upload_cmd_);
+    gpu::end_commands(upload_cmd_);
+    cmds.push_back(upload_cmd_);
+  }
+  cmds.push_back(frame.cmd);
+
+  last_stage_ = frame.ops.empty() ? "upload" : frame.ops.back().label();
+  const uint64_t value = gpu::submit(*ctx_, timeline_, cmds, last_stage_);
+  ++submits_;
+  ops_.clear();
+  staged_bytes_.clear();
+  staged_copies_.clear();
+  gpu::wait(*ctx_, timeline_, value, last_stage_);
+  ++frames_;
+
+  if (frame.profiled && frame.ops.size() + 1 <= kMaxProfiledOps) {
+    const uint32_t n = uint32_t(frame.ops.size()) + 2;
+    std::vector<uint64_t> ticks(n);
+    gpu::check(vkGetQueryPoolResults(ctx_->device, timestamps_, 0, n, n * 8, ticks.data(), 8,
+                                     VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
+               "vkGetQueryPoolResults");
+    const double ms_per_tick = ctx_->properties.limits.timestampPeriod * 1e-6;
+    timings_.clear();
+    timings_.push_back({"upload", double(ticks[1] - ticks[0]) * ms_per_tick});
+    for (size_t i = 0; i < frame.ops.size(); ++i)
+      timings_.push_back({frame.ops[i].label(), double(ticks[i + 2] - ticks[i + 1]) * ms_per_tick});
+  }
+}
+
+void Engine::release_frames() {
+  for (auto& f : frames_cache_) gpu::free_command_buffer(*ctx_, f.cmd);
+  frames_cache_.clear();
+}
+
+}  // namespace cressim::runtime

@@ -1,0 +1,115 @@
+// The runtime: authoring -> prepare() -> upload_world() -> frames of stages -> end_frame().
+#pragma once
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "compute/compute_pass.h"
+#include "compute/typed_buffer.h"
+#include "gpu/commands.h"
+#include "gpu/context.h"
+#include "runtime/frame.h"
+#include "scene/layout_mapping.h"
+#include "scene/world.h"
+
+namespace cressim::runtime {
+
+// The world's topology changed after prepare(), or the engine is used out of order.
+struct TopologyError : std::logic_error {
+  using std::logic_error::logic_error;
+};
+
+// A system's contribution to one stage of the frame (physics solvers, cameras, sensors).
+using StageRecorder = std::function<void(VkCommandBuffer)>;
+
+class Engine {
+ public:
+  explicit Engine(std::shared_ptr<scene::World> world, const gpu::ContextOptions& options = gpu::options_from_environment());
+  ~Engine();
+  Engine(const Engine&) = delete;
+  Engine& operator=(const Engine&) = delete;
+
+  // authoring -> GPU
+  void prepare();
+  void upload_world();
+
+  // the frame: any order of stages and passes, then end_frame() submits it once and waits
+  void step_physics() { push(Stage::PHYSICS); }
+  void step_visual_sensors() { push(Stage::VISUAL_SENSORS); }
+  void step_simulation_sensors() { push(Stage::SIMULATION_SENSORS); }
+  void execute_compute_pass(const std::shared_ptr<compute::ComputePass>& pass);
+  void end_frame();
+
+  // resources
+  std::shared_ptr<compute::TypedBuffer> create_shared_buffer(const std::string& name, std::vector<int64_t> shape,
+                                                             compute::DType dtype);
+  // bindings: HLSL name -> shared buffer name or internal key (resolved by lookup())
+  std::shared_ptr<compute::ComputePass> create_compute_pass(compute::PassSpec spec,
+                                                            const std::map<std::string, std::string>& keys);
+  std::shared_ptr<compute::TypedBuffer> lookup(const std::string& key) const;  // shared first, then internal
+  std::vector<std::string> internal_keys() const;
+  std::vector<std::string> shared_names() const;
+
+  // env control: envs flagged here (or in env.reset_mask by a pass) reset at the next frame
+  void reset_envs(const std::vector<uint32_t>& envs);
+
+  // introspection
+  const scene::LayoutMapping& mapping() const;
+  const std::shared_ptr<scene::World>& world() const { return world_; }
+  std::shared_ptr<gpu::Context> context() const { return ctx_; }
+  bool prepared() const { return prepared_; }
+  bool uploaded() const { return uploaded_; }
+  uint64_t frame_count() const { return frames_; }
+  uint64_t recorded_frames() const { return recorded_; }  // command-buffer recordings so far
+  uint64_t submits() const { return submits_; }
+  std::vector<std::string> validation_messages();
+  void set_profiling(bool on) { profiling_ = on; }
+  bool profiling() const { return profiling_; }
+  // (op label, milliseconds) of the last profiled frame
+  const std::vector<std::pair<std::string, double>>& last_timings() const { return timings_; }
+  void add_stage_recorder(Stage stage, StageRecorder r);
+
+ private:
+  void push(Stage stage);
+  void require_current_topology(const char* what) const;
+  void flush_host_writes();
+  RecordedFrame& frame_for(const std::vector<FrameOp>& ops);
+  void record(RecordedFrame& f);
+  void record_op(VkCommandBuffer cmd, const FrameOp& op);
+  void release_frames();
+  void release_world_buffers();
+  void write_rows(compute::TypedBuffer& dst, uint32_t row, const void* data, uint32_t row_bytes);
+
+  std::shared_ptr<scene::World> world_;
+  std::shared_ptr<gpu::Context> ctx_;
+  gpu::Timeline timeline_;
+  VkQueryPool timestamps_ = VK_NULL_HANDLE;
+  std::vector<std::pair<std::string, double>> timings_;
+
+  bool prepared_ = false, uploaded_ = false, profiling_ = false;
+  scene::LayoutMapping mapping_;
+  uint64_t epoch_ = 1;  // bumps whenever resources a recorded frame refers to change
+  uint64_t generation_ = 0;  // upload_world() count; internal buffers carry it
+  std::map<std::string, std::shared_ptr<compute::TypedBuffer>> internal_, shared_;
+  std::array<std::vector<StageRecorder>, 6> recorders_;
+  std::shared_ptr<compute::ComputePass> reset_pass_;
+
+  std::vector<FrameOp> ops_;
+  std::vector<RecordedFrame> frames_cache_;
+  uint64_t frames_ = 0, recorded_ = 0, submits_ = 0;
+  std::string last_stage_;
+
+  // host writes for memory the host cannot map: staged, copied at the head of the next submit
+  gpu::Buffer staging_;
+  std::vector<uint8_t> staged_bytes_;
+  std::vector<std::pair<VkBuffer, VkBufferCopy>> staged_copies_;
+  VkCommandBuffer upload_cmd_ = VK_NULL_HANDLE;
+};
+
+}  // namespace cressim::runtime

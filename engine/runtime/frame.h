@@ -1,0 +1,37 @@
+// The frame as a list of stage operations. A list seen before replays its recorded command
+// buffer; a new list (or a changed pass) is recorded once and cached.
+#pragma once
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <vulkan/vulkan.h>
+
+namespace cressim::compute { struct ComputePass; }
+
+namespace cressim::runtime {
+
+enum class Stage { NONE = 0, UPLOAD, PHYSICS, VISUAL_SENSORS, SIMULATION_SENSORS, CUSTOM_PASS };
+
+const char* stage_name(Stage s);
+
+struct FrameOp {
+  Stage stage = Stage::NONE;
+  std::shared_ptr<compute::ComputePass> pass;  // CUSTOM_PASS only; kept alive while recorded
+  uint64_t pass_uid = 0, pass_version = 0;
+  bool operator==(const FrameOp& o) const {
+    return stage == o.stage && pass_uid == o.pass_uid && pass_version == o.pass_version;
+  }
+  std::string label() const;
+};
+
+struct RecordedFrame {
+  std::vector<FrameOp> ops;
+  uint64_t epoch = 0;      // engine resource epoch it was recorded against
+  bool profiled = false;   // brackets every op with timestamps
+  VkCommandBuffer cmd = VK_NULL_HANDLE;
+  uint64_t last_used = 0;
+};
+
+}  // namespace cressim::runtime

@@ -1,0 +1,44 @@
+"""CRESSim: a batched GPU simulation engine for surgical robotics and robot learning.
+
+The frame pipeline (authoring, then stepping)::
+
+    layout = cressim.SceneLayout(num_envs=64)
+    world = cressim.World(layout)
+    world.create_entity(env=0).add(cressim.Transform(position=(0, 0, 1)))
+    engine = cressim.Engine(world)
+    engine.prepare(); engine.upload_world()
+    engine.step_physics(); engine.execute_compute_pass(p); engine.end_frame()
+"""
+from cressim._core import (
+    BindingError,
+    Buffer,
+    ComputePass,
+    DeviceLostError,
+    Engine,
+    Entity,
+    SceneLayout,
+    ShaderCompileError,
+    TopologyError,
+    Transform,
+    VulkanError,
+    World,
+    list_devices,
+)
+from cressim.compute import load_compute_pass
+
+__all__ = [
+    "BindingError",
+    "Buffer",
+    "ComputePass",
+    "DeviceLostError",
+    "Engine",
+    "Entity",
+    "SceneLayout",
+    "ShaderCompileError",
+    "TopologyError",
+    "Transform",
+    "VulkanError",
+    "World",
+    "list_devices",
+    "load_compute_pass",
+]
