@@ -1,5 +1,6 @@
 #include "compute/compute_pass.h"
 
+#include <algorithm>
 #include <atomic>
 #include <cstring>
 
@@ -10,7 +11,8 @@
 namespace cressim::compute {
 namespace {
 
-std::string list(const std::vector<std::string>& names) {
+std::string list(std::vector<std::string> names) {
+  std::sort(names.begin(), names.end());
   std::string s;
   for (auto& n : names) s += (s.empty() ? "" : ", ") + n;
   return s.empty() ? "(none)" : s;

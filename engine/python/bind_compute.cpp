@@ -32,11 +32,12 @@ void write(TypedBuffer& b, py::array values) {
   gpu::upload(*b.storage->ctx, b.storage->buffer, a.data(), b.bytes());
 }
 
-py::capsule to_dlpack(std::shared_ptr<TypedBuffer> b) {
+py::capsule to_dlpack(std::shared_ptr<TypedBuffer> b, py::object max_version) {
   if (!b->host_visible())
     throw py::buffer_error("buffer " + b->describe() +
                            " lives in device memory the host cannot map; use .read() for a copy");
-  return make_dlpack_capsule(b, b->storage->buffer.mapped, {kDLCPU, 0});
+  const bool versioned = !max_version.is_none() && py::tuple(max_version)[0].cast<int>() >= 1;
+  return make_dlpack_capsule(b, b->storage->buffer.mapped, {kDLCPU, 0}, versioned);
 }
 
 }  // namespace
@@ -59,7 +60,9 @@ void bind_compute(py::module_& m) {
            },
            "A zero-copy view where the memory is host-visible, else a copy.")
       .def("__dlpack__",
-           [](std::shared_ptr<TypedBuffer> b, py::object, py::object, py::object, py::object) { return to_dlpack(b); },
+           [](std::shared_ptr<TypedBuffer> b, py::object, py::object max_version, py::object, py::object) {
+             return to_dlpack(b, max_version);
+           },
            py::kw_only(), py::arg("stream") = py::none(), py::arg("max_version") = py::none(),
            py::arg("dl_device") = py::none(), py::arg("copy") = py::none())
       .def("__dlpack_device__", [](const TypedBuffer& b) {

@@ -1,5 +1,7 @@
-// The DLPack exchange structs (the ABI of dmlc/dlpack, unversioned "dltensor" capsules), and
-// capsules over engine buffers that keep the buffer alive until the consumer lets go.
+// The DLPack exchange structs (the ABI of dmlc/dlpack: legacy "dltensor" and 1.0
+// "dltensor_versioned" capsules), and capsules over engine buffers that keep the buffer alive
+// until the consumer lets go. Only versioned capsules can say "read-only", and numpy 2 marks
+// arrays from legacy ones read-only, so versioned is used whenever the consumer accepts it.
 #pragma once
 #include <cstdint>
 #include <memory>
@@ -36,8 +38,22 @@ struct DLManagedTensor {
   void* manager_ctx;
   void (*deleter)(DLManagedTensor*);
 };
+struct DLPackVersion {
+  uint32_t major;
+  uint32_t minor;
+};
+constexpr uint64_t kDLFlagReadOnly = 1;
+struct DLManagedTensorVersioned {
+  DLPackVersion version;
+  void* manager_ctx;
+  void (*deleter)(DLManagedTensorVersioned*);
+  uint64_t flags;
+  DLTensor dl_tensor;
+};
 
 // A capsule describing `buffer` at `data` on `device`; the buffer lives until the tensor dies.
-pybind11::capsule make_dlpack_capsule(std::shared_ptr<compute::TypedBuffer> buffer, void* data, DLDevice device);
+// `versioned`: a DLPack 1.0 capsule (read-only flag set for engine-internal buffers).
+pybind11::capsule make_dlpack_capsule(std::shared_ptr<compute::TypedBuffer> buffer, void* data, DLDevice device,
+                                      bool versioned);
 
 }  // namespace cressim::python

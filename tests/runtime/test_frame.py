@@ -1,0 +1,109 @@
+import numpy as np
+import pytest
+
+import cressim
+
+# one step of a per-element recurrence: state <- state * 0.5 + frame-independent input
+STEP = """
+struct Params { uint n; };
+[[vk::push_constant]] ConstantBuffer<Params> pc;
+StructuredBuffer<float> inputs;
+RWStructuredBuffer<float> state;
+[numthreads(64,1,1)] void main(uint3 id : SV_DispatchThreadID) {
+  if (id.x < pc.n) state[id.x] = state[id.x] * 0.5 + inputs[id.x];
+}
+"""
+COUNT = """
+RWStructuredBuffer<uint> counter;
+[numthreads(1,1,1)] void main() { counter[0] += 1; }
+"""
+
+
+def setup(make_engine, n=256):
+    world = cressim.World(cressim.SceneLayout(2))
+    world.create_entity(env=0).add(cressim.Transform())
+    engine = make_engine(world)
+    engine.prepare()
+    engine.upload_world()
+    inputs = engine.create_shared_buffer("inputs", n)
+    inputs.write(np.linspace(0, 1, n, dtype=np.float32))
+    state = engine.create_shared_buffer("state", n)
+    step = engine.create_compute_pass(STEP, name="step", threads=n, constants={"n": n},
+                                      bindings={"inputs": inputs, "state": state})
+    return engine, state, step
+
+
+def test_steady_state_frame_is_recorded_once_and_replayed(make_engine):
+    engine, state, step = setup(make_engine)
+    for _ in range(10):
+        engine.step_physics()
+        engine.execute_compute_pass(step)
+        engine.end_frame()
+    assert engine.recorded_frames == 1
+    assert engine.submits == 10 and engine.frame_count == 10
+
+
+def test_replayed_frame_equals_freshly_recorded_frame(make_engine):
+    replay_engine, replayed, step = setup(make_engine)
+    for _ in range(8):
+        replay_engine.execute_compute_pass(step)
+        replay_engine.end_frame()
+    fresh_engine, fresh, fresh_step = setup(make_engine)
+    for i in range(8):
+        fresh_step.set_constant("n", 256)  # bumps the pass version: every frame is re-recorded
+        fresh_engine.execute_compute_pass(fresh_step)
+        fresh_engine.end_frame()
+    assert replay_engine.recorded_frames == 1 and fresh_engine.recorded_frames == 8
+    assert np.array_equal(replayed.read(), fresh.read())
+
+
+def test_passes_run_in_the_order_given_and_frame_shapes_are_cached(make_engine):
+    engine, state, step = setup(make_engine)
+    counter = engine.create_shared_buffer("counter", 1, "uint32")
+    count = engine.create_compute_pass(COUNT, name="count", dispatch=(1, 1, 1), bindings={"counter": counter})
+    for i in range(6):  # alternate two frame shapes: each is recorded once
+        engine.execute_compute_pass(count)
+        if i % 2:
+            engine.execute_compute_pass(count)
+        engine.end_frame()
+    assert counter.read()[0] == 9
+    assert engine.recorded_frames == 2
+
+
+def test_reset_envs_restores_only_flagged_envs(make_engine):
+    world = cressim.World(cressim.SceneLayout(3))
+    for env in range(3):
+        world.create_entity(env=env).add(cressim.Transform(position=(env, 0, 0)))
+    engine = make_engine(world)
+    engine.prepare()
+    engine.upload_world()
+    push = engine.create_compute_pass(
+        "StructuredBuffer<float4> p0; RWStructuredBuffer<float4> moved;\n"
+        "[numthreads(64,1,1)] void main(uint3 id : SV_DispatchThreadID) { if (id.x < 3) moved[id.x] = p0[id.x] + 10; }",
+        name="push", threads=3, bindings={"p0": "transform.positions",
+                                          "moved": engine.create_shared_buffer("moved", (3, 4))})
+    engine.execute_compute_pass(push)
+    engine.end_frame()
+    # a pass flags env 1 through the engine's writable reset mask
+    flag = engine.create_compute_pass("RWStructuredBuffer<uint> mask; [numthreads(1,1,1)] void main() { mask[1] = 1; }",
+                                      name="flag", dispatch=1, bindings={"mask": "env.reset_mask"})
+    engine.execute_compute_pass(flag)
+    engine.end_frame()
+    assert list(engine.buffer("env.reset_mask").read()) == [0, 1, 0]
+    engine.end_frame()  # the reset stage runs first in the frame, then clears the flags
+    assert list(engine.buffer("env.reset_mask").read()) == [0, 0, 0]
+    engine.reset_envs([2])
+    assert list(engine.buffer("env.reset_mask").read()) == [0, 0, 1]
+    with pytest.raises(IndexError, match="env 3 is out of range"):
+        engine.reset_envs([3])
+
+
+def test_profiling_times_every_stage(make_engine):
+    engine, state, step = setup(make_engine)
+    engine.profiling = True
+    engine.step_physics()
+    engine.execute_compute_pass(step)
+    engine.end_frame()
+    labels = [label for label, ms in engine.last_timings]
+    assert labels == ["upload", "step_physics", "pass 'step'"]
+    assert all(ms >= 0 for _, ms in engine.last_timings)
