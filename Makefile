@@ -1,0 +1,71 @@
+# Two commands set up a fresh Debian 12 machine and do the work:
+#   make demo   installs what is missing, builds, runs the main job on the default scene
+#   make test   installs what is missing, builds, runs the C++ and Python test suites
+# Each step leaves a stamp in .make/ and is skipped while its inputs are unchanged.
+
+SHELL := /bin/bash
+VENV := .venv
+PY := $(VENV)/bin/python
+PIP := $(PY) -m pip --disable-pip-version-check -q
+STAMPS := .make
+JOBS ?= $(shell nproc)
+SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+
+APT_PACKAGES := mesa-vulkan-drivers libvulkan-dev vulkan-validationlayers glslc libshaderc-dev glslang-dev \
+	spirv-tools spirv-headers cmake ninja-build g++ libgtest-dev python3-venv python3-dev
+# build requirements of the engine itself (pyproject's build-system), installed once into the venv
+BUILD_REQUIREMENTS := "scikit-build-core>=0.10" "pybind11>=2.12" "numpy>=1.26" ninja
+ENGINE_SOURCES := $(shell find engine shaders cmake -type f 2>/dev/null) CMakeLists.txt pyproject.toml
+
+.PHONY: all demo test test-cpp test-python deps build clean
+all: build
+
+$(STAMPS):
+	@mkdir -p $@
+
+# apt: only the packages that are missing
+$(STAMPS)/apt: | $(STAMPS)
+	@missing=$$(for p in $(APT_PACKAGES); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \
+	if [ -n "$$missing" ]; then \
+	  echo "apt: installing $$missing"; \
+	  $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq $$missing; \
+	fi
+	@touch $@
+
+# Python 3.11 virtualenv (Debian 12's python3 is 3.11; a python3.11 on PATH is used first)
+$(VENV)/bin/python: | $(STAMPS)/apt
+	@py=$$(command -v python3.11 || command -v python3); \
+	$$py -c 'import sys; assert sys.version_info[:2] >= (3, 11), sys.version' && $$py -m venv $(VENV)
+
+$(STAMPS)/venv: $(VENV)/bin/python | $(STAMPS)
+	$(PIP) install --upgrade pip
+	$(PIP) install $(BUILD_REQUIREMENTS)
+	@touch $@
+
+# the engine and the package, editable; rebuilt when engine, shader or build sources change
+$(STAMPS)/build: $(STAMPS)/venv $(ENGINE_SOURCES)
+	$(PIP) install --no-build-isolation -e ".[test]"
+	@touch $@
+
+deps: $(STAMPS)/build
+build: $(STAMPS)/build
+
+# C++ unit tests (GoogleTest) in their own build tree
+build/cpp/build.ninja: $(STAMPS)/apt CMakeLists.txt engine/CMakeLists.txt
+	cmake -S . -B build/cpp -G Ninja -DCRESSIM_PYTHON=OFF -DCRESSIM_TESTS=ON -DCMAKE_BUILD_TYPE=Release
+
+test-cpp: build/cpp/build.ninja
+	cmake --build build/cpp -j $(JOBS)
+	cd build/cpp && ctest --output-on-failure
+
+test-python: $(STAMPS)/build
+	CRESSIM_VALIDATION=1 $(PY) -m pytest tests
+
+test: test-cpp test-python
+
+demo: $(STAMPS)/build
+	$(VENV)/bin/cressim info
+	$(VENV)/bin/cressim demo
+
+clean:
+	rm -rf build $(STAMPS) out

@@ -1,0 +1,5 @@
+import sys
+
+from cressim.cli import main
+
+sys.exit(main())
