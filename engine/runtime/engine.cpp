@@ -74,6 +74,7 @@ void Engine::upload_world() {
   put(internal("entity.env", {rows}, DType::UINT32), mapping_.row_env.data());
   put(internal("env.entity_offset", {envs}, DType::UINT32), mapping_.env_offset.data());
   put(internal("env.entity_count", {envs}, DType::UINT32), mapping_.env_count.data());
+  gpu::fill(*ctx_, internal("env.reset_count", {envs}, DType::UINT32)->storage->buffer, 0);
 
   // transforms as float4 rows (xyz + pad, quaternion xyzw, scale + pad)
   std::vector<float> pos(size_t(rows) * 4, 0.f), rot(size_t(rows) * 4, 0.f), scl(size_t(rows) * 4, 0.f);
@@ -100,10 +101,12 @@ void Engine::upload_world() {
       {{"entity_env", internal_["entity.env"]}, {"reset_mask", mask},
        {"initial_positions", internal_["transform.initial_positions"]},
        {"initial_rotations", internal_["transform.initial_rotations"]},
-       {"positions", internal_["transform.positions"]}, {"rotations", internal_["transform.rotations"]}});
-  shader::ResetEnvsConstants rc{uint32_t(rows)};
+       {"positions", internal_["transform.positions"]}, {"rotations", internal_["transform.rotations"]},
+       {"reset_count", internal_["env.reset_count"]}});
+  const shader::ResetEnvsConstants rc{uint32_t(rows), uint32_t(envs)};
   reset_pass_->set_constant_bits("row_count", &rc.row_count, sizeof(rc.row_count));
-  reset_pass_->set_threads({uint64_t(std::max<int64_t>(rows, 1)), 1, 1});
+  reset_pass_->set_constant_bits("env_count", &rc.env_count, sizeof(rc.env_count));
+  reset_pass_->set_threads({uint64_t(std::max(rows, envs)), 1, 1});
   uploaded_ = true;
 }
 
@@ -260,7 +263,7 @@ void Engine::record_op(VkCommandBuffer cmd, const FrameOp& op) {
   if (op.stage == Stage::CUSTOM_PASS) op.pass->record(cmd);
   else if (op.stage == Stage::UPLOAD) {
     // env resets requested by the host, a task pass or the health check, then clear the flags
-    if (mapping_.rows()) reset_pass_->record(cmd);
+    reset_pass_->record(cmd);
     gpu::compute_barrier(cmd);
     vkCmdFillBuffer(cmd, shared_.at("env.reset_mask")->storage->buffer.buffer, 0, VK_WHOLE_SIZE, 0);
   }

@@ -48,7 +48,7 @@ def test_user_pass_over_64_envs_equals_numpy(make_engine, world64):
     engine.execute_compute_pass(p)
     engine.end_frame()
     offsets = engine.mapping["env_offset"].astype(np.float32)
-    np.testing.assert_allclose(out.read(), 2.5 * xs + offsets[:, None], rtol=1e-6)
+    np.testing.assert_allclose(out.read(), 2.5 * xs + offsets[:, None], rtol=1e-6, atol=1e-6)  # fma or not
 
 
 def test_bad_hlsl_reports_the_line(make_engine, world64):
@@ -86,8 +86,9 @@ def test_internal_buffers_are_read_only_in_passes(make_engine, world64):
     writer = "RWStructuredBuffer<float4> p;\n[numthreads(1,1,1)] void main() { p[0] = 0; }\n"
     with pytest.raises(cressim.BindingError, match="may only read"):
         engine.create_compute_pass(writer, name="w", threads=1, bindings={"p": "transform.positions"})
-    view = np.from_dlpack(engine.buffer("transform.positions"))
-    assert not view.flags.writeable
+    positions = engine.buffer("transform.positions")
+    if positions.host_visible:  # and where numpy can view it, the view is read-only too
+        assert not np.from_dlpack(positions).flags.writeable
 
 
 def test_unknown_constant_and_dispatch_errors(make_engine, world64):

@@ -70,30 +70,27 @@ def test_passes_run_in_the_order_given_and_frame_shapes_are_cached(make_engine):
     assert engine.recorded_frames == 2
 
 
-def test_reset_envs_restores_only_flagged_envs(make_engine):
+def test_reset_requests_reach_only_flagged_envs(make_engine):
     world = cressim.World(cressim.SceneLayout(3))
     for env in range(3):
         world.create_entity(env=env).add(cressim.Transform(position=(env, 0, 0)))
     engine = make_engine(world)
     engine.prepare()
     engine.upload_world()
-    push = engine.create_compute_pass(
-        "StructuredBuffer<float4> p0; RWStructuredBuffer<float4> moved;\n"
-        "[numthreads(64,1,1)] void main(uint3 id : SV_DispatchThreadID) { if (id.x < 3) moved[id.x] = p0[id.x] + 10; }",
-        name="push", threads=3, bindings={"p0": "transform.positions",
-                                          "moved": engine.create_shared_buffer("moved", (3, 4))})
-    engine.execute_compute_pass(push)
-    engine.end_frame()
-    # a pass flags env 1 through the engine's writable reset mask
+    # a task pass flags env 1 through the engine's writable reset mask
     flag = engine.create_compute_pass("RWStructuredBuffer<uint> mask; [numthreads(1,1,1)] void main() { mask[1] = 1; }",
                                       name="flag", dispatch=1, bindings={"mask": "env.reset_mask"})
     engine.execute_compute_pass(flag)
     engine.end_frame()
-    assert list(engine.buffer("env.reset_mask").read()) == [0, 1, 0]
-    engine.end_frame()  # the reset stage runs first in the frame, then clears the flags
+    assert list(engine.buffer("env.reset_count").read()) == [0, 0, 0]
+    engine.end_frame()  # the reset stage runs first in the next frame, then clears the flags
+    assert list(engine.buffer("env.reset_count").read()) == [0, 1, 0]
     assert list(engine.buffer("env.reset_mask").read()) == [0, 0, 0]
-    engine.reset_envs([2])
-    assert list(engine.buffer("env.reset_mask").read()) == [0, 0, 1]
+    engine.reset_envs([2])  # and the host asks for env 2
+    engine.end_frame()
+    assert list(engine.buffer("env.reset_count").read()) == [0, 1, 1]
+    assert np.array_equal(engine.buffer("transform.positions").read(),
+                          engine.buffer("transform.initial_positions").read())
     with pytest.raises(IndexError, match="env 3 is out of range"):
         engine.reset_envs([3])
 

