@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cstring>
+#include <regex>
 
 #include "gpu/context.h"
 #include "gpu/embedded_shaders.h"
@@ -21,7 +22,7 @@ std::string list(std::vector<std::string> names) {
 std::shared_ptr<ComputePass> build(std::shared_ptr<gpu::Context> ctx, const std::string& name,
                                    const std::vector<uint32_t>& spirv, const std::string& entry,
                                    const std::map<std::string, std::shared_ptr<TypedBuffer>>& bindings,
-                                   bool allow_internal_writes) {
+                                   bool allow_internal_writes, const std::string* source) {
   auto pass = std::make_shared<ComputePass>();
   static std::atomic<uint64_t> next_uid{1};
   pass->name = name;
@@ -32,8 +33,10 @@ std::shared_ptr<ComputePass> build(std::shared_ptr<gpu::Context> ctx, const std:
 
   std::vector<std::string> declared, missing;
   for (const auto& b : refl.bindings) declared.push_back(b.name);
+  // a buffer the shader declares but never uses is compiled away: that is fine, a name that is
+  // nowhere in the source is a mistake
   for (const auto& [hlsl_name, buffer] : bindings)
-    if (!refl.find_binding(hlsl_name))
+    if (!refl.find_binding(hlsl_name) && source && !std::regex_search(*source, std::regex("\\b" + hlsl_name + "\\b")))
       throw BindingError("pass '" + name + "': bindings name '" + hlsl_name +
                          "', which the shader does not declare; its buffers are: " + list(declared));
   for (const auto& b : refl.bindings) {
@@ -106,7 +109,7 @@ void ComputePass::record(VkCommandBuffer cmd) const {
 
 std::shared_ptr<ComputePass> create_compute_pass(std::shared_ptr<gpu::Context> ctx, const PassSpec& spec) {
   auto spirv = gpu::compile_hlsl(spec.source, spec.name, spec.entry);
-  auto pass = build(ctx, spec.name, spirv, spec.entry, spec.bindings, false);
+  auto pass = build(ctx, spec.name, spirv, spec.entry, spec.bindings, false, &spec.source);
   if (spec.threads[0]) pass->set_threads(spec.threads);
   else if (spec.groups[0]) pass->set_groups(spec.groups);
   else throw BindingError("pass '" + spec.name + "': give dispatch=(groups x, y, z) or threads=n");
@@ -116,7 +119,7 @@ std::shared_ptr<ComputePass> create_compute_pass(std::shared_ptr<gpu::Context> c
 std::shared_ptr<ComputePass> create_builtin_pass(std::shared_ptr<gpu::Context> ctx, const std::string& shader,
                                                  std::map<std::string, std::shared_ptr<TypedBuffer>> bindings,
                                                  bool allow_internal_writes) {
-  return build(ctx, shader, gpu::embedded_shader(shader), "main", bindings, allow_internal_writes);
+  return build(ctx, shader, gpu::embedded_shader(shader), "main", bindings, allow_internal_writes, nullptr);
 }
 
 }  // namespace cressim::compute

@@ -53,7 +53,33 @@ gpu::ContextOptions options(py::object validation, py::object device) {
 
 }  // namespace
 
+void bind_physics_settings(py::module_& m) {
+  using physics::PhysicsSettings;
+  py::class_<PhysicsSettings>(m, "PhysicsSettings")
+      .def(py::init([](float dt, uint32_t substeps, uint32_t iterations, std::array<float, 3> gravity,
+                       uint32_t max_contacts, float max_speed, float max_penetration) {
+             PhysicsSettings s{dt, substeps, iterations, gravity, max_contacts, max_speed, max_penetration};
+             s.validate();
+             return s;
+           }),
+           py::kw_only(), py::arg("dt") = 1.0f / 60.0f, py::arg("substeps") = 4u, py::arg("iterations") = 1u,
+           py::arg("gravity") = std::array<float, 3>{0, 0, -9.81f}, py::arg("max_contacts_per_env") = 64u,
+           py::arg("max_speed") = 100.f, py::arg("max_penetration") = 0.25f)
+      .def_readwrite("dt", &PhysicsSettings::dt)
+      .def_readwrite("substeps", &PhysicsSettings::substeps)
+      .def_readwrite("iterations", &PhysicsSettings::iterations)
+      .def_readwrite("gravity", &PhysicsSettings::gravity)
+      .def_readwrite("max_contacts_per_env", &PhysicsSettings::max_contacts_per_env)
+      .def_readwrite("max_speed", &PhysicsSettings::max_speed)
+      .def_readwrite("max_penetration", &PhysicsSettings::max_penetration)
+      .def("__repr__", [](const PhysicsSettings& s) {
+        return py::str("PhysicsSettings(dt={}, substeps={}, iterations={}, gravity={})")
+            .format(s.dt, s.substeps, s.iterations, py::cast(s.gravity));
+      });
+}
+
 void bind_runtime(py::module_& m) {
+  bind_physics_settings(m);
   m.def("list_devices", [] {
     py::list out;
     for (auto& d : gpu::list_devices()) {
@@ -81,6 +107,10 @@ void bind_runtime(py::module_& m) {
       .def("prepare", &Engine::prepare, py::call_guard<py::gil_scoped_release>())
       .def("upload_world", &Engine::upload_world, py::call_guard<py::gil_scoped_release>())
       .def("step_physics", &Engine::step_physics)
+      .def("reset_flagged_envs", &Engine::reset_flagged_envs,
+           "Adds a reset of the envs flagged in env.reset_mask at this point of the frame.")
+      .def_property("physics", &Engine::physics_settings, &Engine::set_physics_settings,
+                    "PhysicsSettings; assign a changed copy to apply it from the next frame.")
       .def("step_visual_sensors", &Engine::step_visual_sensors)
       .def("step_simulation_sensors", &Engine::step_simulation_sensors)
       .def("execute_compute_pass", &Engine::execute_compute_pass, py::arg("compute_pass"))

@@ -3,6 +3,7 @@
 #include <pybind11/stl.h>
 
 #include "python/bindings.h"
+#include "python/entity.h"
 #include "scene/world.h"
 
 namespace py = pybind11;
@@ -10,11 +11,162 @@ namespace py = pybind11;
 namespace cressim::python {
 namespace {
 
-// A handle to one entity; the world stays alive while handles exist.
-struct Entity {
-  std::shared_ptr<scene::World> world;
-  scene::EntityId id;
-};
+template <class C>
+Entity add(Entity& e, const C& c) {
+  e.world->add(e.id, c);
+  return e;
+}
+
+template <class E>
+E parse_enum(const std::string& name, std::initializer_list<std::pair<const char*, E>> values, const char* what) {
+  std::string valid;
+  for (auto& [n, v] : values) {
+    if (name == n) return v;
+    valid += std::string(valid.empty() ? "" : ", ") + n;
+  }
+  throw py::value_error(std::string(what) + " '" + name + "' is not one of: " + valid);
+}
+
+int64_t entity_id(py::object o) {
+  if (o.is_none()) return -1;
+  if (py::isinstance<Entity>(o)) return int64_t(o.cast<Entity>().id);
+  return o.cast<int64_t>();
+}
+
+const char* shape_name(scene::ShapeKind k) {
+  switch (k) {
+    case scene::ShapeKind::SPHERE: return "sphere";
+    case scene::ShapeKind::BOX: return "box";
+    case scene::ShapeKind::CAPSULE: return "capsule";
+    case scene::ShapeKind::PLANE: return "plane";
+    default: return "none";
+  }
+}
+
+const char* joint_name(scene::JointKind k) {
+  switch (k) {
+    case scene::JointKind::FIXED: return "fixed";
+    case scene::JointKind::BALL: return "ball";
+    case scene::JointKind::SPHERICAL: return "spherical";
+    case scene::JointKind::HINGE: return "hinge";
+    case scene::JointKind::SLIDER: return "slider";
+    default: return "none";
+  }
+}
+
+void bind_physics_components(py::module_& m) {
+  using scene::Quat;
+  using scene::Vec3;
+  py::class_<scene::RigidBody>(m, "RigidBody")
+      .def(py::init([](float mass, float density, Vec3 inertia, bool kinematic, float ld, float ad) {
+             return scene::RigidBody{mass, density, inertia, kinematic, ld, ad};
+           }),
+           py::kw_only(), py::arg("mass") = 0.f, py::arg("density") = 1000.f, py::arg("inertia") = Vec3{0, 0, 0},
+           py::arg("kinematic") = false, py::arg("linear_damping") = 0.f, py::arg("angular_damping") = 0.f,
+           "A rigid body at the entity origin. mass 0: density x collider volume; inertia 0: from the shapes.")
+      .def_readwrite("mass", &scene::RigidBody::mass)
+      .def_readwrite("density", &scene::RigidBody::density)
+      .def_readwrite("inertia", &scene::RigidBody::inertia)
+      .def_readwrite("kinematic", &scene::RigidBody::kinematic)
+      .def_readwrite("linear_damping", &scene::RigidBody::linear_damping)
+      .def_readwrite("angular_damping", &scene::RigidBody::angular_damping);
+
+  auto shape = [](scene::ShapeKind k, Vec3 size, Vec3 p, Quat q) { return scene::Shape{k, size, p, q}; };
+  py::class_<scene::Shape>(m, "Shape")
+      .def_static("sphere", [=](float r, Vec3 p, Quat q) { return shape(scene::ShapeKind::SPHERE, {r, 0, 0}, p, q); },
+                  py::arg("radius"), py::kw_only(), py::arg("position") = Vec3{0, 0, 0},
+                  py::arg("rotation") = Quat{0, 0, 0, 1})
+      .def_static("box", [=](Vec3 he, Vec3 p, Quat q) { return shape(scene::ShapeKind::BOX, he, p, q); },
+                  py::arg("half_extents"), py::kw_only(), py::arg("position") = Vec3{0, 0, 0},
+                  py::arg("rotation") = Quat{0, 0, 0, 1})
+      .def_static("capsule",
+                  [=](float r, float hh, Vec3 p, Quat q) { return shape(scene::ShapeKind::CAPSULE, {r, hh, 0}, p, q); },
+                  py::arg("radius"), py::arg("half_height"), py::kw_only(), py::arg("position") = Vec3{0, 0, 0},
+                  py::arg("rotation") = Quat{0, 0, 0, 1}, "A capsule along the shape's z axis.")
+      .def_static("plane", [=](Vec3 p, Quat q) { return shape(scene::ShapeKind::PLANE, {0, 0, 0}, p, q); },
+                  py::kw_only(), py::arg("position") = Vec3{0, 0, 0}, py::arg("rotation") = Quat{0, 0, 0, 1},
+                  "An infinite plane through the shape origin with normal +z (static entities only).")
+      .def_static("proxy_particles",
+                  [=](std::vector<Vec3> points, float r) {
+                    std::vector<scene::Shape> out;
+                    for (auto& p : points) out.push_back(shape(scene::ShapeKind::SPHERE, {r, 0, 0}, p, {0, 0, 0, 1}));
+                    return out;
+                  },
+                  py::arg("points"), py::arg("radius"), "Spheres at body-frame points: a proxy-particle collider.")
+      .def_property_readonly("kind", [](const scene::Shape& s) { return shape_name(s.kind); })
+      .def_readonly("size", &scene::Shape::size)
+      .def_readonly("position", &scene::Shape::position)
+      .def_readonly("rotation", &scene::Shape::rotation)
+      .def("__repr__", [](const scene::Shape& s) { return std::string("<Shape ") + shape_name(s.kind) + ">"; });
+
+  py::class_<scene::Collider>(m, "Collider")
+      .def(py::init([](py::object shapes, float sf, py::object df, float restitution, uint32_t group, uint32_t mask) {
+             scene::Collider c;
+             if (py::isinstance<scene::Shape>(shapes)) c.shapes.push_back(shapes.cast<scene::Shape>());
+             else c.shapes = shapes.cast<std::vector<scene::Shape>>();
+             c.static_friction = sf;
+             c.dynamic_friction = df.is_none() ? sf : df.cast<float>();
+             c.restitution = restitution;
+             c.group = group;
+             c.mask = mask;
+             return c;
+           }),
+           py::arg("shapes"), py::kw_only(), py::arg("static_friction") = 0.5f, py::arg("dynamic_friction") = py::none(),
+           py::arg("restitution") = 0.f, py::arg("group") = 1u, py::arg("mask") = 0xffffffffu)
+      .def_readwrite("shapes", &scene::Collider::shapes)
+      .def_readwrite("static_friction", &scene::Collider::static_friction)
+      .def_readwrite("dynamic_friction", &scene::Collider::dynamic_friction)
+      .def_readwrite("restitution", &scene::Collider::restitution)
+      .def_readwrite("group", &scene::Collider::group)
+      .def_readwrite("mask", &scene::Collider::mask);
+
+  py::class_<scene::Joint>(m, "Joint")
+      .def(py::init([](const std::string& kind, py::object a, py::object b, Vec3 anchor, Vec3 axis, py::object limits,
+                       py::object drive, float target, Quat target_rotation, float stiffness, float damping,
+                       float max_force, float compliance, bool collide_connected) {
+             using scene::JointKind;
+             scene::Joint j;
+             j.kind = parse_enum<JointKind>(kind, {{"fixed", JointKind::FIXED}, {"ball", JointKind::BALL},
+                                                  {"spherical", JointKind::SPHERICAL}, {"hinge", JointKind::HINGE},
+                                                  {"slider", JointKind::SLIDER}}, "Joint kind");
+             j.body_a = entity_id(a);
+             j.body_b = entity_id(b);
+             j.anchor = anchor;
+             j.axis = axis;
+             if (!limits.is_none()) {
+               auto l = limits.cast<std::array<float, 2>>();
+               j.limited = true, j.lower = l[0], j.upper = l[1];
+             }
+             if (!drive.is_none())
+               j.drive = parse_enum<scene::DriveMode>(py::str(drive), {{"position", scene::DriveMode::POSITION},
+                                                                      {"velocity", scene::DriveMode::VELOCITY}},
+                                                      "Joint drive");
+             j.target = target;
+             j.target_rotation = target_rotation;
+             j.stiffness = stiffness;
+             j.damping = damping;
+             j.max_force = max_force;
+             j.compliance = compliance;
+             j.collide_connected = collide_connected;
+             return j;
+           }),
+           py::arg("kind"), py::kw_only(), py::arg("body_a") = py::none(), py::arg("body_b") = py::none(),
+           py::arg("anchor") = Vec3{0, 0, 0}, py::arg("axis") = Vec3{1, 0, 0}, py::arg("limits") = py::none(),
+           py::arg("drive") = py::none(), py::arg("target") = 0.f, py::arg("target_rotation") = Quat{0, 0, 0, 1},
+           py::arg("stiffness") = 0.f, py::arg("damping") = 0.f,
+           py::arg("max_force") = std::numeric_limits<float>::infinity(), py::arg("compliance") = 0.f,
+           py::arg("collide_connected") = false,
+           "A joint between two rigid bodies of one env (body_a None: the world). anchor and axis are world "
+           "coordinates at the authored poses, where the joint coordinate is 0.")
+      .def_property_readonly("kind", [](const scene::Joint& j) { return joint_name(j.kind); })
+      .def_readonly("body_a", &scene::Joint::body_a)
+      .def_readonly("body_b", &scene::Joint::body_b)
+      .def_readonly("anchor", &scene::Joint::anchor)
+      .def_readonly("axis", &scene::Joint::axis)
+      .def_property_readonly("limits", [](const scene::Joint& j) -> py::object {
+        return j.limited ? py::make_tuple(j.lower, j.upper) : py::object(py::none());
+      });
+}
 
 }  // namespace
 
@@ -38,6 +190,8 @@ void bind_scene(py::module_& m) {
                std::to_string(s.max_cameras_per_env) + ")";
       });
 
+  bind_physics_components(m);
+
   py::class_<scene::Transform>(m, "Transform")
       .def(py::init([](std::array<float, 3> p, std::array<float, 4> r, std::array<float, 3> s) {
              return scene::Transform{p, r, s};
@@ -57,16 +211,26 @@ void bind_scene(py::module_& m) {
       .def_property_readonly("id", [](const Entity& e) { return e.id; })
       .def_property_readonly("env", [](const Entity& e) { return e.world->env_of(e.id); })
       .def_property_readonly("name", [](const Entity& e) { return e.world->name_of(e.id); })
-      .def("add", [](Entity& e, const scene::Transform& t) { e.world->add(e.id, t); return e; }, py::arg("component"),
+      .def("add", &add<scene::Transform>, py::arg("component"),
            "Attaches a component (a topology change: prepare() again if already uploaded).")
+      .def("add", &add<scene::RigidBody>, py::arg("component"))
+      .def("add", &add<scene::Collider>, py::arg("component"))
+      .def("add", &add<scene::Joint>, py::arg("component"))
       .def("has", [](const Entity& e, py::object type) {
         if (type.is(py::type::of<scene::Transform>())) return e.world->has<scene::Transform>(e.id);
+        if (type.is(py::type::of<scene::RigidBody>())) return e.world->has<scene::RigidBody>(e.id);
+        if (type.is(py::type::of<scene::Collider>())) return e.world->has<scene::Collider>(e.id);
+        if (type.is(py::type::of<scene::Joint>())) return e.world->has<scene::Joint>(e.id);
         throw py::type_error("unknown component type");
       })
       .def_property(
           "transform", [](const Entity& e) { return e.world->get<scene::Transform>(e.id); },
           [](Entity& e, const scene::Transform& t) { e.world->set(e.id, t); },
-          "Reading copies; assigning changes the value only (uploaded before the next frame).")
+          "Reading copies; assigning changes the value only (uploaded before the next frame). A dynamic "
+          "rigid body jumps there; a kinematic one moves there over the next step.")
+      .def_property_readonly("rigid_body", [](const Entity& e) { return e.world->get<scene::RigidBody>(e.id); })
+      .def_property_readonly("collider", [](const Entity& e) { return e.world->get<scene::Collider>(e.id); })
+      .def_property_readonly("joint", [](const Entity& e) { return e.world->get<scene::Joint>(e.id); })
       .def("__repr__", [](const Entity& e) { return "<Entity " + e.world->describe(e.id) + ">"; });
 
   py::class_<scene::World, std::shared_ptr<scene::World>>(m, "World")

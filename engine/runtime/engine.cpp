@@ -5,6 +5,7 @@
 
 #include "gpu/error.h"
 #include "cressim/layout.h"
+#include "cressim/rigid.h"
 
 namespace cressim::runtime {
 namespace {
@@ -43,7 +44,9 @@ Engine::~Engine() {
 // ---- authoring -> GPU ----------------------------------------------------------------------
 
 void Engine::prepare() {
+  prepared_ = false;
   mapping_ = scene::build_layout_mapping(*world_);
+  rigid_model_ = physics::build_rigid_model(*world_, mapping_);  // authoring errors surface here
   prepared_ = true;
   uploaded_ = false;
 }
@@ -107,13 +110,30 @@ void Engine::upload_world() {
   reset_pass_->set_constant_bits("row_count", &rc.row_count, sizeof(rc.row_count));
   reset_pass_->set_constant_bits("env_count", &rc.env_count, sizeof(rc.env_count));
   reset_pass_->set_threads({uint64_t(std::max(rows, envs)), 1, 1});
+
+  if (!rigid_model_.empty()) {
+    physics::BufferMap scene = internal_;
+    scene.insert(shared_.begin(), shared_.end());
+    rigid_ = std::make_unique<physics::RigidSystem>(ctx_, rigid_model_, physics_settings_, generation_, internal_,
+                                                     shared_, scene);
+  }
   uploaded_ = true;
 }
 
 void Engine::release_world_buffers() {
+  rigid_.reset();
   reset_pass_.reset();
   internal_.clear();
-  shared_.erase("env.reset_mask");
+  // engine-owned writable buffers (dotted names); the user's shared buffers stay
+  for (auto it = shared_.begin(); it != shared_.end();)
+    it = it->first.find('.') != std::string::npos ? shared_.erase(it) : std::next(it);
+}
+
+void Engine::set_physics_settings(const physics::PhysicsSettings& s) {
+  s.validate();
+  if (rigid_) rigid_->set_settings(s);
+  physics_settings_ = s;
+  ++epoch_;
 }
 
 // ---- resources ---------------------------------------------------------------------------
@@ -217,6 +237,17 @@ void Engine::flush_host_writes() {
     for (const char* k : {"transform.rotations", "transform.initial_rotations"})
       write_rows(*internal_.at(k), row, t.rotation.data(), 16);
     write_rows(*internal_.at("transform.scales"), row, s, 16);
+    // a rigid body follows: kinematic ones move there over the next step, dynamic ones jump
+    const int64_t body = rigid_ ? rigid_->body_of(e) : -1;
+    if (body < 0) continue;
+    const bool kinematic = rigid_->model().bodies[size_t(body)].ids.z & shader::BODY_KINEMATIC;
+    std::vector<const char*> positions{"control.body_target_positions"}, rotations{"control.body_target_rotations"};
+    if (!kinematic) {
+      positions.insert(positions.end(), {"rigid.positions", "rigid.initial_positions"});
+      rotations.insert(rotations.end(), {"rigid.rotations", "rigid.initial_rotations"});
+    }
+    for (const char* k : positions) write_rows(*lookup(k), uint32_t(body), p, 16);
+    for (const char* k : rotations) write_rows(*lookup(k), uint32_t(body), t.rotation.data(), 16);
   }
 }
 
@@ -261,11 +292,14 @@ RecordedFrame& Engine::frame_for(const std::vector<FrameOp>& ops) {
 
 void Engine::record_op(VkCommandBuffer cmd, const FrameOp& op) {
   if (op.stage == Stage::CUSTOM_PASS) op.pass->record(cmd);
-  else if (op.stage == Stage::UPLOAD) {
+  else if (op.stage == Stage::UPLOAD || op.stage == Stage::RESET) {
     // env resets requested by the host, a task pass or the health check, then clear the flags
     reset_pass_->record(cmd);
+    if (rigid_) rigid_->record_reset(cmd);
     gpu::compute_barrier(cmd);
     vkCmdFillBuffer(cmd, shared_.at("env.reset_mask")->storage->buffer.buffer, 0, VK_WHOLE_SIZE, 0);
+  } else if (op.stage == Stage::PHYSICS && rigid_) {
+    rigid_->record_step(cmd);
   }
   for (auto& r : recorders_[size_t(op.stage)]) r(cmd);
 }

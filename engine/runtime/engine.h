@@ -14,6 +14,8 @@
 #include "compute/typed_buffer.h"
 #include "gpu/commands.h"
 #include "gpu/context.h"
+#include "physics/rigid_system.h"
+#include "physics/settings.h"
 #include "runtime/frame.h"
 #include "scene/layout_mapping.h"
 #include "scene/world.h"
@@ -41,6 +43,8 @@ class Engine {
 
   // the frame: any order of stages and passes, then end_frame() submits it once and waits
   void step_physics() { push(Stage::PHYSICS); }
+  // resets the envs flagged so far in this frame (every frame also starts with one)
+  void reset_flagged_envs() { push(Stage::RESET); }
   void step_visual_sensors() { push(Stage::VISUAL_SENSORS); }
   void step_simulation_sensors() { push(Stage::SIMULATION_SENSORS); }
   void execute_compute_pass(const std::shared_ptr<compute::ComputePass>& pass);
@@ -55,6 +59,11 @@ class Engine {
   std::shared_ptr<compute::TypedBuffer> lookup(const std::string& key) const;  // shared first, then internal
   std::vector<std::string> internal_keys() const;
   std::vector<std::string> shared_names() const;
+
+  // physics settings apply from the next frame
+  const physics::PhysicsSettings& physics_settings() const { return physics_settings_; }
+  void set_physics_settings(const physics::PhysicsSettings& s);
+  const physics::RigidSystem* rigid() const { return rigid_.get(); }
 
   // env control: envs flagged here (or in env.reset_mask by a pass) reset at the next frame
   void reset_envs(const std::vector<uint32_t>& envs);
@@ -97,7 +106,10 @@ class Engine {
   uint64_t epoch_ = 1;  // bumps whenever resources a recorded frame refers to change
   uint64_t generation_ = 0;  // upload_world() count; internal buffers carry it
   std::map<std::string, std::shared_ptr<compute::TypedBuffer>> internal_, shared_;
-  std::array<std::vector<StageRecorder>, 6> recorders_;
+  std::array<std::vector<StageRecorder>, 7> recorders_;
+  physics::PhysicsSettings physics_settings_;
+  physics::RigidModel rigid_model_;  // built by prepare(), moved to rigid_ by upload_world()
+  std::unique_ptr<physics::RigidSystem> rigid_;
   std::shared_ptr<compute::ComputePass> reset_pass_;
 
   std::vector<FrameOp> ops_;

@@ -7,6 +7,7 @@ namespace cressim::runtime {
 const char* stage_name(Stage s) {
   switch (s) {
     case Stage::UPLOAD: return "upload";
+    case Stage::RESET: return "reset_flagged_envs";
     case Stage::PHYSICS: return "step_physics";
     case Stage::VISUAL_SENSORS: return "step_visual_sensors";
     case Stage::SIMULATION_SENSORS: return "step_simulation_sensors";

@@ -12,7 +12,7 @@ namespace cressim::compute { struct ComputePass; }
 
 namespace cressim::runtime {
 
-enum class Stage { NONE = 0, UPLOAD, PHYSICS, VISUAL_SENSORS, SIMULATION_SENSORS, CUSTOM_PASS };
+enum class Stage { NONE = 0, UPLOAD, RESET, PHYSICS, VISUAL_SENSORS, SIMULATION_SENSORS, CUSTOM_PASS };
 
 const char* stage_name(Stage s);
 

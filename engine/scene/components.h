@@ -2,16 +2,76 @@
 // ComponentTypes; World stores it, prepare() maps it, and the binding exposes it.
 #pragma once
 #include <array>
+#include <cstdint>
+#include <limits>
 #include <tuple>
+#include <vector>
 
 namespace cressim::scene {
 
+using Vec3 = std::array<float, 3>;
+using Quat = std::array<float, 4>;  // x, y, z, w
+
 struct Transform {
-  std::array<float, 3> position{0, 0, 0};
-  std::array<float, 4> rotation{0, 0, 0, 1};  // quaternion x, y, z, w
-  std::array<float, 3> scale{1, 1, 1};
+  Vec3 position{0, 0, 0};
+  Quat rotation{0, 0, 0, 1};
+  Vec3 scale{1, 1, 1};
 };
 
-using ComponentTypes = std::tuple<Transform>;
+// A dynamic (or kinematic) rigid body; its centre of mass is the entity origin.
+// mass 0: density times the volume of the entity's collider shapes; inertia 0: from the shapes.
+struct RigidBody {
+  float mass = 0;
+  float density = 1000;
+  Vec3 inertia{0, 0, 0};  // principal moments in the body frame
+  bool kinematic = false;  // moved to targets (entity.transform or control.body_targets), never by forces
+  float linear_damping = 0;
+  float angular_damping = 0;
+};
+
+enum class ShapeKind : uint32_t { NONE = 0, SPHERE = 1, BOX = 2, CAPSULE = 3, PLANE = 4 };
+
+struct Shape {
+  ShapeKind kind = ShapeKind::NONE;
+  Vec3 size{0, 0, 0};  // box half extents; sphere radius in x; capsule radius x, half height y (along z)
+  Vec3 position{0, 0, 0};  // in the entity frame
+  Quat rotation{0, 0, 0, 1};
+};
+
+// Collision shapes of an entity: of its rigid body, or static when it has none. Several small
+// spheres make a proxy-particle collider. Pairs collide when (group_a & mask_b) && (group_b & mask_a).
+struct Collider {
+  std::vector<Shape> shapes;
+  float static_friction = 0.5f;
+  float dynamic_friction = 0.5f;
+  float restitution = 0;
+  uint32_t group = 1;
+  uint32_t mask = 0xffffffffu;
+};
+
+enum class JointKind : uint32_t { NONE = 0, FIXED = 1, BALL = 2, SPHERICAL = 3, HINGE = 4, SLIDER = 5 };
+enum class DriveMode : uint32_t { NONE = 0, POSITION = 1, VELOCITY = 2 };
+
+// A joint between two rigid-body entities of one env (body_a -1: the world). Anchor and axis are
+// given in world coordinates at the authored poses; the joint coordinate (hinge angle, slider
+// offset) is 0 there.
+struct Joint {
+  JointKind kind = JointKind::NONE;
+  int64_t body_a = -1;
+  int64_t body_b = -1;
+  Vec3 anchor{0, 0, 0};
+  Vec3 axis{1, 0, 0};
+  bool limited = false;
+  float lower = 0, upper = 0;
+  DriveMode drive = DriveMode::NONE;
+  float target = 0;  // position or velocity target (control.joint_targets at upload)
+  Quat target_rotation{0, 0, 0, 1};  // spherical drive
+  float stiffness = 0, damping = 0;
+  float max_force = std::numeric_limits<float>::infinity();
+  float compliance = 0;  // of the attachment itself (0: rigid)
+  bool collide_connected = false;
+};
+
+using ComponentTypes = std::tuple<Transform, RigidBody, Collider, Joint>;
 
 }  // namespace cressim::scene

@@ -1,0 +1,20 @@
+// Solver settings: time step, substeps, iterations, gravity, and the health bounds.
+#pragma once
+#include <array>
+#include <cstdint>
+
+namespace cressim::physics {
+
+struct PhysicsSettings {
+  float dt = 1.0f / 60.0f;      // frame time step (s)
+  uint32_t substeps = 4;        // XPBD substeps per frame
+  uint32_t iterations = 1;      // constraint passes per substep (substeps beat iterations)
+  std::array<float, 3> gravity{0, 0, -9.81f};  // z up
+  uint32_t max_contacts_per_env = 64;
+  float max_speed = 100;        // m/s beyond which an env is unhealthy and reset
+  float max_penetration = 0.25f;  // m
+
+  void validate() const;
+};
+
+}  // namespace cressim::physics

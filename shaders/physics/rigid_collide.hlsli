@@ -1,0 +1,173 @@
+// Narrow phase: contacts between collider shapes, written to the env's contact slice.
+// Every test reduces to spheres (a point with a radius) against a shape, except capsule pairs,
+// which meet at the closest points of their segments. Box pairs test each box's corners
+// against the other box, which holds resting stacks and face contacts.
+
+struct ShapePose {
+  float3 p;
+  float4 q;
+};
+
+ShapePose shape_pose(ColliderModel c) {
+  ShapePose s;
+  const uint b = c.ids.x;
+  s.q = quat_mul(body_rotation(b), c.rotation);
+  s.p = to_world(b, c.position.xyz);
+  return s;
+}
+
+struct ContactSink {
+  uint base;   // first contact slot of the env
+  uint count;  // contacts so far
+  float deepest;
+};
+
+void add_contact(inout ContactSink sink, uint a, uint b, float3 n, float3 pa, float3 pb, float depth,
+                 float4 material) {
+  sink.deepest = max(sink.deepest, depth);
+  if (sink.count >= pc.max_contacts) return;
+  Contact c;
+  c.normal = float4(n, depth);
+  c.anchor_a = float4(a == CRESSIM_NONE ? pa : quat_unrotate(rotations[a], pa - positions[a].xyz), 0);
+  c.anchor_b = float4(b == CRESSIM_NONE ? pb : quat_unrotate(rotations[b], pb - positions[b].xyz), 0);
+  // normal speed before the solve, for restitution
+  c.anchor_b.w = dot(n, point_velocity(a, pa - body_position(a)) - point_velocity(b, pb - body_position(b)));
+  c.material = material;
+  c.bodies = uint4(a, b, 0, 0);
+  contacts[sink.base + sink.count] = c;
+  sink.count += 1;
+}
+
+float3 closest_on_segment(float3 p, float3 s0, float3 s1) {
+  const float3 d = s1 - s0;
+  const float t = saturate(dot(p - s0, d) / max(dot(d, d), 1e-12));
+  return s0 + t * d;
+}
+
+// sphere (center x, radius r) owned by body a against shape cb of body b
+void sphere_vs_shape(inout ContactSink sink, uint a, float3 x, float r, ColliderModel cb, float4 material) {
+  const uint b = cb.ids.x, kind = cb.ids.y;
+  const ShapePose s = shape_pose(cb);
+  if (kind == SHAPE_PLANE) {
+    const float3 n = quat_rotate(s.q, float3(0, 0, 1));
+    const float dist = dot(x - s.p, n) - r;
+    if (dist < 0) add_contact(sink, a, b, n, x - r * n, x - (r + dist) * n, -dist, material);
+    return;
+  }
+  float3 center = s.p, surface_normal;
+  float radius_b = 0;
+  if (kind == SHAPE_SPHERE) radius_b = cb.size.x;
+  if (kind == SHAPE_CAPSULE) {
+    const float3 axis = quat_rotate(s.q, float3(0, 0, cb.size.y));
+    center = closest_on_segment(x, s.p - axis, s.p + axis);
+    radius_b = cb.size.x;
+  }
+  if (kind == SHAPE_SPHERE || kind == SHAPE_CAPSULE) {
+    const float3 d = x - center;
+    const float dist = length(d);
+    if (dist >= r + radius_b) return;
+    const float3 n = dist > 1e-9 ? d / dist : float3(0, 0, 1);
+    add_contact(sink, a, b, n, x - r * n, center + radius_b * n, r + radius_b - dist, material);
+    return;
+  }
+  // box: outside, the nearest surface point; inside, the face of least penetration
+  const float3 he = cb.size.xyz;
+  const float3 local = quat_unrotate(s.q, x - s.p);
+  const float3 clamped = clamp(local, -he, he);
+  const float3 d = local - clamped;
+  const float dist = length(d);
+  if (dist > 1e-9) {
+    if (dist >= r) return;
+    const float3 n = quat_rotate(s.q, d / dist);
+    add_contact(sink, a, b, n, x - r * n, s.p + quat_rotate(s.q, clamped), r - dist, material);
+    return;
+  }
+  const float3 pen = he - abs(local);
+  uint axis_index = 0;
+  if (pen.y < pen.x) axis_index = 1;
+  if (pen.z < pen[axis_index]) axis_index = 2;
+  float3 ln = float3(0, 0, 0);
+  ln[axis_index] = local[axis_index] >= 0 ? 1 : -1;
+  float3 on_face = local;
+  on_face[axis_index] = ln[axis_index] * he[axis_index];
+  const float3 n = quat_rotate(s.q, ln);
+  add_contact(sink, a, b, n, x - r * n, s.p + quat_rotate(s.q, on_face), pen[axis_index] + r, material);
+}
+
+// closest points of segments p0p1 and q0q1 (clamped)
+void closest_between_segments(float3 p0, float3 p1, float3 q0, float3 q1, out float3 cp, out float3 cq) {
+  const float3 d1 = p1 - p0, d2 = q1 - q0, r = p0 - q0;
+  const float a = dot(d1, d1), e = dot(d2, d2), f = dot(d2, r);
+  float s = 0, t = 0;
+  if (a <= 1e-12 && e <= 1e-12) {
+  } else if (a <= 1e-12) {
+    t = saturate(f / e);
+  } else {
+    const float c = dot(d1, r);
+    if (e <= 1e-12) {
+      s = saturate(-c / a);
+    } else {
+      const float b = dot(d1, d2), denom = a * e - b * b;
+      s = denom > 1e-12 ? saturate((b * f - c * e) / denom) : 0;
+      t = (b * s + f) / e;
+      if (t < 0) { t = 0; s = saturate(-c / a); }
+      else if (t > 1) { t = 1; s = saturate((b - c) / a); }
+    }
+  }
+  cp = p0 + s * d1;
+  cq = q0 + t * d2;
+}
+
+// shape ca (owner a) against shape cb (owner b); cb is never a sphere/capsule when ca is a box
+void collide_ordered(inout ContactSink sink, ColliderModel ca, ColliderModel cb) {
+  const uint a = ca.ids.x, kind_a = ca.ids.y, kind_b = cb.ids.y;
+  const float4 material = float4(sqrt(ca.material.x * cb.material.x), sqrt(ca.material.y * cb.material.y),
+                                 max(ca.material.z, cb.material.z), 0);
+  const ShapePose s = shape_pose(ca);
+  if (kind_a == SHAPE_SPHERE) {
+    sphere_vs_shape(sink, a, s.p, ca.size.x, cb, material);
+  } else if (kind_a == SHAPE_CAPSULE) {
+    const float3 axis = quat_rotate(s.q, float3(0, 0, ca.size.y));
+    const float3 e0 = s.p - axis, e1 = s.p + axis;
+    if (kind_b == SHAPE_CAPSULE) {
+      const ShapePose t = shape_pose(cb);
+      const float3 axis_b = quat_rotate(t.q, float3(0, 0, cb.size.y));
+      float3 cp, cq;
+      closest_between_segments(e0, e1, t.p - axis_b, t.p + axis_b, cp, cq);
+      const float3 d = cp - cq;
+      const float dist = length(d), reach = ca.size.x + cb.size.x;
+      if (dist < reach) {
+        const float3 n = dist > 1e-9 ? d / dist : float3(0, 0, 1);
+        add_contact(sink, a, cb.ids.x, n, cp - ca.size.x * n, cq + cb.size.x * n, reach - dist, material);
+      }
+      return;
+    }
+    sphere_vs_shape(sink, a, e0, ca.size.x, cb, material);
+    sphere_vs_shape(sink, a, e1, ca.size.x, cb, material);
+    if (kind_b == SHAPE_BOX) {  // the middle of a long capsule lying on a box
+      const ShapePose t = shape_pose(cb);
+      sphere_vs_shape(sink, a, closest_on_segment(t.p, e0, e1), ca.size.x, cb, material);
+    }
+  } else if (kind_a == SHAPE_BOX) {
+    for (uint i = 0; i < 8; ++i) {
+      const float3 corner = float3((i & 1) ? 1 : -1, (i & 2) ? 1 : -1, (i & 4) ? 1 : -1) * ca.size.xyz;
+      sphere_vs_shape(sink, a, s.p + quat_rotate(s.q, corner), 0, cb, material);
+    }
+  }
+}
+
+// orders a pair so that collide_ordered sees it in a form it handles
+void collide(inout ContactSink sink, ColliderModel c0, ColliderModel c1) {
+  const uint k0 = c0.ids.y, k1 = c1.ids.y;
+  if (k0 == SHAPE_PLANE && k1 == SHAPE_PLANE) return;
+  if (k0 == SHAPE_PLANE) { collide_ordered(sink, c1, c0); return; }
+  if (k1 == SHAPE_PLANE) { collide_ordered(sink, c0, c1); return; }
+  if (k0 == SHAPE_BOX && k1 == SHAPE_BOX) {
+    collide_ordered(sink, c0, c1);
+    collide_ordered(sink, c1, c0);
+    return;
+  }
+  // spheres and capsules own the test against boxes; capsules against spheres
+  if (k0 == SHAPE_BOX || (k0 == SHAPE_CAPSULE && k1 == SHAPE_SPHERE)) collide_ordered(sink, c1, c0);
+  else collide_ordered(sink, c0, c1);
+}
