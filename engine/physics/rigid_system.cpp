@@ -62,10 +62,14 @@ RigidSystem::RigidSystem(std::shared_ptr<gpu::Context> ctx, RigidModel model, co
   in("rigid.prev_positions", zeros_b, {nb, 4}, DType::FLOAT32);
   in("rigid.prev_rotations", zeros_b, {nb, 4}, DType::FLOAT32);
   in("joint.lambdas", zeros_j, {nj, 4}, DType::FLOAT32);
+  in("rigid.delta_positions", zeros_b, {nb, 4}, DType::FLOAT32);
+  in("rigid.delta_rotations", zeros_b, {nb, 4}, DType::FLOAT32);
   in("rigid.contacts", std::vector<uint32_t>{}, {ne * std::max<int64_t>(max_contacts_, 1), int64_t(sizeof(shader::Contact) / 4)}, DType::UINT32);
   // control: written by the host or by task passes
   ctl("control.joint_targets", model_.joint_targets, {nj, 4}, DType::FLOAT32);
   ctl("control.joint_reset", zeros_j, {nj, 4}, DType::FLOAT32);
+  ctl("control.body_reset_velocities", zeros_b, {nb, 4}, DType::FLOAT32);
+  ctl("control.body_reset_angular_velocities", zeros_b, {nb, 4}, DType::FLOAT32);
   ctl("control.body_target_positions", model_.initial_positions, {nb, 4}, DType::FLOAT32);
   ctl("control.body_target_rotations", model_.initial_rotations, {nb, 4}, DType::FLOAT32);
 
@@ -83,6 +87,7 @@ RigidSystem::RigidSystem(std::shared_ptr<gpu::Context> ctx, RigidModel model, co
        {"rotations", get("rigid.rotations")}, {"linear_velocities", get("rigid.linear_velocities")},
        {"angular_velocities", get("rigid.angular_velocities")}, {"prev_positions", get("rigid.prev_positions")},
        {"prev_rotations", get("rigid.prev_rotations")}, {"contacts", get("rigid.contacts")},
+       {"delta_positions", get("rigid.delta_positions")}, {"delta_rotations", get("rigid.delta_rotations")},
        {"joint_lambdas", get("joint.lambdas")}, {"joint_positions", get("joint.positions")},
        {"joint_velocities", get("joint.velocities")}, {"transform_positions", get("transform.positions")},
        {"transform_rotations", get("transform.rotations")}, {"health", get("env.health")},
@@ -92,6 +97,8 @@ RigidSystem::RigidSystem(std::shared_ptr<gpu::Context> ctx, RigidModel model, co
       {{"env_ranges", get("rigid.env_ranges")}, {"joints", get("joint.model")},
        {"reset_mask", get("env.reset_mask")}, {"initial_positions", get("rigid.initial_positions")},
        {"initial_rotations", get("rigid.initial_rotations")}, {"joint_reset", get("control.joint_reset")},
+       {"reset_linear_velocities", get("control.body_reset_velocities")},
+       {"reset_angular_velocities", get("control.body_reset_angular_velocities")},
        {"positions", get("rigid.positions")}, {"rotations", get("rigid.rotations")},
        {"linear_velocities", get("rigid.linear_velocities")}, {"angular_velocities", get("rigid.angular_velocities")},
        {"target_positions", get("control.body_target_positions")},

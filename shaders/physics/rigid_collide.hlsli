@@ -1,7 +1,8 @@
 // Narrow phase: contacts between collider shapes, written to the env's contact slice.
 // Every test reduces to spheres (a point with a radius) against a shape, except capsule pairs,
-// which meet at the closest points of their segments. Box pairs test each box's corners
-// against the other box, which holds resting stacks and face contacts.
+// which meet at the closest points of their segments, and box pairs: the face axis of least
+// overlap (separating-axis test over the six face normals) gives the normal, and each box's
+// corners inside the other give the points. Edge-edge contacts are not generated.
 
 struct ShapePose {
   float3 p;
@@ -36,6 +37,12 @@ void add_contact(inout ContactSink sink, uint a, uint b, float3 n, float3 pa, fl
   c.bodies = uint4(a, b, 0, 0);
   contacts[sink.base + sink.count] = c;
   sink.count += 1;
+}
+
+// friction combines as the geometric mean, restitution as the larger
+float4 pair_material(ColliderModel ca, ColliderModel cb) {
+  return float4(sqrt(ca.material.x * cb.material.x), sqrt(ca.material.y * cb.material.y),
+                max(ca.material.z, cb.material.z), 0);
 }
 
 float3 closest_on_segment(float3 p, float3 s0, float3 s1) {
@@ -118,11 +125,10 @@ void closest_between_segments(float3 p0, float3 p1, float3 q0, float3 q1, out fl
   cq = q0 + t * d2;
 }
 
-// shape ca (owner a) against shape cb (owner b); cb is never a sphere/capsule when ca is a box
+// shape ca (owner a) against shape cb (owner b): cb is a plane when ca is a box
 void collide_ordered(inout ContactSink sink, ColliderModel ca, ColliderModel cb) {
   const uint a = ca.ids.x, kind_a = ca.ids.y, kind_b = cb.ids.y;
-  const float4 material = float4(sqrt(ca.material.x * cb.material.x), sqrt(ca.material.y * cb.material.y),
-                                 max(ca.material.z, cb.material.z), 0);
+  const float4 material = pair_material(ca, cb);
   const ShapePose s = shape_pose(ca);
   if (kind_a == SHAPE_SPHERE) {
     sphere_vs_shape(sink, a, s.p, ca.size.x, cb, material);
@@ -156,6 +162,53 @@ void collide_ordered(inout ContactSink sink, ColliderModel ca, ColliderModel cb)
   }
 }
 
+// corners of box ca (owner of the contact) lying in box cb, pushed out along n (from b to a)
+void box_corners_in_box(inout ContactSink sink, ColliderModel ca, ShapePose sa, ColliderModel cb, ShapePose sb,
+                        float3 n, float4 material) {
+  const float3 hb = cb.size.xyz;
+  // b's supporting plane along n: its face (or edge) facing a
+  const float reach = abs(dot(quat_rotate(sb.q, float3(hb.x, 0, 0)), n)) +
+                      abs(dot(quat_rotate(sb.q, float3(0, hb.y, 0)), n)) +
+                      abs(dot(quat_rotate(sb.q, float3(0, 0, hb.z)), n));
+  const float plane = dot(sb.p, n) + reach;
+  for (uint i = 0; i < 8; ++i) {
+    const float3 corner = sa.p + quat_rotate(sa.q, float3((i & 1) ? 1 : -1, (i & 2) ? 1 : -1, (i & 4) ? 1 : -1) * ca.size.xyz);
+    const float3 local = quat_unrotate(sb.q, corner - sb.p);
+    if (any(abs(local) > hb + 1e-4)) continue;
+    const float depth = plane - dot(corner, n);
+    if (depth > 0) add_contact(sink, ca.ids.x, cb.ids.x, n, corner, corner + depth * n, depth, material);
+  }
+}
+
+void box_vs_box(inout ContactSink sink, ColliderModel c0, ColliderModel c1, float4 material) {
+  const ShapePose s0 = shape_pose(c0), s1 = shape_pose(c1);
+  const float3 d = s0.p - s1.p;
+  float best = 3.4e38;
+  float3 n = float3(0, 0, 1);
+  for (uint k = 0; k < 6; ++k) {
+    float3 e = float3(0, 0, 0);
+    e[k % 3] = 1;
+    const float3 axis = quat_rotate(k < 3 ? s0.q : s1.q, e);
+    float r = 0;
+    for (uint m = 0; m < 3; ++m) {
+      float3 u = float3(0, 0, 0);
+      u[m] = 1;
+      r += abs(dot(quat_rotate(s0.q, u * c0.size.xyz), axis)) + abs(dot(quat_rotate(s1.q, u * c1.size.xyz), axis));
+    }
+    const float overlap = r - abs(dot(d, axis));
+    if (overlap < 0) return;  // separated along this axis
+    if (overlap < best) {
+      best = overlap;
+      n = dot(d, axis) >= 0 ? axis : -axis;
+    }
+  }
+  // one box's corners usually make the face contact; the other's fill in where they do not
+  // (duplicates would only dilute each contact's share of the simultaneous solve)
+  const uint before = sink.count;
+  box_corners_in_box(sink, c0, s0, c1, s1, n, material);
+  if (sink.count - before < 4) box_corners_in_box(sink, c1, s1, c0, s0, -n, material);
+}
+
 // orders a pair so that collide_ordered sees it in a form it handles
 void collide(inout ContactSink sink, ColliderModel c0, ColliderModel c1) {
   const uint k0 = c0.ids.y, k1 = c1.ids.y;
@@ -163,8 +216,7 @@ void collide(inout ContactSink sink, ColliderModel c0, ColliderModel c1) {
   if (k0 == SHAPE_PLANE) { collide_ordered(sink, c1, c0); return; }
   if (k1 == SHAPE_PLANE) { collide_ordered(sink, c0, c1); return; }
   if (k0 == SHAPE_BOX && k1 == SHAPE_BOX) {
-    collide_ordered(sink, c0, c1);
-    collide_ordered(sink, c1, c0);
+    box_vs_box(sink, c0, c1, pair_material(c0, c1));
     return;
   }
   // spheres and capsules own the test against boxes; capsules against spheres

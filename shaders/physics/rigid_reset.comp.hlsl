@@ -1,4 +1,5 @@
-// Puts the bodies of every env flagged in env.reset_mask back to their authored poses, then
+// Puts the bodies of every env flagged in env.reset_mask back to their authored poses with the
+// velocities in control.body_reset_velocities (linear) and body_reset_angular_velocities, then
 // poses each joint's child from its parent (hinges and sliders moved by the coordinate in
 // control.joint_reset: x position, y velocity), joints in parent-before-child order. One thread per env.
 #include "cressim/layout.h"
@@ -13,6 +14,8 @@ StructuredBuffer<uint> reset_mask;
 StructuredBuffer<float4> initial_positions;
 StructuredBuffer<float4> initial_rotations;
 StructuredBuffer<float4> joint_reset;
+StructuredBuffer<float4> reset_linear_velocities;
+StructuredBuffer<float4> reset_angular_velocities;
 RWStructuredBuffer<float4> positions;
 RWStructuredBuffer<float4> rotations;
 RWStructuredBuffer<float4> linear_velocities;
@@ -31,8 +34,8 @@ void main(uint3 id : SV_DispatchThreadID) {
     rotations[b] = initial_rotations[b];
     target_positions[b] = initial_positions[b];
     target_rotations[b] = initial_rotations[b];
-    linear_velocities[b] = float4(0, 0, 0, 0);
-    angular_velocities[b] = float4(0, 0, 0, 0);
+    linear_velocities[b] = float4(reset_linear_velocities[b].xyz, 0);
+    angular_velocities[b] = float4(reset_angular_velocities[b].xyz, 0);
   }
   for (uint j = r.joints.x; j < r.joints.x + r.joints.y; ++j) {
     const JointModel jm = joints[j];

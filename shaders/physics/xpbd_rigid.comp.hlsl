@@ -1,7 +1,7 @@
 // One frame of rigid-body dynamics for every env: one thread per env runs all substeps of its
 // env (Gauss-Seidel inside an env, envs in parallel, so envs never interact).
 // Per substep: integrate, collide, project joints and contacts, derive velocities, then
-// velocity-level friction and restitution (after Mueller et al. 2020). At the end: joint coordinates,
+// velocity-level friction and restitution (after Mueller et al. 2020; contacts Jacobi-style). At the end: joint coordinates,
 // transforms of the bodies' entities, and the env's health.
 #include "cressim/layout.h"
 #include "cressim/quat.h"
@@ -23,6 +23,8 @@ RWStructuredBuffer<float4> angular_velocities;
 RWStructuredBuffer<float4> prev_positions;    // scratch: pose at the substep start
 RWStructuredBuffer<float4> prev_rotations;
 RWStructuredBuffer<Contact> contacts;         // scratch: max_contacts per env
+RWStructuredBuffer<float4> delta_positions;   // scratch: summed contact corrections, w: contacts
+RWStructuredBuffer<float4> delta_rotations;
 RWStructuredBuffer<float4> joint_lambdas;     // scratch
 RWStructuredBuffer<float> joint_positions;    // out: hinge angle / slider offset
 RWStructuredBuffer<float> joint_velocities;   // out; holds the substep-start coordinate meanwhile
@@ -96,22 +98,102 @@ void generate_contacts(EnvRigidRange r, inout ContactSink sink) {
   }
 }
 
-void solve_contacts(ContactSink sink) {
+// Contacts are solved Jacobi-style: every contact of an env computes its correction from the
+// same poses, the corrections are summed per body and applied together. Sequential corner
+// contacts rock a box (and rocking about two axes turns it about the third); a simultaneous
+// solve is symmetric. Each contact's share is 2 / (contacts on the busier of its two bodies),
+// at most 1, the same for both bodies so momentum is kept; the factor 2 over-relaxes the
+// averaged solve (contacts on one face mostly share the work of one translation).
+
+void clear_deltas(uint b0, uint b1) {
+  for (uint b = b0; b < b1; ++b) {
+    delta_positions[b] = float4(0, 0, 0, 0);
+    delta_rotations[b] = float4(0, 0, 0, 0);
+  }
+}
+
+void count_contact(uint b) {
+  if (b != CRESSIM_NONE) delta_positions[b].w += 1;
+}
+
+float contact_share(uint a, uint b) {
+  float n = 1;
+  if (a != CRESSIM_NONE) n = max(n, delta_positions[a].w);
+  if (b != CRESSIM_NONE) n = max(n, delta_positions[b].w);
+  return min(1.0, 2.0 / n);
+}
+
+// an impulse-like correction p at arm r: sign +1 for a, -1 for b
+void accumulate(uint b, float3 p, float3 r, float sign) {
+  if (!is_dynamic(b)) return;
+  delta_positions[b].xyz += sign * p * bodies[b].inv_inertia.w;
+  delta_rotations[b].xyz += sign * inv_inertia_times(b, cross(r, p));
+}
+
+// positional correction `correction` of a against b, accumulated at the contact's share
+float accumulate_position(uint a, uint b, float3 ra, float3 rb, float3 correction, float share) {
+  const float c = length(correction);
+  if (c < 1e-9) return 0;
+  const float3 n = correction / c;
+  const float w = positional_weight(a, ra, n) + positional_weight(b, rb, n);
+  if (w <= 0) return 0;
+  const float dl = share * c / w;
+  accumulate(a, dl * n, ra, 1);
+  accumulate(b, dl * n, rb, -1);
+  return dl;
+}
+
+void apply_position_deltas(uint b0, uint b1) {
+  for (uint b = b0; b < b1; ++b) {
+    if (!is_dynamic(b)) continue;
+    positions[b].xyz += delta_positions[b].xyz;
+    rotations[b] = quat_add_rotation(rotations[b], delta_rotations[b].xyz);
+    delta_positions[b].xyz = float3(0, 0, 0);
+    delta_rotations[b] = float4(0, 0, 0, 0);
+  }
+}
+
+void apply_velocity_deltas(uint b0, uint b1) {
+  for (uint b = b0; b < b1; ++b) {
+    if (!is_dynamic(b)) continue;
+    linear_velocities[b].xyz += delta_positions[b].xyz;
+    angular_velocities[b].xyz += delta_rotations[b].xyz;
+    delta_positions[b].xyz = float3(0, 0, 0);
+    delta_rotations[b] = float4(0, 0, 0, 0);
+  }
+}
+
+void solve_contacts(ContactSink sink, uint b0, uint b1) {
   for (uint i = sink.base; i < sink.base + sink.count; ++i) {
     Contact c = contacts[i];
     const uint a = c.bodies.x, b = c.bodies.y;
     const float3 n = c.normal.xyz;
     const float3 pa = to_world(a, c.anchor_a.xyz), pb = to_world(b, c.anchor_b.xyz);
+    const float3 ra = pa - body_position(a), rb = pb - body_position(b);
     const float depth = dot(pb - pa, n);
     if (depth <= 0) continue;
-    float lambda_n = c.anchor_a.w;
-    correct_position(a, b, pa - body_position(a), pb - body_position(b), depth * n, 0, lambda_n, 3.4e38);
+    const float share = contact_share(a, b);
+    const float lambda_n = c.anchor_a.w + accumulate_position(a, b, ra, rb, depth * n, share);
     c.anchor_a.w = lambda_n;
+    // static friction: undo the tangential slip of the contact points over this substep while
+    // the static cone allows it
+    float3 pa_prev = pa, pb_prev = pb;
+    if (a != CRESSIM_NONE) pa_prev = prev_positions[a].xyz + quat_rotate(prev_rotations[a], c.anchor_a.xyz);
+    if (b != CRESSIM_NONE) pb_prev = prev_positions[b].xyz + quat_rotate(prev_rotations[b], c.anchor_b.xyz);
+    const float3 slip = (pa - pa_prev) - (pb - pb_prev);
+    const float3 tangential = slip - dot(slip, n) * n;
+    const float t = length(tangential);
+    if (t > 1e-9) {
+      const float3 dir = tangential / t;
+      const float w = positional_weight(a, ra, dir) + positional_weight(b, rb, dir);
+      if (w > 0 && share * t / w <= c.material.x * lambda_n) accumulate_position(a, b, ra, rb, -tangential, share);
+    }
     contacts[i] = c;
   }
+  apply_position_deltas(b0, b1);
 }
 
-void solve_contact_velocities(ContactSink sink, float h) {
+void solve_contact_velocities(ContactSink sink, float h, uint b0, uint b1) {
   const float rest_speed = 2.0 * length(pc.gravity.xyz) * h;
   for (uint i = sink.base; i < sink.base + sink.count; ++i) {
     const Contact c = contacts[i];
@@ -124,18 +206,24 @@ void solve_contact_velocities(ContactSink sink, float h) {
     const float vn = dot(n, v);
     const float3 vt = v - vn * n;
     const float speed_t = length(vt);
-    // Coulomb friction at the velocity level: stick when the static limit can stop the slide,
-    // else slow it by the dynamic limit (position-level static friction biases resting contacts)
-    float3 dv = float3(0, 0, 0);
-    if (speed_t > 1e-9) {
-      const float limit = lambda_n / h;
-      dv -= speed_t <= c.material.x * limit ? vt : vt / speed_t * min(c.material.y * limit, speed_t);
-    }
+    const float share = contact_share(a, b);
+    // normal: no approach (or the restitution's rebound), as this contact's share of an impulse
     const float vn_before = c.anchor_b.w;
     const float e = abs(vn_before) <= rest_speed ? 0 : c.material.z;
-    dv += n * (-vn + max(-e * vn_before, 0));
-    change_velocity(a, b, ra, rb, dv);
+    const float dvn = -vn + max(-e * vn_before, 0);
+    const float wn = positional_weight(a, ra, n) + positional_weight(b, rb, n);
+    float3 p = wn > 0 ? n * (share * dvn / wn) : float3(0, 0, 0);
+    // dynamic friction: its share of stopping the slide, capped by Coulomb on the contact's own
+    // normal impulse (lambda_n is already its share)
+    if (speed_t > 1e-9) {
+      const float3 dir = vt / speed_t;
+      const float wt = positional_weight(a, ra, dir) + positional_weight(b, rb, dir);
+      if (wt > 0) p -= dir * min(share * speed_t / wt, c.material.y * lambda_n / h);
+    }
+    accumulate(a, p, ra, 1);
+    accumulate(b, p, rb, -1);
   }
+  apply_velocity_deltas(b0, b1);
 }
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
@@ -160,12 +248,17 @@ void main(uint3 id : SV_DispatchThreadID) {
     sink.count = 0;
     sink.deepest = 0;
     generate_contacts(r, sink);
+    clear_deltas(b0, b1);
+    for (uint k = sink.base; k < sink.base + sink.count; ++k) {
+      count_contact(contacts[k].bodies.x);
+      count_contact(contacts[k].bodies.y);
+    }
     for (uint it = 0; it < pc.iterations; ++it) {
       for (uint j = j0; j < j1; ++j) solve_joint(j, h, joint_velocities[j]);
-      solve_contacts(sink);
+      if (sink.count > 0) solve_contacts(sink, b0, b1);
     }
     for (uint b = b0; b < b1; ++b) update_velocity(b, h);
-    solve_contact_velocities(sink, h);
+    if (sink.count > 0) solve_contact_velocities(sink, h, b0, b1);
   }
 
   for (uint j = j0; j < j1; ++j) {
