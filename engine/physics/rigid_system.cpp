@@ -102,7 +102,8 @@ RigidSystem::RigidSystem(std::shared_ptr<gpu::Context> ctx, RigidModel model, co
        {"positions", get("rigid.positions")}, {"rotations", get("rigid.rotations")},
        {"linear_velocities", get("rigid.linear_velocities")}, {"angular_velocities", get("rigid.angular_velocities")},
        {"target_positions", get("control.body_target_positions")},
-       {"target_rotations", get("control.body_target_rotations")}, {"health", get("env.health")}});
+       {"target_rotations", get("control.body_target_rotations")}, {"health", get("env.health")},
+       {"joint_positions", get("joint.positions")}, {"joint_velocities", get("joint.velocities")}});
   const uint32_t envs = uint32_t(ne);
   reset_->set_constant_bits("env_count", &envs, 4);
   reset_->set_threads({std::max<uint64_t>(envs, 1), 1, 1});

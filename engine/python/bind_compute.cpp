@@ -22,9 +22,9 @@ py::array read(const TypedBuffer& b) {
   return out;
 }
 
-void write(TypedBuffer& b, py::array values) {
+void write(TypedBuffer& b, py::object values) {
   if (b.read_only) throw py::value_error("buffer " + b.describe() + " is the engine's; it is read-only");
-  py::array a = py::array::ensure(values, py::array::c_style | py::array::forcecast);
+  py::array a = py::module_::import("numpy").attr("ascontiguousarray")(values);
   if (!a.dtype().is(numpy_dtype(b.dtype))) a = a.attr("astype")(numpy_dtype(b.dtype));
   if (uint64_t(a.size()) != b.elements())
     throw py::value_error("write to " + b.describe() + ": got " + std::to_string(a.size()) + " elements, need " +

@@ -23,6 +23,8 @@ RWStructuredBuffer<float4> angular_velocities;
 RWStructuredBuffer<float4> target_positions;
 RWStructuredBuffer<float4> target_rotations;
 RWStructuredBuffer<uint> health;
+RWStructuredBuffer<float> joint_positions;
+RWStructuredBuffer<float> joint_velocities;
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
 void main(uint3 id : SV_DispatchThreadID) {
@@ -41,7 +43,10 @@ void main(uint3 id : SV_DispatchThreadID) {
     const JointModel jm = joints[j];
     const uint a = jm.ids.x, b = jm.ids.y, kind = jm.ids.z;
     if (b == CRESSIM_NONE) continue;
-    const float q = joint_reset[j].x, qd = joint_reset[j].y;
+    const bool moves = kind == JOINT_HINGE || kind == JOINT_SLIDER;
+    const float q = moves ? joint_reset[j].x : 0, qd = moves ? joint_reset[j].y : 0;
+    joint_positions[j] = q;  // observable before the next step
+    joint_velocities[j] = qd;
     const float3 xa = a == CRESSIM_NONE ? float3(0, 0, 0) : positions[a].xyz;
     const float4 qa = a == CRESSIM_NONE ? float4(0, 0, 0, 1) : rotations[a];
     // joint frame on a, moved by the coordinate, is the joint frame on b

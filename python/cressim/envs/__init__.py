@@ -1,0 +1,19 @@
+"""Batched RL tasks: `cressim.envs.make("CartPole", num_envs=4096, device="cuda")`."""
+from __future__ import annotations
+
+from .cartpole import CartPole
+from .vector_env import Space, VectorEnv
+
+REGISTRY = {"CartPole": CartPole}
+
+
+def make(name: str, num_envs: int, **kwargs) -> VectorEnv:
+    """Creates the task `name` with `num_envs` envs; keyword options go to the task."""
+    try:
+        task = REGISTRY[name]
+    except KeyError:
+        raise KeyError(f"unknown task {name!r}; tasks: {', '.join(sorted(REGISTRY))}") from None
+    return task(num_envs, **kwargs)
+
+
+__all__ = ["CartPole", "REGISTRY", "Space", "VectorEnv", "make"]

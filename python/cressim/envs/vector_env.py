@@ -1,0 +1,179 @@
+"""Batched environments on torch tensors, stepped as one GPU frame per step.
+
+The conventions are Isaac Lab's and gymnasium's VectorEnv: `reset() -> (obs, info)`,
+`step(actions) -> (obs, reward, terminated, truncated, info)`, finished envs reset
+automatically on the GPU (the returned obs of a finished env is its next episode's first).
+Task logic runs in HLSL custom passes; this class only records the frame and exposes the
+task's shared buffers as tensors without copies (host memory on lavapipe, CUDA memory on
+NVIDIA through Vulkan external memory).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import torch
+
+import cressim
+
+
+@dataclass
+class Space:
+    """A box space: shape, bounds, dtype (what gymnasium.spaces.Box says, without the import)."""
+
+    shape: tuple
+    low: float = -np.inf
+    high: float = np.inf
+    dtype: torch.dtype = torch.float32
+
+    def sample(self, batch: int, device) -> torch.Tensor:
+        lo, hi = max(self.low, -1.0), min(self.high, 1.0)
+        return lo + (hi - lo) * torch.rand((batch, *self.shape), device=device, dtype=self.dtype)
+
+
+@dataclass
+class TaskBuffers:
+    """The shared buffers every task has; a task adds its own in `extra`."""
+
+    actions: cressim.Buffer
+    observations: cressim.Buffer
+    rewards: cressim.Buffer
+    terminated: cressim.Buffer
+    truncated: cressim.Buffer
+    episode_length: cressim.Buffer
+    finished_length: cressim.Buffer
+    extra: dict = field(default_factory=dict)
+
+
+def tensor_view(buffer: cressim.Buffer, device: torch.device) -> torch.Tensor:
+    """A torch tensor sharing the buffer's memory on `device` (no copy)."""
+    t = torch.from_dlpack(buffer)
+    if t.device != device:
+        raise RuntimeError(f"buffer {buffer.key!r} lives on {t.device}, not {device}: the zero-copy path for "
+                           f"{device} is not available on this Vulkan device ({cressim.__name__} info shows why)")
+    return t
+
+
+class VectorEnv:
+    """Base of the batched tasks. Subclasses build the scene (`build_world`), name their HLSL
+    file and its three entry points, and fill the task constants."""
+
+    hlsl: Path  # task passes: apply_action, evaluate, observe
+    observation_space: Space
+    action_space: Space
+    max_episode_steps: int
+
+    def __init__(self, num_envs: int, *, device: str | torch.device | None = None, seed: int = 0,
+                 validation: bool | None = None, vulkan_device: str | None = None):
+        self.num_envs = num_envs
+        world = self.build_world(num_envs)
+        self.engine = cressim.Engine(world, validation=validation, device=vulkan_device)
+        self.engine.physics = self.physics_settings()
+        self.engine.prepare()
+        self.engine.upload_world()
+        self.device = torch.device(device) if device is not None else self.default_device()
+        self.seed = seed
+        self.buffers = self._create_buffers()
+        self.passes = self._create_passes()
+        if self.device.type == "cuda":
+            self.engine.cuda_stream = torch.cuda.current_stream(self.device).cuda_stream
+        self.actions = tensor_view(self.buffers.actions, self.device)
+        self.obs = tensor_view(self.buffers.observations, self.device)
+        self.reward = tensor_view(self.buffers.rewards, self.device)
+        self.terminated = tensor_view(self.buffers.terminated, self.device)
+        self.truncated = tensor_view(self.buffers.truncated, self.device)
+        self.episode_length = tensor_view(self.buffers.episode_length, self.device)
+        self.finished_length = tensor_view(self.buffers.finished_length, self.device)
+        self.health = tensor_view(self.engine.buffer("env.health"), self.device)
+
+    # --- what a task provides -------------------------------------------------------------
+    def build_world(self, num_envs: int) -> cressim.World:
+        raise NotImplementedError
+
+    def physics_settings(self) -> cressim.PhysicsSettings:
+        return cressim.PhysicsSettings()
+
+    def task_constants(self, reset_all: bool) -> dict:
+        raise NotImplementedError
+
+    def task_bindings(self) -> dict:
+        """Extra HLSL bindings (name -> buffer or key) beyond the common ones."""
+        return {}
+
+    # --- the batched API ---------------------------------------------------------------------
+    def default_device(self) -> torch.device:
+        probe = self.engine.buffer("env.health")
+        return torch.device("cpu") if probe.host_visible else torch.device("cuda", 0)
+
+    def reset(self, *, seed: int | None = None):
+        """Starts a new episode in every env; returns (obs, info)."""
+        if seed is not None and seed != self.seed:
+            self.seed = seed
+            for key in ("evaluate", "evaluate_reset_all"):
+                self.passes[key].set_constant("seed", seed)
+        self._frame(reset_all=True)
+        return self.obs, self._info()
+
+    def step(self, actions: torch.Tensor):
+        """Applies `actions` (num_envs, *action_space.shape) and advances one frame."""
+        self.actions.copy_(actions.reshape(self.actions.shape))
+        self._frame(reset_all=False)
+        return self.obs, self.reward, self.terminated.bool(), self.truncated.bool(), self._info()
+
+    def close(self):
+        self.engine = None
+
+    # --- internals ---------------------------------------------------------------------------
+    def _info(self) -> dict:
+        return {"episode_length": self.episode_length, "finished_length": self.finished_length,
+                "health": self.health}
+
+    def _create_buffers(self) -> TaskBuffers:
+        n, e = self.num_envs, self.engine
+        return TaskBuffers(
+            actions=e.create_shared_buffer("actions", (n, *self.action_space.shape), "float32"),
+            observations=e.create_shared_buffer("observations", (n, *self.observation_space.shape), "float32"),
+            rewards=e.create_shared_buffer("rewards", n, "float32"),
+            terminated=e.create_shared_buffer("terminated", n, "uint32"),
+            truncated=e.create_shared_buffer("truncated", n, "uint32"),
+            episode_length=e.create_shared_buffer("episode_length", n, "uint32"),
+            finished_length=e.create_shared_buffer("finished_length", n, "float32"))
+
+    def _create_passes(self) -> dict:
+        b = self.buffers
+        common = {"actions": b.actions, "observations": b.observations, "rewards": b.rewards,
+                  "terminated": b.terminated, "truncated": b.truncated, "episode_length": b.episode_length,
+                  "finished_length": b.finished_length, "reset_mask": "env.reset_mask"}
+        common.update(self.task_bindings())
+        source = self.hlsl.read_text()
+        passes = {}
+        for entry in ("apply_action", "evaluate", "observe"):
+            passes[entry] = self.engine.create_compute_pass(
+                source, name=f"{type(self).__name__}.{entry}", entry=entry, threads=self.num_envs,
+                bindings={k: v for k, v in common.items() if k in _declared(source)},
+                constants=self.task_constants(reset_all=False))
+        passes["evaluate_reset_all"] = self.engine.create_compute_pass(
+            source, name=f"{type(self).__name__}.reset_all", entry="evaluate", threads=self.num_envs,
+            bindings={k: v for k, v in common.items() if k in _declared(source)},
+            constants=self.task_constants(reset_all=True))
+        return passes
+
+    def _frame(self, reset_all: bool):
+        e, p = self.engine, self.passes
+        if reset_all:  # no physics: flag and randomise every env, reset, observe
+            e.execute_compute_pass(p["evaluate_reset_all"])
+        else:
+            e.execute_compute_pass(p["apply_action"])
+            e.step_physics()
+            e.execute_compute_pass(p["evaluate"])
+        e.reset_flagged_envs()
+        e.execute_compute_pass(p["observe"])
+        e.end_frame()
+
+
+def _declared(source: str) -> set:
+    """Identifiers in the HLSL source (bindings the task file does not mention are left out)."""
+    import re
+
+    return set(re.findall(r"[A-Za-z_][A-Za-z0-9_]*", source))
