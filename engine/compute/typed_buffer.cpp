@@ -28,6 +28,15 @@ uint64_t TypedBuffer::elements() const {
   return n;
 }
 
+const CudaMapping& TypedBuffer::cuda_mapping() {
+  if (!cuda) {
+    if (!storage->buffer.exportable)
+      throw std::runtime_error("buffer " + describe() + " was not allocated exportable for CUDA");
+    cuda = map_to_cuda(*storage->ctx, storage->buffer);
+  }
+  return *cuda;
+}
+
 std::string TypedBuffer::describe() const {
   std::string s = "'" + key + "' (";
   for (size_t i = 0; i < shape.size(); ++i) s += (i ? ", " : "") + std::to_string(shape[i]);

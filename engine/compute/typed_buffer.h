@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "compute/cuda_interop.h"
 #include "gpu/buffer.h"
 
 namespace cressim::compute {
@@ -28,7 +29,10 @@ struct TypedBuffer {
   bool read_only = false;        // internal buffers: custom passes may not write them
   uint64_t generation = 0;       // internal buffers: the upload_world() that made them
   std::shared_ptr<gpu::OwnedBuffer> storage;
+  std::shared_ptr<CudaMapping> cuda;  // made on first CUDA view; released before storage
 
+  // the buffer as a CUDA pointer (mapped once); throws when the device cannot share memory
+  const CudaMapping& cuda_mapping();
   uint64_t elements() const;
   uint64_t bytes() const { return elements() * dtype_info(dtype).size; }
   bool host_visible() const { return storage && storage->buffer.mapped; }

@@ -63,6 +63,7 @@ Buffer create_buffer(Context& ctx, VkDeviceSize size, const BufferOptions& optio
   VkMemoryAllocateInfo ai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
   ai.pNext = b.exportable ? &export_info : nullptr;
   ai.allocationSize = req.size;
+  b.allocation_size = req.size;
   ai.memoryTypeIndex = type;
   VkResult r = vkAllocateMemory(ctx.device, &ai, nullptr, &b.memory);
   if (r != VK_SUCCESS) {
@@ -116,6 +117,17 @@ void readback(Context& ctx, const Buffer& src, void* dst, VkDeviceSize size, VkD
 
 void fill(Context& ctx, Buffer& dst, uint32_t value) {
   submit_now(ctx, [&](VkCommandBuffer cmd) { vkCmdFillBuffer(cmd, dst.buffer, 0, VK_WHOLE_SIZE, value); });
+}
+
+int export_memory_fd(Context& ctx, const Buffer& buffer) {
+  if (!buffer.exportable) throw VulkanError(VK_ERROR_FEATURE_NOT_PRESENT, "buffer was not allocated exportable");
+  auto get_fd = reinterpret_cast<PFN_vkGetMemoryFdKHR>(vkGetDeviceProcAddr(ctx.device, "vkGetMemoryFdKHR"));
+  VkMemoryGetFdInfoKHR info{VK_STRUCTURE_TYPE_MEMORY_GET_FD_INFO_KHR};
+  info.memory = buffer.memory;
+  info.handleType = VK_EXTERNAL_MEMORY_HANDLE_TYPE_OPAQUE_FD_BIT;
+  int fd = -1;
+  check(get_fd(ctx.device, &info, &fd), "vkGetMemoryFdKHR");
+  return fd;
 }
 
 OwnedBuffer::OwnedBuffer(std::shared_ptr<Context> c, VkDeviceSize size, const BufferOptions& options)

@@ -22,6 +22,7 @@ struct Buffer {
   VkDeviceSize size = 0;
   void* mapped = nullptr;  // non-null when the host can see the memory without a copy
   bool exportable = false;
+  VkDeviceSize allocation_size = 0;  // of the memory object (what an importer must be told)
 };
 
 struct BufferOptions {
@@ -38,6 +39,9 @@ void destroy_buffer(Context& ctx, Buffer& buffer);
 void upload(Context& ctx, Buffer& dst, const void* src, VkDeviceSize size, VkDeviceSize offset = 0);
 void readback(Context& ctx, const Buffer& src, void* dst, VkDeviceSize size, VkDeviceSize offset = 0);
 void fill(Context& ctx, Buffer& dst, uint32_t value);
+
+// An OPAQUE_FD handle to an exportable buffer's memory (the caller owns the fd).
+int export_memory_fd(Context& ctx, const Buffer& buffer);
 
 // A buffer owned by a shared_ptr that keeps its Context alive (used for views handed to Python).
 struct OwnedBuffer {

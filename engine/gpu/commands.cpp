@@ -70,8 +70,11 @@ void submit_now(Context& ctx, const std::function<void(VkCommandBuffer)>& record
   check(r, "one-off transfer submit", "transfer");
 }
 
-Timeline create_timeline(Context& ctx) {
+Timeline create_timeline(Context& ctx, bool exportable) {
+  VkExportSemaphoreCreateInfo ei{VK_STRUCTURE_TYPE_EXPORT_SEMAPHORE_CREATE_INFO};
+  ei.handleTypes = VK_EXTERNAL_SEMAPHORE_HANDLE_TYPE_OPAQUE_FD_BIT;
   VkSemaphoreTypeCreateInfo ti{VK_STRUCTURE_TYPE_SEMAPHORE_TYPE_CREATE_INFO};
+  ti.pNext = exportable && ctx.external_semaphore_fd ? &ei : nullptr;
   ti.semaphoreType = VK_SEMAPHORE_TYPE_TIMELINE;
   ti.initialValue = 0;
   VkSemaphoreCreateInfo si{VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO};
@@ -81,12 +84,24 @@ Timeline create_timeline(Context& ctx) {
   return t;
 }
 
+int export_semaphore_fd(Context& ctx, const Timeline& t) {
+  auto get_fd = reinterpret_cast<PFN_vkGetSemaphoreFdKHR>(vkGetDeviceProcAddr(ctx.device, "vkGetSemaphoreFdKHR"));
+  if (!get_fd) throw VulkanError(VK_ERROR_EXTENSION_NOT_PRESENT, "VK_KHR_external_semaphore_fd is not available");
+  VkSemaphoreGetFdInfoKHR info{VK_STRUCTURE_TYPE_SEMAPHORE_GET_FD_INFO_KHR};
+  info.semaphore = t.semaphore;
+  info.handleType = VK_EXTERNAL_SEMAPHORE_HANDLE_TYPE_OPAQUE_FD_BIT;
+  int fd = -1;
+  check(get_fd(ctx.device, &info, &fd), "vkGetSemaphoreFdKHR");
+  return fd;
+}
+
 void destroy_timeline(Context& ctx, Timeline& t) {
   if (t.semaphore) vkDestroySemaphore(ctx.device, t.semaphore, nullptr);
   t = Timeline{};
 }
 
-uint64_t submit(Context& ctx, Timeline& t, const std::vector<VkCommandBuffer>& cmds, const std::string& stage) {
+uint64_t submit(Context& ctx, Timeline& t, const std::vector<VkCommandBuffer>& cmds, const std::string& stage,
+                uint64_t wait_value) {
   std::vector<VkCommandBufferSubmitInfo> infos;
   infos.reserve(cmds.size());
   for (VkCommandBuffer c : cmds) {
@@ -94,11 +109,19 @@ uint64_t submit(Context& ctx, Timeline& t, const std::vector<VkCommandBuffer>& c
     ci.commandBuffer = c;
     infos.push_back(ci);
   }
+  // the value another API signals is one the timeline passes through
+  if (wait_value > t.value) t.value = wait_value;
+  VkSemaphoreSubmitInfo wait{VK_STRUCTURE_TYPE_SEMAPHORE_SUBMIT_INFO};
+  wait.semaphore = t.semaphore;
+  wait.value = wait_value;
+  wait.stageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
   VkSemaphoreSubmitInfo signal{VK_STRUCTURE_TYPE_SEMAPHORE_SUBMIT_INFO};
   signal.semaphore = t.semaphore;
   signal.value = t.value + 1;
   signal.stageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
   VkSubmitInfo2 si{VK_STRUCTURE_TYPE_SUBMIT_INFO_2};
+  si.waitSemaphoreInfoCount = wait_value ? 1 : 0;
+  si.pWaitSemaphoreInfos = &wait;
   si.commandBufferInfoCount = uint32_t(infos.size());
   si.pCommandBufferInfos = infos.data();
   si.signalSemaphoreInfoCount = 1;

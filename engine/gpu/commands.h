@@ -29,11 +29,15 @@ struct Timeline {
   uint64_t value = 0;  // last value signalled by a submit
 };
 
-Timeline create_timeline(Context& ctx);
+// exportable: an OPAQUE_FD-exportable semaphore (for CUDA), where the device can
+Timeline create_timeline(Context& ctx, bool exportable = false);
+int export_semaphore_fd(Context& ctx, const Timeline& t);
 void destroy_timeline(Context& ctx, Timeline& t);
 
 // One vkQueueSubmit2 of `cmds` that signals the next timeline value; returns that value.
-uint64_t submit(Context& ctx, Timeline& t, const std::vector<VkCommandBuffer>& cmds, const std::string& stage);
+// wait_value > 0: the GPU first waits for the timeline to reach it (signalled by CUDA).
+uint64_t submit(Context& ctx, Timeline& t, const std::vector<VkCommandBuffer>& cmds, const std::string& stage,
+                uint64_t wait_value = 0);
 // Waits on the host until the timeline reaches `value`; device loss names `stage`.
 void wait(Context& ctx, const Timeline& t, uint64_t value, const std::string& stage);
 

@@ -203,12 +203,15 @@ std::shared_ptr<Context> create_context(const ContextOptions& options) {
   ctx->physical = devices[index];
   ctx->info = describe(ctx->physical, index);
 
+  VkPhysicalDeviceIDProperties ids{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ID_PROPERTIES};
   VkPhysicalDeviceSubgroupProperties subgroup{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES};
+  subgroup.pNext = &ids;
   VkPhysicalDeviceProperties2 p2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2};
   p2.pNext = &subgroup;
   vkGetPhysicalDeviceProperties2(ctx->physical, &p2);
   ctx->properties = p2.properties;
   ctx->subgroup_size = subgroup.subgroupSize;
+  std::memcpy(ctx->device_uuid, ids.deviceUUID, VK_UUID_SIZE);
   vkGetPhysicalDeviceMemoryProperties(ctx->physical, &ctx->memory);
   ctx->unified_memory = ctx->properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU ||
                         ctx->properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU;

@@ -36,6 +36,7 @@ struct Context {
   VkPhysicalDeviceProperties properties{};
   VkPhysicalDeviceMemoryProperties memory{};
   uint32_t subgroup_size = 0;
+  uint8_t device_uuid[VK_UUID_SIZE]{};  // matches the CUDA device of the same GPU
   bool validation = false;
   bool unified_memory = false;  // CPU/integrated device: device-local memory is host-visible
   bool external_memory_fd = false;

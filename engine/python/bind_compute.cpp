@@ -3,6 +3,7 @@
 #include <pybind11/stl.h>
 
 #include "compute/compute_pass.h"
+#include "compute/cuda_interop.h"
 #include "gpu/context.h"
 #include "python/bindings.h"
 #include "python/dlpack.h"
@@ -32,12 +33,27 @@ void write(TypedBuffer& b, py::object values) {
   gpu::upload(*b.storage->ctx, b.storage->buffer, a.data(), b.bytes());
 }
 
+// host-visible memory goes out as CPU memory; device memory as CUDA memory where the driver
+// can import it (the data is ready: end_frame() has waited for the frame)
 py::capsule to_dlpack(std::shared_ptr<TypedBuffer> b, py::object max_version) {
-  if (!b->host_visible())
-    throw py::buffer_error("buffer " + b->describe() +
-                           " lives in device memory the host cannot map; use .read() for a copy");
   const bool versioned = !max_version.is_none() && py::tuple(max_version)[0].cast<int>() >= 1;
-  return make_dlpack_capsule(b, b->storage->buffer.mapped, {kDLCPU, 0}, versioned);
+  if (b->host_visible()) return make_dlpack_capsule(b, b->storage->buffer.mapped, {kDLCPU, 0}, versioned);
+  try {
+    const auto& m = b->cuda_mapping();
+    return make_dlpack_capsule(b, reinterpret_cast<void*>(m.pointer), {kDLCUDA, m.device}, versioned);
+  } catch (const std::exception& e) {
+    throw py::buffer_error("buffer " + b->describe() + " cannot be shared without a copy (" + e.what() +
+                           "); use .read()");
+  }
+}
+
+py::tuple dlpack_device(std::shared_ptr<TypedBuffer> b) {
+  if (b->host_visible()) return py::make_tuple(int(kDLCPU), 0);
+  try {
+    return py::make_tuple(int(kDLCUDA), b->cuda_mapping().device);
+  } catch (const std::exception& e) {
+    throw py::buffer_error("buffer " + b->describe() + " cannot be shared without a copy (" + e.what() + ")");
+  }
 }
 
 }  // namespace
@@ -54,6 +70,10 @@ void bind_compute(py::module_& m) {
                              "True when numpy/torch can view the memory without a copy.")
       .def("read", &read, "A numpy copy of the contents.")
       .def("write", &write, py::arg("values"), "Copies values (any array of the right size) into the buffer.")
+      .def_property_readonly("cuda_shareable", [](const TypedBuffer& b) {
+             return b.storage->buffer.exportable &&
+                    compute::cuda_unavailable_reason(*b.storage->ctx).empty();
+           }, "True when torch can view the buffer as CUDA memory without a copy.")
       .def("numpy", [](std::shared_ptr<TypedBuffer> b) -> py::object {
              if (b->host_visible()) return py::module_::import("numpy").attr("from_dlpack")(py::cast(b));
              return read(*b);
@@ -65,10 +85,7 @@ void bind_compute(py::module_& m) {
            },
            py::kw_only(), py::arg("stream") = py::none(), py::arg("max_version") = py::none(),
            py::arg("dl_device") = py::none(), py::arg("copy") = py::none())
-      .def("__dlpack_device__", [](const TypedBuffer& b) {
-        if (!b.host_visible()) throw py::buffer_error("buffer " + b.describe() + " is not host-visible");
-        return py::make_tuple(int(kDLCPU), 0);
-      })
+      .def("__dlpack_device__", &dlpack_device)
       .def("__repr__", [](const TypedBuffer& b) {
         return "<Buffer " + b.describe() + (b.read_only ? " read-only" : "") + ">";
       });

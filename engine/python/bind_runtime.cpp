@@ -5,6 +5,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "compute/cuda_interop.h"
 #include "python/bindings.h"
 #include "runtime/engine.h"
 
@@ -181,6 +182,16 @@ void bind_runtime(py::module_& m) {
       .def_property_readonly("recorded_frames", &Engine::recorded_frames)
       .def_property_readonly("submits", &Engine::submits)
       .def_property("profiling", &Engine::profiling, &Engine::set_profiling)
+      .def_property("cuda_stream", &Engine::cuda_stream, &Engine::set_cuda_stream,
+                    "A CUDA stream (torch.cuda.current_stream().cuda_stream): every frame waits on the GPU "
+                    "for the work queued on it before (timeline-semaphore sync). 0: none.")
+      .def_property_readonly("cuda_interop", [](const Engine& e) {
+        const std::string why = compute::cuda_unavailable_reason(*e.context());
+        py::dict d;
+        d["available"] = why.empty();
+        d["reason"] = why;
+        return d;
+      })
       .def_property_readonly("last_timings", &Engine::last_timings);
 }
 

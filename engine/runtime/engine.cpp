@@ -26,7 +26,7 @@ std::string join(const std::vector<std::string>& v) {
 Engine::Engine(std::shared_ptr<scene::World> world, const gpu::ContextOptions& options)
     : world_(std::move(world)), ctx_(gpu::create_context(options)) {
   if (!world_) throw std::invalid_argument("Engine needs a World");
-  timeline_ = gpu::create_timeline(*ctx_);
+  timeline_ = gpu::create_timeline(*ctx_, /*exportable=*/!ctx_->unified_memory);
   upload_cmd_ = gpu::allocate_command_buffer(*ctx_);
 }
 
@@ -38,6 +38,7 @@ Engine::~Engine() {
   gpu::free_command_buffer(*ctx_, upload_cmd_);
   gpu::destroy_buffer(*ctx_, staging_);
   if (timestamps_) vkDestroyQueryPool(ctx_->device, timestamps_, nullptr);
+  cuda_timeline_.reset();
   gpu::destroy_timeline(*ctx_, timeline_);
 }
 
@@ -352,7 +353,13 @@ void Engine::end_frame() {
   cmds.push_back(frame.cmd);
 
   last_stage_ = frame.ops.empty() ? "upload" : frame.ops.back().label();
-  const uint64_t value = gpu::submit(*ctx_, timeline_, cmds, last_stage_);
+  // CUDA work that wrote inputs (actions) signals the timeline; the frame waits for it on the GPU
+  uint64_t cuda_value = 0;
+  if (cuda_timeline_) {
+    cuda_value = timeline_.value + 1;
+    cuda_timeline_->signal(cuda_value, cuda_stream_);
+  }
+  const uint64_t value = gpu::submit(*ctx_, timeline_, cmds, last_stage_, cuda_value);
   ++submits_;
   ops_.clear();
   staged_bytes_.clear();
@@ -372,6 +379,12 @@ void Engine::end_frame() {
     for (size_t i = 0; i < frame.ops.size(); ++i)
       timings_.push_back({frame.ops[i].label(), double(ticks[i + 2] - ticks[i + 1]) * ms_per_tick});
   }
+}
+
+void Engine::set_cuda_stream(uintptr_t stream) {
+  cuda_stream_ = stream;
+  if (!stream) cuda_timeline_.reset();
+  else if (!cuda_timeline_) cuda_timeline_ = compute::import_timeline(*ctx_, timeline_);
 }
 
 void Engine::release_frames() {

@@ -78,6 +78,9 @@ class Engine {
   uint64_t recorded_frames() const { return recorded_; }  // command-buffer recordings so far
   uint64_t submits() const { return submits_; }
   std::vector<std::string> validation_messages();
+  // frames wait (on the GPU) for the work queued so far on this CUDA stream; 0: none
+  void set_cuda_stream(uintptr_t stream);
+  uintptr_t cuda_stream() const { return cuda_stream_; }
   void set_profiling(bool on) { profiling_ = on; }
   bool profiling() const { return profiling_; }
   // (op label, milliseconds) of the last profiled frame
@@ -98,6 +101,8 @@ class Engine {
   std::shared_ptr<scene::World> world_;
   std::shared_ptr<gpu::Context> ctx_;
   gpu::Timeline timeline_;
+  uintptr_t cuda_stream_ = 0;
+  std::shared_ptr<compute::CudaTimeline> cuda_timeline_;
   VkQueryPool timestamps_ = VK_NULL_HANDLE;
   std::vector<std::pair<std::string, double>> timings_;
 
