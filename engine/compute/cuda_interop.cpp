@@ -83,6 +83,7 @@ struct Driver {
   CUresult (*cuImportExternalSemaphore)(void**, const SemaphoreHandleDesc*);
   CUresult (*cuSignalExternalSemaphoresAsync)(void* const*, const SignalParams*, unsigned, CUstream);
   CUresult (*cuDestroyExternalSemaphore)(void*);
+  CUresult (*cuStreamSynchronize)(CUstream);
   CUresult (*cuGetErrorString)(CUresult, const char**);
 };
 
@@ -112,6 +113,7 @@ const Driver& driver() {
     load(d.cuImportExternalSemaphore, "cuImportExternalSemaphore");
     load(d.cuSignalExternalSemaphoresAsync, "cuSignalExternalSemaphoresAsync");
     load(d.cuDestroyExternalSemaphore, "cuDestroyExternalSemaphore");
+    load(d.cuStreamSynchronize, "cuStreamSynchronize");
     load(d.cuGetErrorString, "cuGetErrorString");
     if (d.error.empty() && d.cuInit(0) != 0) d.error = "cuInit failed (no usable NVIDIA GPU)";
     return d;
@@ -126,14 +128,25 @@ void check_cu(CUresult r, const char* what) {
   throw std::runtime_error(std::string(what) + " failed: " + msg + " (" + std::to_string(r) + ")");
 }
 
-// runs f with the device's primary context (the one torch uses) current
+// the device's primary context (the one torch uses), retained once per device for the process
+CUcontext primary_context(int device) {
+  static std::mutex mutex;
+  static CUcontext contexts[64] = {};
+  std::lock_guard<std::mutex> lock(mutex);
+  if (device < 0 || device >= 64) throw std::runtime_error("CUDA device ordinal out of range");
+  if (!contexts[device]) {
+    CUdevice dev;
+    check_cu(driver().cuDeviceGet(&dev, device), "cuDeviceGet");
+    check_cu(driver().cuDevicePrimaryCtxRetain(&contexts[device], dev), "cuDevicePrimaryCtxRetain");
+  }
+  return contexts[device];
+}
+
+// runs f with the device's primary context current
 template <class F>
 void with_context(int device, F f) {
   const Driver& d = driver();
-  CUdevice dev;
-  CUcontext ctx;
-  check_cu(d.cuDeviceGet(&dev, device), "cuDeviceGet");
-  check_cu(d.cuDevicePrimaryCtxRetain(&ctx, dev), "cuDevicePrimaryCtxRetain");
+  CUcontext ctx = primary_context(device);
   check_cu(d.cuCtxPushCurrent(ctx), "cuCtxPushCurrent");
   try {
     f();
@@ -219,6 +232,12 @@ void CudaTimeline::signal(uint64_t value, uintptr_t stream) const {
   with_context(device, [&] {
     check_cu(driver().cuSignalExternalSemaphoresAsync(&external_semaphore, &p, 1, reinterpret_cast<CUstream>(stream)),
              "cuSignalExternalSemaphoresAsync");
+  });
+}
+
+void synchronize_cuda_stream(int device, uintptr_t stream) {
+  with_context(device, [&] {
+    check_cu(driver().cuStreamSynchronize(reinterpret_cast<CUstream>(stream)), "cuStreamSynchronize");
   });
 }
 

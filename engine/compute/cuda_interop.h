@@ -26,6 +26,9 @@ struct CudaTimeline {
   void signal(uint64_t value, uintptr_t stream) const;  // on `stream`, after its prior work
 };
 
+// Waits on the host for the work queued on a CUDA stream.
+void synchronize_cuda_stream(int device, uintptr_t stream);
+
 // Why CUDA interop is not available ("" when it is) for this Vulkan device.
 std::string cuda_unavailable_reason(const gpu::Context& ctx);
 // The CUDA ordinal of the Vulkan device (by UUID); throws if none.

@@ -182,7 +182,8 @@ void bind_runtime(py::module_& m) {
       .def_property_readonly("recorded_frames", &Engine::recorded_frames)
       .def_property_readonly("submits", &Engine::submits)
       .def_property("profiling", &Engine::profiling, &Engine::set_profiling)
-      .def_property("cuda_stream", &Engine::cuda_stream, &Engine::set_cuda_stream,
+      .def("set_cuda_stream", &Engine::set_cuda_stream, py::arg("stream"), py::arg("host_sync") = false)
+      .def_property("cuda_stream", &Engine::cuda_stream, [](Engine& e, uintptr_t s) { e.set_cuda_stream(s); },
                     "A CUDA stream (torch.cuda.current_stream().cuda_stream): every frame waits on the GPU "
                     "for the work queued on it before (timeline-semaphore sync). 0: none.")
       .def_property_readonly("cuda_interop", [](const Engine& e) {

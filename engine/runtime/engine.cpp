@@ -355,7 +355,9 @@ void Engine::end_frame() {
   last_stage_ = frame.ops.empty() ? "upload" : frame.ops.back().label();
   // CUDA work that wrote inputs (actions) signals the timeline; the frame waits for it on the GPU
   uint64_t cuda_value = 0;
-  if (cuda_timeline_) {
+  if (cuda_stream_ && cuda_host_sync_) {
+    compute::synchronize_cuda_stream(cuda_device_, cuda_stream_);
+  } else if (cuda_timeline_) {
     cuda_value = timeline_.value + 1;
     cuda_timeline_->signal(cuda_value, cuda_stream_);
   }
@@ -381,10 +383,12 @@ void Engine::end_frame() {
   }
 }
 
-void Engine::set_cuda_stream(uintptr_t stream) {
+void Engine::set_cuda_stream(uintptr_t stream, bool host_sync) {
   cuda_stream_ = stream;
+  cuda_host_sync_ = host_sync;
   if (!stream) cuda_timeline_.reset();
-  else if (!cuda_timeline_) cuda_timeline_ = compute::import_timeline(*ctx_, timeline_);
+  else cuda_device_ = compute::cuda_device_of(*ctx_);
+  if (stream && !host_sync && !cuda_timeline_) cuda_timeline_ = compute::import_timeline(*ctx_, timeline_);
 }
 
 void Engine::release_frames() {

@@ -78,9 +78,11 @@ class Engine {
   uint64_t recorded_frames() const { return recorded_; }  // command-buffer recordings so far
   uint64_t submits() const { return submits_; }
   std::vector<std::string> validation_messages();
-  // frames wait (on the GPU) for the work queued so far on this CUDA stream; 0: none
-  void set_cuda_stream(uintptr_t stream);
+  // frames wait for the work queued so far on this CUDA stream (0: none): on the GPU through
+  // the shared timeline semaphore, or, with host_sync, by a host wait before the submit
+  void set_cuda_stream(uintptr_t stream, bool host_sync = false);
   uintptr_t cuda_stream() const { return cuda_stream_; }
+  bool cuda_host_sync() const { return cuda_host_sync_; }
   void set_profiling(bool on) { profiling_ = on; }
   bool profiling() const { return profiling_; }
   // (op label, milliseconds) of the last profiled frame
@@ -102,6 +104,8 @@ class Engine {
   std::shared_ptr<gpu::Context> ctx_;
   gpu::Timeline timeline_;
   uintptr_t cuda_stream_ = 0;
+  bool cuda_host_sync_ = false;
+  int cuda_device_ = -1;
   std::shared_ptr<compute::CudaTimeline> cuda_timeline_;
   VkQueryPool timestamps_ = VK_NULL_HANDLE;
   std::vector<std::pair<std::string, double>> timings_;

@@ -31,7 +31,7 @@ def test_falling_poles_terminate_and_reset_on_the_gpu():
     obs, _ = env.reset()
     finished = []
     for _ in range(200):
-        obs, reward, terminated, truncated, info = env.step(torch.zeros(16, 1))
+        obs, reward, terminated, truncated, info = env.step(torch.zeros(16, 1, device=env.device))
         assert torch.all(reward == 1)
         done = terminated | truncated
         finished.append(info["finished_length"][done].clone())
@@ -100,7 +100,7 @@ DETERMINISM = textwrap.dedent("""
     h = hashlib.sha256()
     for t in range(100):
         obs, *_ = env.step(torch.sin(torch.arange(32.0) + t)[:, None])
-        h.update(obs.numpy().tobytes())
+        h.update(obs.cpu().numpy().tobytes())
     print(h.hexdigest())
 """)
 

@@ -65,7 +65,7 @@ class VectorEnv:
     max_episode_steps: int
 
     def __init__(self, num_envs: int, *, device: str | torch.device | None = None, seed: int = 0,
-                 validation: bool | None = None, vulkan_device: str | None = None):
+                 validation: bool | None = None, vulkan_device: str | None = None, cuda_sync: str = "semaphore"):
         self.num_envs = num_envs
         world = self.build_world(num_envs)
         self.engine = cressim.Engine(world, validation=validation, device=vulkan_device)
@@ -73,11 +73,16 @@ class VectorEnv:
         self.engine.prepare()
         self.engine.upload_world()
         self.device = torch.device(device) if device is not None else self.default_device()
+        if self.device.type == "cuda" and self.device.index is None:
+            self.device = torch.device("cuda", torch.cuda.current_device())
         self.seed = seed
         self.buffers = self._create_buffers()
         self.passes = self._create_passes()
-        if self.device.type == "cuda":
-            self.engine.cuda_stream = torch.cuda.current_stream(self.device).cuda_stream
+        if self.device.type == "cuda":  # frames wait for the actions written on torch's stream
+            if cuda_sync not in ("semaphore", "host"):
+                raise ValueError(f"cuda_sync={cuda_sync!r}: use 'semaphore' (on the GPU) or 'host'")
+            self.engine.set_cuda_stream(torch.cuda.current_stream(self.device).cuda_stream,
+                                        host_sync=cuda_sync == "host")
         self.actions = tensor_view(self.buffers.actions, self.device)
         self.obs = tensor_view(self.buffers.observations, self.device)
         self.reward = tensor_view(self.buffers.rewards, self.device)
@@ -85,7 +90,7 @@ class VectorEnv:
         self.truncated = tensor_view(self.buffers.truncated, self.device)
         self.episode_length = tensor_view(self.buffers.episode_length, self.device)
         self.finished_length = tensor_view(self.buffers.finished_length, self.device)
-        self.health = tensor_view(self.engine.buffer("env.health"), self.device)
+        self.health = tensor_view(self.engine.buffer("env.health"), self.device).view(torch.int32)
 
     # --- what a task provides -------------------------------------------------------------
     def build_world(self, num_envs: int) -> cressim.World:
@@ -130,14 +135,15 @@ class VectorEnv:
                 "health": self.health}
 
     def _create_buffers(self) -> TaskBuffers:
+        # flags and counters are int32: torch's uint32 support on CUDA is partial
         n, e = self.num_envs, self.engine
         return TaskBuffers(
             actions=e.create_shared_buffer("actions", (n, *self.action_space.shape), "float32"),
             observations=e.create_shared_buffer("observations", (n, *self.observation_space.shape), "float32"),
             rewards=e.create_shared_buffer("rewards", n, "float32"),
-            terminated=e.create_shared_buffer("terminated", n, "uint32"),
-            truncated=e.create_shared_buffer("truncated", n, "uint32"),
-            episode_length=e.create_shared_buffer("episode_length", n, "uint32"),
+            terminated=e.create_shared_buffer("terminated", n, "int32"),
+            truncated=e.create_shared_buffer("truncated", n, "int32"),
+            episode_length=e.create_shared_buffer("episode_length", n, "int32"),
             finished_length=e.create_shared_buffer("finished_length", n, "float32"))
 
     def _create_passes(self) -> dict:
