@@ -86,8 +86,8 @@ class VectorEnv:
         self.actions = tensor_view(self.buffers.actions, self.device)
         self.obs = tensor_view(self.buffers.observations, self.device)
         self.reward = tensor_view(self.buffers.rewards, self.device)
-        self.terminated = tensor_view(self.buffers.terminated, self.device)
-        self.truncated = tensor_view(self.buffers.truncated, self.device)
+        self.terminated = _bool_view(tensor_view(self.buffers.terminated, self.device))
+        self.truncated = _bool_view(tensor_view(self.buffers.truncated, self.device))
         self.episode_length = tensor_view(self.buffers.episode_length, self.device)
         self.finished_length = tensor_view(self.buffers.finished_length, self.device)
         self.health = tensor_view(self.engine.buffer("env.health"), self.device).view(torch.int32)
@@ -121,10 +121,12 @@ class VectorEnv:
         return self.obs, self._info()
 
     def step(self, actions: torch.Tensor):
-        """Applies `actions` (num_envs, *action_space.shape) and advances one frame."""
-        self.actions.copy_(actions.reshape(self.actions.shape))
+        """Applies `actions` (num_envs, *action_space.shape) and advances one frame. Writing the
+        actions into `env.actions` in place and passing that tensor saves the copy."""
+        if actions.data_ptr() != self.actions.data_ptr():
+            self.actions.copy_(actions.reshape(self.actions.shape))
         self._frame(reset_all=False)
-        return self.obs, self.reward, self.terminated.bool(), self.truncated.bool(), self._info()
+        return self.obs, self.reward, self.terminated, self.truncated, self._info()
 
     def close(self):
         self.engine = None
@@ -176,6 +178,11 @@ class VectorEnv:
         e.reset_flagged_envs()
         e.execute_compute_pass(p["observe"])
         e.end_frame()
+
+
+def _bool_view(flags: torch.Tensor) -> torch.Tensor:
+    """0/1 int32 flags seen as bools without a kernel: the low byte of each (little-endian)."""
+    return flags.view(torch.uint8)[::4].view(torch.bool)
 
 
 def _declared(source: str) -> set:
