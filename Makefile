@@ -47,8 +47,14 @@ $(STAMPS)/build: $(STAMPS)/venv $(ENGINE_SOURCES)
 	$(PIP) install --no-build-isolation -e ".[test]"
 	@touch $@
 
-deps: $(STAMPS)/build
-build: $(STAMPS)/build
+# ROS 2 Jazzy wheels (pinned) into the same venv, and the ros_ws packages (crtk_msgs, cressim_ros)
+ROS_SOURCES := $(shell find ros_ws/src -type f 2>/dev/null) ros_ws/build.sh
+$(STAMPS)/ros: $(STAMPS)/build $(ROS_SOURCES)
+	bash ros_ws/build.sh $(VENV)
+	@touch $@
+
+deps: $(STAMPS)/build $(STAMPS)/ros
+build: $(STAMPS)/build $(STAMPS)/ros
 
 # C++ unit tests (GoogleTest) in their own build tree
 build/cpp/build.ninja: $(STAMPS)/apt CMakeLists.txt engine/CMakeLists.txt
@@ -58,12 +64,13 @@ test-cpp: build/cpp/build.ninja
 	cmake --build build/cpp -j $(JOBS)
 	cd build/cpp && ctest --output-on-failure
 
-test-python: $(STAMPS)/build
-	CRESSIM_VALIDATION=1 $(PY) -m pytest tests
+# ros_ws/env.sh puts rclpy, the built messages and the twin on the paths
+test-python: $(STAMPS)/build $(STAMPS)/ros
+	source ros_ws/env.sh && CRESSIM_VALIDATION=1 $(PY) -m pytest tests
 
 test: test-cpp test-python
 
-demo: $(STAMPS)/build
+demo: $(STAMPS)/build $(STAMPS)/ros
 	$(VENV)/bin/cressim info
 	$(VENV)/bin/cressim demo
 

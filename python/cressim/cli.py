@@ -1,4 +1,4 @@
-"""The `cressim` command line: `cressim info`, `cressim demo`."""
+"""The `cressim` command line: `cressim info`, `cressim demo`, `cressim train`, `cressim bench`."""
 from __future__ import annotations
 
 import argparse
@@ -32,6 +32,27 @@ def _demo(args: argparse.Namespace) -> int:
     return run(num_envs=args.envs, frames=args.frames, out_dir=args.out)
 
 
+def _train(args: argparse.Namespace) -> int:
+    from cressim.learn import train
+
+    result = train(args.task, num_envs=args.envs, iterations=args.iterations, device=args.device, seed=args.seed,
+                   out_dir=args.out or f"runs/{args.task.lower()}", rollout=args.rollout, save_every=args.save_every,
+                   backend=args.backend)
+    last = result["history"][-1]
+    print(f"done in {result['wall_s']:.1f} s ({result['backend']}): {last['env_steps']:,} env steps, "
+          f"mean episode length {last['mean_length']:.1f}, return {last['mean_return']:.1f}; "
+          f"checkpoint {result['checkpoint']}, plot {result['plot']}")
+    return 0
+
+
+def _bench(args: argparse.Namespace) -> int:
+    from cressim.learn.bench import run
+
+    run(args.task, [int(n) for n in args.envs.split(",")], mode=args.mode, out_dir=args.out, device=args.device,
+        backend=args.backend, extend=args.extend)
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="cressim", description="CRESSim: batched GPU simulation for surgical robotics")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -44,6 +65,26 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--frames", type=int, default=120)
     p.add_argument("--out", default="out/demo", help="folder for the demo's outputs")
     p.set_defaults(run=_demo)
+    p = sub.add_parser("train", help="PPO on a batched task (rsl-rl-lib when installed, else built-in)")
+    p.add_argument("task", nargs="?", default="CartPole")
+    p.add_argument("--envs", type=int, default=4096)
+    p.add_argument("--iterations", type=int, default=200, help="PPO updates")
+    p.add_argument("--device", help="torch device of env and learner (default: what the env picks)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--out", help="folder for checkpoints, metrics and plot (default runs/<task>)")
+    p.add_argument("--rollout", type=int, help="steps per env per update (default 128)")
+    p.add_argument("--save-every", type=int, default=50, help="checkpoint every K updates")
+    p.add_argument("--backend", default="auto", choices=("auto", "rsl_rl", "torch"))
+    p.set_defaults(run=_train)
+    p = sub.add_parser("bench", help="stepping and PPO throughput (TASKS.md protocol)")
+    p.add_argument("task", nargs="?", default="CartPole")
+    p.add_argument("--envs", default="1,8,16,32,64,128,256,512,1024,2048,4096,8192", help="comma-separated counts")
+    p.add_argument("--mode", default="both", choices=("step", "ppo", "both"))
+    p.add_argument("--out", default="benchmarks/results", help="folder for the JSON and PNG")
+    p.add_argument("--device", help="torch device (default: what the env picks)")
+    p.add_argument("--backend", default="auto", choices=("auto", "rsl_rl", "torch"), help="PPO learner")
+    p.add_argument("--extend", action="store_true", help="keep doubling envs while step throughput rises >= 5%%")
+    p.set_defaults(run=_bench)
     args = parser.parse_args(argv)
     return args.run(args)
 

@@ -1,0 +1,50 @@
+"""PPO settings from the paper's protocol (../shared/TASKS.md), shared by both learners.
+
+Not published, chosen here: an unclipped value loss (plain MSE), a fixed learning rate (no KL
+schedule), advantages normalised over the whole rollout, no observation normalisation, and the
+rollout split into round(num_envs * rollout / minibatch) minibatches (at least one).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, replace
+
+
+@dataclass(frozen=True)
+class PPOConfig:
+    rollout: int = 128        # env steps per env per update
+    epochs: int = 4
+    minibatch: int = 2048     # samples per minibatch (mapped to a minibatch count below)
+    gamma: float = 0.99
+    lam: float = 0.95
+    clip: float = 0.2
+    entropy_coef: float = 0.01
+    value_coef: float = 0.5
+    lr: float = 3e-4
+    max_grad_norm: float = 0.5
+    init_log_std: float = -0.5
+    hidden: tuple = (128, 128)  # tanh MLP, actor and critic alike
+
+    def num_mini_batches(self, num_envs: int) -> int:
+        return max(1, round(num_envs * self.rollout / self.minibatch))
+
+    @property
+    def init_std(self) -> float:
+        return math.exp(self.init_log_std)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+# Per-task network width and minibatch (TASKS.md); only the MLP tasks have a learner here.
+TASKS = {
+    "CartPole": PPOConfig(hidden=(128, 128), minibatch=2048),
+    "SoftBodyPush": PPOConfig(hidden=(128, 128), minibatch=1024),
+    "FluidPour": PPOConfig(hidden=(128, 128), minibatch=1024),
+    "TissueRetract": PPOConfig(hidden=(256, 256), minibatch=1024),
+}
+
+
+def ppo_config(task: str, **overrides) -> PPOConfig:
+    """The task's settings with `overrides` (any PPOConfig field; None values are ignored)."""
+    return replace(TASKS.get(task, PPOConfig()), **{k: v for k, v in overrides.items() if v is not None})

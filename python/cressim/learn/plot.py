@@ -1,0 +1,43 @@
+"""PNG plots of training curves and benchmark throughput (matplotlib, Agg: no display)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.ticker import EngFormatter  # noqa: E402
+
+
+def plot_training(history: list[dict], path: Path, title: str) -> Path:
+    steps = [h["env_steps"] for h in history]
+    fig, (ax_len, ax_ret) = plt.subplots(1, 2, figsize=(10, 4))
+    ax_len.plot(steps, [h["mean_length"] for h in history])
+    ax_len.set(xlabel="env steps", ylabel="mean episode length", title=title)
+    ax_ret.plot(steps, [h["mean_return"] for h in history], color="tab:orange")
+    ax_ret.set(xlabel="env steps", ylabel="mean episode reward (return)")
+    for ax in (ax_len, ax_ret):
+        ax.xaxis.set_major_formatter(EngFormatter())  # 800k, 100M: plain integers overlap
+        ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def plot_throughput(series: dict[str, dict[int, float]], path: Path, title: str) -> Path:
+    """series: label -> {num_envs: env-steps/s}, drawn log-log."""
+    fig, ax = plt.subplots(figsize=(7, 5))
+    for label, points in series.items():
+        if points:
+            envs = sorted(points)
+            style = "o-" if label.startswith("ours") else "s--"
+            ax.plot(envs, [points[n] for n in envs], style, label=label)
+    ax.set(xscale="log", yscale="log", xlabel="envs", ylabel="env-steps/s", title=title)
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path

@@ -1,0 +1,65 @@
+"""One PPO update: collect a rollout from the batched env, then learn. Shared by training and
+the PPO benchmark. Episode statistics are summed on the env's device and read back once per
+update, so the rollout loop never waits on a host sync of its own."""
+from __future__ import annotations
+
+import math
+
+import torch
+
+
+class EpisodeStats:
+    """Lengths (from info["finished_length"]) and returns of the episodes that end."""
+
+    def __init__(self, num_envs: int, device):
+        self.running_return = torch.zeros(num_envs, device=device)
+        self.device = device
+        self._clear()
+
+    def _clear(self):
+        self.sums = torch.zeros(3, device=self.device)  # episodes, length, return
+
+    def add(self, rewards: torch.Tensor, dones: torch.Tensor, finished_length: torch.Tensor) -> None:
+        self.running_return += rewards
+        ended = self.running_return * dones
+        self.sums += torch.stack([dones.float().sum(), finished_length.sum(), ended.sum()])
+        self.running_return.masked_fill_(dones, 0.0)
+
+    def pop(self) -> dict:
+        """Episodes since the last pop: count, mean length, mean return (NaN when none ended)."""
+        n, length, ret = self.sums.tolist()
+        self._clear()
+        return {"episodes": int(n), "mean_length": length / n if n else math.nan,
+                "mean_return": ret / n if n else math.nan}
+
+
+def run_update(venv, alg, steps: int, stats: EpisodeStats | None = None) -> dict:
+    """Steps every env `steps` times with the current policy, then runs the PPO update;
+    returns the mean losses."""
+    obs = venv.get_observations()
+    with torch.inference_mode():
+        for _ in range(steps):
+            actions = alg.act(obs)
+            obs, rewards, dones, extras = venv.step(actions)
+            alg.process_env_step(obs, rewards, dones, extras)
+            if stats is not None:
+                stats.add(rewards, dones, extras["finished_length"])
+        alg.compute_returns(obs)
+    return alg.update()
+
+
+def resolve_device(device):
+    """None stays None (the env picks); a bare "cuda" gets the current index, because the env
+    compares its buffers' device (always indexed) with this one."""
+    if device is None:
+        return None
+    device = torch.device(device)
+    if device.type == "cuda" and device.index is None:
+        device = torch.device("cuda", torch.cuda.current_device())
+    return device
+
+
+def sync(device) -> None:
+    """Waits for the torch work queued on `device` (env.step already waits for Vulkan)."""
+    if torch.device(device).type == "cuda":
+        torch.cuda.synchronize(device)

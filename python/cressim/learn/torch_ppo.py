@@ -1,0 +1,114 @@
+"""A compact PPO in plain torch, used when rsl-rl-lib is not installed (the GPU machine has
+only numpy, torch, matplotlib, pytest). Same settings and the same method names as
+rsl_rl.algorithms.PPO (act, process_env_step, compute_returns, update, save, load), so one
+training loop drives either; the update follows rsl-rl's: whole-rollout advantage
+normalisation, time-out bootstrapping, one shuffle reused by all epochs, gradients clipped
+separately for actor and critic."""
+from __future__ import annotations
+
+from itertools import chain
+
+import torch
+from torch import nn
+from torch.distributions import Normal
+
+from .config import PPOConfig
+
+
+def mlp(inputs: int, hidden: tuple, outputs: int) -> nn.Sequential:
+    layers, width = [], inputs
+    for h in hidden:
+        layers += [nn.Linear(width, h), nn.Tanh()]
+        width = h
+    return nn.Sequential(*layers, nn.Linear(width, outputs))
+
+
+class TorchPPO:
+    def __init__(self, num_obs: int, num_actions: int, num_envs: int, cfg: PPOConfig, device):
+        self.cfg, self.device = cfg, torch.device(device)
+        self.actor = mlp(num_obs, cfg.hidden, num_actions).to(self.device)
+        self.critic = mlp(num_obs, cfg.hidden, 1).to(self.device)
+        self.log_std = nn.Parameter(torch.full((num_actions,), cfg.init_log_std, device=self.device))
+        self.actor_params = [*self.actor.parameters(), self.log_std]
+        self.optimizer = torch.optim.Adam(chain(self.actor_params, self.critic.parameters()), lr=cfg.lr)
+        self.learning_rate = cfg.lr
+        self.num_mini_batches = cfg.num_mini_batches(num_envs)
+        T, N = cfg.rollout, num_envs
+        z = lambda *shape, dtype=torch.float32: torch.zeros(T, N, *shape, device=self.device, dtype=dtype)  # noqa: E731
+        self.obs, self.actions = z(num_obs), z(num_actions)
+        self.log_prob, self.values, self.rewards, self.returns = z(), z(), z(), z()
+        self.dones = z(dtype=torch.bool)
+        self.step = 0
+
+    def _dist(self, x: torch.Tensor) -> Normal:
+        return Normal(self.actor(x), self.log_std.exp())
+
+    def act(self, obs) -> torch.Tensor:
+        x, t = obs["policy"], self.step
+        dist = self._dist(x)
+        a = dist.sample()
+        self.obs[t], self.actions[t] = x, a
+        self.log_prob[t] = dist.log_prob(a).sum(-1)
+        self.values[t] = self.critic(x).squeeze(-1)
+        return a
+
+    def process_env_step(self, obs, rewards, dones, extras) -> None:
+        # a truncated episode is not a failure: add the discounted value of where it stopped
+        t = self.step
+        self.rewards[t] = rewards + self.cfg.gamma * self.values[t] * extras["time_outs"]
+        self.dones[t] = dones
+        self.step += 1
+
+    def compute_returns(self, obs) -> None:
+        c = self.cfg
+        next_values, adv = self.critic(obs["policy"]).squeeze(-1), 0.0
+        for t in reversed(range(self.step)):
+            live = (~self.dones[t]).float()
+            delta = self.rewards[t] + live * c.gamma * next_values - self.values[t]
+            adv = delta + live * c.gamma * c.lam * adv
+            self.returns[t] = adv + self.values[t]
+            next_values = self.values[t]
+        a = self.returns - self.values
+        self.advantages = (a - a.mean()) / (a.std() + 1e-8)
+
+    def update(self) -> dict:
+        c, n = self.cfg, self.num_mini_batches
+        flat = lambda x: x.flatten(0, 1)  # noqa: E731
+        obs, actions, old_logp = flat(self.obs), flat(self.actions), flat(self.log_prob)
+        returns, advantages = flat(self.returns), flat(self.advantages)
+        size = obs.shape[0] // n
+        order = torch.randperm(n * size, device=self.device)
+        sums = torch.zeros(3, device=self.device)  # value, surrogate, entropy; one sync at the end
+        for _ in range(c.epochs):
+            for i in range(n):
+                b = order[i * size:(i + 1) * size]
+                dist = self._dist(obs[b])
+                ratio = torch.exp(dist.log_prob(actions[b]).sum(-1) - old_logp[b])
+                adv = advantages[b]
+                surrogate = torch.max(-adv * ratio, -adv * ratio.clamp(1 - c.clip, 1 + c.clip)).mean()
+                value = (returns[b] - self.critic(obs[b]).squeeze(-1)).pow(2).mean()
+                entropy = dist.entropy().sum(-1).mean()
+                loss = surrogate + c.value_coef * value - c.entropy_coef * entropy
+                self.optimizer.zero_grad()
+                loss.backward()
+                nn.utils.clip_grad_norm_(self.actor_params, c.max_grad_norm)
+                nn.utils.clip_grad_norm_(self.critic.parameters(), c.max_grad_norm)
+                self.optimizer.step()
+                sums += torch.stack([value, surrogate, entropy]).detach()
+        self.step = 0
+        value, surrogate, entropy = (sums / (c.epochs * n)).tolist()
+        return {"value": value, "surrogate": surrogate, "entropy": entropy}
+
+    def train_mode(self) -> None:
+        self.actor.train(), self.critic.train()
+
+    def save(self) -> dict:
+        return {"actor_state_dict": self.actor.state_dict(), "critic_state_dict": self.critic.state_dict(),
+                "log_std": self.log_std.detach().clone(), "optimizer_state_dict": self.optimizer.state_dict()}
+
+    def load(self, saved: dict) -> None:
+        self.actor.load_state_dict(saved["actor_state_dict"])
+        self.critic.load_state_dict(saved["critic_state_dict"])
+        with torch.no_grad():
+            self.log_std.copy_(saved["log_std"])
+        self.optimizer.load_state_dict(saved["optimizer_state_dict"])

@@ -1,0 +1,98 @@
+"""`train(...)`: PPO on a batched cressim task, with a progress bar, checkpoints, metrics and a
+plot in `out_dir`."""
+from __future__ import annotations
+
+import json
+import math
+import time
+from pathlib import Path
+
+import torch
+
+from .config import ppo_config
+from .learner import make_learner
+from .plot import plot_training
+from .rollout import EpisodeStats, resolve_device, run_update, sync
+from .vec_env import CressimVecEnv
+
+
+def _progress(total: int, enabled: bool):
+    try:
+        from tqdm.auto import tqdm
+    except ImportError:  # tqdm is optional on the GPU machine: print a line per update instead
+        tqdm = None
+    if tqdm is not None:
+        return tqdm(total=total, disable=not enabled, unit="it", dynamic_ncols=True)
+
+    class Lines:
+        def __init__(self):
+            self.n = 0
+
+        def set_postfix(self, values):
+            if enabled:
+                print(f"{self.n + 1}/{total} " + " ".join(f"{k}={v}" for k, v in values.items()), flush=True)
+
+        def update(self, k=1):
+            self.n += k
+
+        def close(self):
+            pass
+
+    return Lines()
+
+
+def _fmt(x: float) -> str:
+    return "-" if math.isnan(x) else f"{x:.1f}"
+
+
+def train(task: str = "CartPole", num_envs: int = 4096, iterations: int = 200, device=None, seed: int = 0,
+          out_dir="runs/cartpole", *, rollout: int | None = None, save_every: int = 50, backend: str = "auto",
+          progress: bool = True, **ppo_overrides) -> dict:
+    """Trains a PPO policy; returns a summary with the per-update history.
+
+    device: the env's torch device (None: what the env picks, cuda where Vulkan shares memory
+    with CUDA, else cpu); the learner runs there too. rollout and `ppo_overrides` (fields of
+    PPOConfig) override TASKS.md's settings, e.g. for a short smoke run.
+    """
+    from cressim import envs
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    torch.manual_seed(seed)
+    env = envs.make(task, num_envs=num_envs, device=resolve_device(device), seed=seed)
+    venv = CressimVecEnv(env)
+    cfg = ppo_config(task, rollout=rollout, **ppo_overrides)
+    alg, backend = make_learner(venv, cfg, backend)
+    stats = EpisodeStats(num_envs, env.device)
+    meta = {"task": task, "num_envs": num_envs, "seed": seed, "device": str(env.device), "backend": backend,
+            "vulkan_device": env.engine.device["name"], "ppo": cfg.to_dict()}
+    if progress:
+        print(f"PPO ({backend}) on {task}: {num_envs} envs on {env.device} ({meta['vulkan_device']}), "
+              f"{cfg.num_mini_batches(num_envs)} minibatches x {cfg.epochs} epochs, rollout {cfg.rollout}")
+
+    def save(it: int) -> Path:
+        path = out / f"model_{it}.pt"
+        torch.save({**alg.save(), "iteration": it, "env_steps": it * num_envs * cfg.rollout, **meta}, path)
+        return path
+
+    history, bar, start = [], _progress(iterations, progress), time.perf_counter()
+    checkpoint = None
+    for it in range(1, iterations + 1):
+        t0 = time.perf_counter()
+        losses = run_update(venv, alg, cfg.rollout, stats)
+        sync(env.device)
+        dt = time.perf_counter() - t0
+        rec = {"iteration": it, "env_steps": it * num_envs * cfg.rollout, **stats.pop(), **losses,
+               "steps_per_s": num_envs * cfg.rollout / dt, "wall_s": time.perf_counter() - start}
+        history.append(rec)
+        bar.set_postfix({"len": _fmt(rec["mean_length"]), "rew": _fmt(rec["mean_return"]),
+                         "sps": f"{rec['steps_per_s']:,.0f}"})
+        bar.update(1)
+        if it % save_every == 0 or it == iterations:
+            checkpoint = save(it)
+    bar.close()
+    (out / "metrics.json").write_text(json.dumps({**meta, "history": history}, indent=1))
+    plot = plot_training(history, out / "training.png", f"PPO ({backend}) {task}, {num_envs} envs")
+    env.close()
+    return {**meta, "history": history, "checkpoint": str(checkpoint), "plot": str(plot),
+            "wall_s": time.perf_counter() - start}
