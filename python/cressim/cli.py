@@ -37,7 +37,7 @@ def _train(args: argparse.Namespace) -> int:
 
     result = train(args.task, num_envs=args.envs, iterations=args.iterations, device=args.device, seed=args.seed,
                    out_dir=args.out or f"runs/{args.task.lower()}", rollout=args.rollout, save_every=args.save_every,
-                   backend=args.backend)
+                   backend=args.backend, minibatch=args.minibatch)
     last = result["history"][-1]
     print(f"done in {result['wall_s']:.1f} s ({result['backend']}): {last['env_steps']:,} env steps, "
           f"mean episode length {last['mean_length']:.1f}, return {last['mean_return']:.1f}; "
@@ -49,7 +49,7 @@ def _bench(args: argparse.Namespace) -> int:
     from cressim.learn.bench import run
 
     run(args.task, [int(n) for n in args.envs.split(",")], mode=args.mode, out_dir=args.out, device=args.device,
-        backend=args.backend, extend=args.extend)
+        backend=args.backend, extend=args.extend, minibatch=args.minibatch)
     return 0
 
 
@@ -75,6 +75,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--rollout", type=int, help="steps per env per update (default 128)")
     p.add_argument("--save-every", type=int, default=50, help="checkpoint every K updates")
     p.add_argument("--backend", default="auto", choices=("auto", "rsl_rl", "torch"))
+    p.add_argument("--minibatch", type=int, help="samples per minibatch (default: the paper's, 2048 for CartPole)")
     p.set_defaults(run=_train)
     p = sub.add_parser("bench", help="stepping and PPO throughput (TASKS.md protocol)")
     p.add_argument("task", nargs="?", default="CartPole")
@@ -84,6 +85,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--device", help="torch device (default: what the env picks)")
     p.add_argument("--backend", default="auto", choices=("auto", "rsl_rl", "torch"), help="PPO learner")
     p.add_argument("--extend", action="store_true", help="keep doubling envs while step throughput rises >= 5%%")
+    p.add_argument("--minibatch", type=int, help="PPO samples per minibatch (default: the paper's, 2048 for CartPole)")
     p.set_defaults(run=_bench)
     args = parser.parse_args(argv)
     return args.run(args)

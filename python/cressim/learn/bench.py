@@ -71,11 +71,11 @@ def bench_step(task: str, num_envs: int, device=None, warmup: int = 64, steps: i
 
 
 def bench_ppo(task: str, num_envs: int, device=None, warmup: int = 5, updates: int = 10, rollout: int = 128,
-              backend: str = "auto", seed: int = 0) -> dict:
+              backend: str = "auto", seed: int = 0, minibatch: int | None = None) -> dict:
     torch.manual_seed(seed)
     env = _make(task, num_envs, device, seed)
     venv = CressimVecEnv(env)
-    alg, backend = make_learner(venv, ppo_config(task, rollout=rollout), backend)
+    alg, backend = make_learner(venv, ppo_config(task, rollout=rollout, minibatch=minibatch), backend)
     for _ in range(warmup):
         run_update(venv, alg, rollout)
     sync(env.device)
@@ -101,7 +101,8 @@ def _num(x) -> str:
 
 
 def run(task: str = "CartPole", env_counts=PAPER_SWEEP, mode: str = "both", out_dir="benchmarks/results",
-        device=None, backend: str = "auto", extend: bool = False, protocol: dict | None = None) -> dict:
+        device=None, backend: str = "auto", extend: bool = False, protocol: dict | None = None,
+        minibatch: int | None = None) -> dict:
     """Measures each env count; with `extend`, keeps doubling past the last count while step
     throughput still rises by 5 % or more. Prints a table; writes JSON and a PNG."""
     p = {"warmup_steps": 64, "steps": 256, "warmup_updates": 5, "updates": 10, "rollout": 128, **(protocol or {})}
@@ -112,7 +113,9 @@ def run(task: str = "CartPole", env_counts=PAPER_SWEEP, mode: str = "both", out_
         if mode in ("step", "both"):
             row.update(bench_step(task, n, device, p["warmup_steps"], p["steps"]))
         if mode in ("ppo", "both"):
-            row.update(bench_ppo(task, n, device, p["warmup_updates"], p["updates"], p["rollout"], backend))
+            row.update(bench_ppo(task, n, device, p["warmup_updates"], p["updates"], p["rollout"], backend,
+                                 minibatch=minibatch))
+            row["ppo_minibatch"] = minibatch or ppo_config(task).minibatch
         row["engine_bytes_per_env"] = row["engine_bytes"] / n if row.get("engine_bytes") else None
         rows.append(row)
         print(f"  {n} envs: " + ", ".join(f"{k} {_num(row[k])}" for k in ("step_sps", "ppo_sps") if k in row),
