@@ -87,6 +87,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--extend", action="store_true", help="keep doubling envs while step throughput rises >= 5%%")
     p.add_argument("--minibatch", type=int, help="PPO samples per minibatch (default: the paper's, 2048 for CartPole)")
     p.set_defaults(run=_bench)
+    from cressim.record.cli import register
+
+    register(sub)  # record, replay
     args = parser.parse_args(argv)
     return args.run(args)
 

@@ -1,0 +1,275 @@
+"""The dVRK PSM: URDF loading, batched FK, Jacobians and closed-form IK on any torch device.
+
+    psm = PSM("psm_lnd.urdf", device="cuda")
+    T = psm.forward_kinematics(q)             # (N, 6) -> (N, 4, 4), tool tip in PSM1_base
+    J = psm.jacobian(q)                       # (N, 6, 6), [v; w] of the tip in PSM1_base
+    q, ok = psm.inverse_kinematics(T, seed=q)  # closed form; ok[i] False: pose i unreachable
+
+FK and Jacobians run the URDF through pytorch-kinematics, so the meshes/links the engine
+shows and the poses the twin reports come from one model. The IK is closed form on the DH
+table (dh.py); tests/robots check that the URDF and the DH table agree.
+"""
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+from typing import Mapping, NamedTuple, Sequence
+
+import pytorch_kinematics as pk
+import torch
+import yourdfpy
+
+from .dh import PSM_DH, PSM_JOINT_NAMES, PSM_OLD_JOINT_NAMES, TOOL_TIP_OFFSET, dh_forward_kinematics
+
+BASE_LINK = "PSM1_base"  # the remote centre of motion, DH frame 0
+TIP_LINK = "PSM1_tool_tip_link"  # DH frame 6 times the tool-tip offset
+ROBOT_DIR_ENV = "CRESSIM_ROBOT_DIR"  # overrides where robots/dvrk_psm is
+
+# dVRK 2.2 and earlier names -> 2.3 names; the new names map to themselves
+_CANONICAL = {**dict(zip(PSM_OLD_JOINT_NAMES, PSM_JOINT_NAMES)), **{n: n for n in PSM_JOINT_NAMES}}
+
+# distances along the tool axis from the DH table: the tool base is `_INSERTION_ZERO` behind
+# the RCM at q3 = 0, the wrist pitch axis `_SHAFT` beyond the tool base, the jaw pivot `_WRIST`
+# beyond the wrist pitch axis (with the wrist straight)
+_INSERTION_ZERO = -PSM_DH[2].offset
+_SHAFT = PSM_DH[3].d
+_WRIST = PSM_DH[5].a
+
+
+def robot_dir() -> Path:
+    """robots/dvrk_psm of the CRESSim checkout.
+
+    Searched for upward from this file (a source tree or an editable install) and then from
+    the working directory; $CRESSIM_ROBOT_DIR wins when set (a wheel installed elsewhere).
+    """
+    if os.environ.get(ROBOT_DIR_ENV):
+        return Path(os.environ[ROBOT_DIR_ENV])
+    for start in (Path(__file__).resolve(), Path.cwd().resolve()):
+        for folder in (start, *start.parents):
+            candidate = folder / "robots" / "dvrk_psm"
+            if (candidate / "psm_lnd.urdf").is_file():
+                return candidate
+    raise FileNotFoundError(
+        f"robots/dvrk_psm not found above {Path(__file__).parent} or {Path.cwd()}; set ${ROBOT_DIR_ENV}"
+    )
+
+
+def canonical_joint_name(name: str) -> str:
+    """'outer_yaw' -> 'yaw' (dVRK 2.2 names); new names pass through. Raises on others."""
+    try:
+        return _CANONICAL[name]
+    except KeyError:
+        raise ValueError(f"unknown PSM joint {name!r}; expected one of {PSM_JOINT_NAMES}") from None
+
+
+class IKResult(NamedTuple):
+    q: torch.Tensor  # (N, dof), always within the joint limits
+    reachable: torch.Tensor  # (N,) bool; False: q is only the nearest in-limit guess
+
+
+class PSM:
+    """One PSM model (arm + instrument URDF) for batched kinematics on one torch device."""
+
+    def __init__(self, urdf: str | os.PathLike = "psm_lnd.urdf", *, device="cpu", dtype=torch.float32):
+        path = Path(urdf)
+        if not path.is_file():
+            path = robot_dir() / urdf
+        self.urdf_path = path
+        self.urdf = yourdfpy.URDF.load(str(path), build_scene_graph=False, load_meshes=False)
+        self.device, self.dtype = torch.device(device), dtype
+
+        joints = {j.name: j for j in self.urdf.robot.joints}
+        actuated = set(self.urdf.actuated_joint_names)
+        # the arm joints this instrument has, in dVRK order (a wrist-less tool has 4)
+        self.joint_names = tuple(n for n in PSM_JOINT_NAMES if n in actuated)
+        self.dof = len(self.joint_names)
+        if self.joint_names != PSM_JOINT_NAMES[: self.dof] or self.dof < 4:
+            raise ValueError(f"{path}: arm joints {self.joint_names} are not a prefix of {PSM_JOINT_NAMES}")
+        limit = [joints[n].limit for n in self.joint_names]
+        self.lower = torch.tensor([lim.lower for lim in limit], device=self.device, dtype=dtype)
+        self.upper = torch.tensor([lim.upper for lim in limit], device=self.device, dtype=dtype)
+        self.effort = torch.tensor([lim.effort for lim in limit], device=self.device, dtype=dtype)
+        self.has_jaw = "jaw" in actuated
+        self.jaw_limits = (joints["jaw"].limit.lower, joints["jaw"].limit.upper) if self.has_jaw else None
+
+        # pytorch-kinematics ignores <mimic>: its chain has one value per moving joint. We keep a
+        # map from our actuated joints to the chain's (parallelogram joints follow `pitch`).
+        chain = pk.build_chain_from_urdf(path.read_bytes())
+        self.chain = pk.SerialChain(chain, TIP_LINK, BASE_LINK).to(dtype=dtype, device=self.device)
+        chain_joints = self.chain.get_joint_parameter_names()
+        expand = torch.zeros(len(chain_joints), self.dof, dtype=torch.float64)
+        shift = torch.zeros(len(chain_joints), dtype=torch.float64)
+        for row, name in enumerate(chain_joints):
+            mimic = joints[name].mimic
+            source, gain = (mimic.joint, mimic.multiplier or 1.0) if mimic else (name, 1.0)
+            if source not in self.joint_names:
+                raise ValueError(f"{path}: chain joint {name!r} is not driven by an arm joint")
+            expand[row, self.joint_names.index(source)] = gain
+            shift[row] = (mimic.offset or 0.0) if mimic else 0.0
+        self._expand = expand.to(device=self.device, dtype=dtype)
+        self._shift = shift.to(device=self.device, dtype=dtype)
+        self._tip_index = int(self.chain.get_frame_indices(TIP_LINK)[0])
+
+    def __repr__(self):
+        return f"PSM({self.urdf_path.name!r}, dof={self.dof}, device={self.device})"
+
+    # ------------------------------------------------------------------ joint vectors
+    def joint_vector(self, values, names: Sequence[str] | None = None) -> torch.Tensor:
+        """Joint values in this model's order, as a tensor on its device.
+
+        values: a mapping name -> value(s), or an array (..., len(names)) with `names`, or an
+        array (..., dof) already in order. Old (outer_*) and new names are both accepted.
+        """
+        if isinstance(values, Mapping):
+            names, values = list(values.keys()), [torch.as_tensor(v, dtype=self.dtype) for v in values.values()]
+            values = torch.stack(torch.broadcast_tensors(*values), dim=-1)
+        q = torch.as_tensor(values, dtype=self.dtype).to(self.device)
+        if names is None:
+            return self._check_width(q)
+        order = [canonical_joint_name(n) for n in names]
+        if q.shape[-1] != len(order) or len(set(order)) != len(order):
+            raise ValueError(f"{q.shape[-1]} values for joints {list(names)}")
+        missing = [n for n in self.joint_names if n not in order]
+        extra = [n for n in order if n not in self.joint_names]
+        if missing or extra:
+            raise ValueError(f"joints missing {missing}, not in this instrument {extra}")
+        return q[..., [order.index(n) for n in self.joint_names]]
+
+    def within_limits(self, q: torch.Tensor, tol: float = 0.0) -> torch.Tensor:
+        """(..., dof) -> (...) bool: every joint within [lower - tol, upper + tol]."""
+        q = self._check_width(torch.as_tensor(q, device=self.device))
+        return ((q >= self.lower - tol) & (q <= self.upper + tol)).all(dim=-1)
+
+    def clamp(self, q: torch.Tensor) -> torch.Tensor:
+        """Clamp (..., dof) joint values to the limits."""
+        q = self._check_width(torch.as_tensor(q, device=self.device))
+        return torch.maximum(torch.minimum(q, self.upper.to(q.dtype)), self.lower.to(q.dtype))
+
+    def _check_width(self, q):
+        if q.shape[-1] != self.dof:
+            raise ValueError(f"expected (..., {self.dof}) joint values {self.joint_names}, got {tuple(q.shape)}")
+        return q
+
+    def _chain_values(self, q):
+        q = self._check_width(torch.as_tensor(q, device=self.device, dtype=self.dtype))
+        return q.reshape(-1, self.dof) @ self._expand.T + self._shift, q.shape[:-1]
+
+    # ------------------------------------------------------------------ kinematics
+    def forward_kinematics(self, q) -> torch.Tensor:
+        """Tool-tip pose in PSM1_base: (..., dof) -> (..., 4, 4)."""
+        th, lead = self._chain_values(q)
+        T = self.chain.forward_kinematics_tensor(th)[self._tip_index]
+        return T.reshape(*lead, 4, 4)
+
+    def jacobian(self, q, *, return_pose: bool = False):
+        """Geometric Jacobian of the tool tip in PSM1_base: (..., dof) -> (..., 6, dof).
+
+        Rows are [linear velocity of the tip point; angular velocity], both in PSM1_base
+        (the dVRK's spatial Jacobian uses the same base frame). With return_pose also the tip pose.
+        """
+        th, lead = self._chain_values(q)
+        J, T = self.chain.jacobian_tensor(th, ret_eef_pose=True)
+        J = (J @ self._expand).reshape(*lead, 6, self.dof)  # chain rule through the mimic joints
+        return (J, T.reshape(*lead, 4, 4)) if return_pose else J
+
+    def inverse_kinematics(self, pose, *, seed=None, strict: bool = False,
+                           position_tol: float = 1e-5, rotation_tol: float = 1e-4) -> IKResult:
+        """Joint values that put the tool tip at `pose` (..., 4, 4) in PSM1_base.
+
+        Closed form: the RCM and the wrist point fix yaw, pitch and insertion; the remaining
+        rotation fixes roll, wrist pitch and wrist yaw. Each branch is clamped to the joint
+        limits and kept if its FK still matches the pose (tolerances in m and rad); among those
+        the one nearest `seed` wins (nearest zero without one), which also picks the roll turn
+        (its range spans more than one). reachable[i] is False where no branch is left; q[i]
+        is then the in-limit branch nearest the pose, and strict=True raises ValueError
+        instead. A 4-DOF (wrist-less) tool reaches a pose only if the straight tool can take
+        its orientation. Near the RCM singularity (insertion ~0.0156 m: the wrist point in the
+        RCM, where yaw, pitch, roll and wrist pitch all turn about one point) float32 noise in
+        the pose moves the joints a lot; there a pose at a joint limit may be flagged.
+        """
+        T = torch.as_tensor(pose, device=self.device).to(torch.float64)
+        lead = T.shape[:-2]
+        T = T.reshape(-1, 4, 4)
+        if seed is None:  # prefer the solution nearest the zero configuration (deterministic)
+            reference = torch.zeros(T.shape[0], self.dof, device=self.device, dtype=torch.float64)
+        else:
+            reference = self._check_width(torch.as_tensor(seed, device=self.device)).to(torch.float64)
+            reference = reference.reshape(-1, self.dof).expand(T.shape[0], self.dof)
+        lower, upper = self.lower.double(), self.upper.double()
+        tip_rot = torch.as_tensor(TOOL_TIP_OFFSET[:3, :3], device=self.device, dtype=torch.float64)
+        R6 = T[:, :3, :3] @ tip_rot.T  # DH frame 6 (the tip offset is a pure rotation)
+
+        best_q = best_cost = None
+        for q in self._ik_candidates(R6, T[:, :3, 3]):
+            q4 = q[:, 3] + 2 * math.pi * torch.round((reference[:, 3] - q[:, 3]) / (2 * math.pi))
+            q4 = torch.where(q4 > upper[3], q4 - 2 * math.pi, q4)  # roll turn nearest the
+            q4 = torch.where(q4 < lower[3], q4 + 2 * math.pi, q4)  # reference, within limits
+            q = torch.cat([q[:, :3], q4[:, None], q[:, 4:]], dim=-1)
+            q = torch.nan_to_num(torch.maximum(torch.minimum(q, upper), lower))
+            err_p, err_r = _pose_error(dh_forward_kinematics(q), T)
+            exact = (err_p < position_tol) & (err_r < rotation_tol)
+            # exact ones first, nearest the reference among them; others by their error
+            cost = torch.where(exact, (q - reference).abs().sum(-1), 1e3 + err_p + err_r)
+            cost = torch.nan_to_num(cost, nan=1e9)
+            better = cost < best_cost if best_cost is not None else torch.ones_like(exact)
+            best_q = q if best_q is None else torch.where(better[:, None], q, best_q)
+            best_cost = cost if best_cost is None else torch.where(better, cost, best_cost)
+        reachable = best_cost < 1e3
+        if strict and not bool(reachable.all()):
+            bad = torch.nonzero(~reachable).flatten().tolist()
+            raise ValueError(f"unreachable poses (within joint limits) at batch indices {bad}")
+        return IKResult(best_q.to(self.dtype).reshape(*lead, self.dof), reachable.reshape(lead))
+
+    def _ik_candidates(self, R6, p):
+        """Every closed-form branch as a (N, dof) float64 tensor (some may be invalid)."""
+        if self.dof == 6:
+            # The wrist pitch axis z5 is normal to the wrist yaw axis z6 (= y5) and to the shaft,
+            # which passes through the RCM (the origin) and the wrist point p5 = p - a6 x5 with
+            # x5 normal to z5: so z5 is normal to z6 and p. Its sign picks the wrist branch.
+            z6 = R6[:, :, 2]
+            n = torch.linalg.cross(z6, p)
+            n = n / n.norm(dim=-1, keepdim=True).clamp_min(1e-12)
+            along = _INSERTION_ZERO - _SHAFT  # RCM to wrist point = (q3 - along) along the shaft
+            shafts = []
+            for sign in (1.0, -1.0):
+                p5 = p - _WRIST * torch.linalg.cross(z6, sign * n)
+                r = p5.norm(dim=-1, keepdim=True)
+                # the wrist point beyond the RCM (usual), or still behind it (q3 < along)
+                shafts += [(p5 / r.clamp_min(1e-12), along + r[:, 0]), (-p5 / r.clamp_min(1e-12), along - r[:, 0])]
+        else:
+            # straight tool: the shaft runs along y6 (the tip's approach axis), and the tip lies on
+            # it (q3 - along) beyond the RCM; position-free, so exact even near the RCM
+            z3 = R6[:, :, 1]
+            along = _INSERTION_ZERO - _SHAFT - _WRIST
+            shafts = [(z3, along + (p * z3).sum(-1))]
+        for z3, q3 in shafts:
+            # from the DH table, z3 = (sin q1 cos q2, -sin q2, -cos q1 cos q2)
+            q2 = torch.atan2(-z3[:, 1], torch.hypot(z3[:, 0], z3[:, 2]))
+            q1 = torch.atan2(z3[:, 0], -z3[:, 2])
+            R3 = dh_forward_kinematics(torch.stack([q1, q2, q3], dim=-1), all_frames=True)[:, 2, :3, :3]
+            M = R3.transpose(-1, -2) @ R6  # rotation from frame 3 to frame 6
+            if self.dof == 6:
+                # from the DH table, M's third column is (cos q4 cos q5, sin q4 cos q5, -sin q5)
+                # and its third row starts (sin q6 cos q5, cos q6 cos q5); |q5| < pi/2 in limits
+                q4 = torch.atan2(M[:, 1, 2], M[:, 0, 2])
+                q5 = torch.atan2(-M[:, 2, 2], torch.hypot(M[:, 0, 2], M[:, 1, 2]))
+                q6 = torch.atan2(M[:, 2, 0], M[:, 2, 1])
+                rest = [q5, q6]
+            else:
+                q4 = torch.atan2(-M[:, 0, 0], M[:, 1, 0])  # first column (-sin q4, cos q4, 0)
+                rest = []
+            yield torch.stack([q1, q2, q3, q4, *rest], dim=-1)
+
+
+def _pose_error(A, B):
+    """Position error (m) and rotation angle error (rad) between batches of 4x4 poses."""
+    err_p = (A[..., :3, 3] - B[..., :3, 3]).norm(dim=-1)
+    R = A[..., :3, :3].transpose(-1, -2) @ B[..., :3, :3]
+    # atan2 of sin and cos of the angle: precise near 0, unlike acos of the trace alone
+    sin = torch.stack([R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]], -1)
+    cos = (R.diagonal(dim1=-2, dim2=-1).sum(-1) - 1) / 2
+    return err_p, torch.atan2(sin.norm(dim=-1) / 2, cos)
+
+
+__all__ = ["BASE_LINK", "IKResult", "PSM", "TIP_LINK", "canonical_joint_name", "robot_dir"]

@@ -1,0 +1,108 @@
+"""The node's parameters: names, meaning, defaults (from the scene file) and validation.
+
+`check` is the one validator: it runs on the start-up values (a bad value stops the node with
+the reason before anything is built) and in the set-parameters callback (a bad change is
+refused with the reason, returned in SetParametersResult.reason, and the node keeps running
+with its old values). Structural parameters (scene, robot, arm, num_envs, physics_rate) size
+the engine and the topic graph, so they cannot change while the node runs.
+"""
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+
+from .scene import ROBOTS, SENSORS, Scene
+
+
+@dataclass(frozen=True)
+class Spec:
+    name: str
+    kind: type  # bool, int, float, str, list (of str)
+    description: str
+    runtime: bool  # may change while the node runs
+
+
+SPECS = (
+    Spec("scene", str, "scene file (path, or a name in scenes/): arm variant, base pose, rates, ...", False),
+    Spec("robot", str, f"instrument/arm variant: {', '.join(ROBOTS)} (robots/dvrk_psm/<robot>.urdf)", False),
+    Spec("arm", str, "arm name: ROS namespace (/PSM1) and frame prefix (PSM1_base)", False),
+    Spec("num_envs", int, "number of twins in one engine; >1 puts env i under /env{i}/ARM", False),
+    Spec("physics_rate", float, "engine rate in Hz; an integer multiple of publish_rate", False),
+    Spec("publish_rate", float, "rate of the periodic topics and of /clock, Hz (the dVRK's is 100)", True),
+    Spec("tf_rate", float, "rate of the base -> tip transform on /cressim/tf, Hz", True),
+    Spec("camera_rate", float, "camera rate, Hz (reserved: no camera topics yet)", True),
+    Spec("camera_width", int, "camera image width, pixels (reserved)", True),
+    Spec("camera_height", int, "camera image height, pixels (reserved)", True),
+    Spec("sensors", list, f"sensor groups to publish: {', '.join(SENSORS)}", True),
+    Spec("record", str, "MCAP recording (rosbag2 folder) path; empty: not recording", True),
+)
+BY_NAME = {s.name: s for s in SPECS}
+MAX_RATE = 2000.0
+
+
+def defaults(scene: Scene) -> dict:
+    return {"scene": scene.path, "robot": scene.robot, "arm": scene.arm, "num_envs": scene.num_envs,
+            "physics_rate": scene.physics_rate, "publish_rate": scene.publish_rate, "tf_rate": scene.tf_rate,
+            "camera_rate": scene.camera_rate, "camera_width": scene.camera_width,
+            "camera_height": scene.camera_height, "sensors": list(scene.sensors), "record": scene.record}
+
+
+def check(changes: dict, current: dict, *, running: bool) -> str | None:
+    """None when `changes` (name -> value) may be applied on top of `current`, else why not."""
+    merged = {**current, **changes}
+    for name, value in changes.items():
+        if name == "use_sim_time":
+            if not isinstance(value, bool):
+                return f"use_sim_time must be a bool, got {value!r}"
+            continue
+        spec = BY_NAME.get(name)
+        if spec is None:
+            return f"unknown parameter {name!r}; the twin has {', '.join(sorted(BY_NAME))}, use_sim_time"
+        if running and not spec.runtime and value != current.get(name):
+            return f"{name} cannot change while the node runs (it sizes the engine and topics): restart the node"
+        problem = _check_one(spec, value)
+        if problem:
+            return f"{name}: {problem}"
+    ratio = merged["physics_rate"] / merged["publish_rate"]
+    if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+        return (f"physics_rate {merged['physics_rate']:g} Hz must be an integer multiple of publish_rate "
+                f"{merged['publish_rate']:g} Hz (the engine runs whole substeps per published tick)")
+    return None
+
+
+def _check_one(spec: Spec, value) -> str | None:
+    if spec.kind is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            return f"a finite number expected, got {value!r}"
+        if not 0.0 < value <= MAX_RATE * (10 if spec.name == "physics_rate" else 1):
+            return f"{value:g} Hz is outside (0, {MAX_RATE * (10 if spec.name == 'physics_rate' else 1):g}]"
+    elif spec.kind is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            return f"an integer expected, got {value!r}"
+        high = 4096 if spec.name == "num_envs" else 8192
+        if not 1 <= value <= high:
+            return f"{value} is outside [1, {high}]"
+    elif spec.kind is list:
+        if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):
+            return f"a list of strings expected, got {value!r}"
+        unknown = [v for v in value if v not in SENSORS]
+        if unknown:
+            return f"unknown sensor group(s) {', '.join(unknown)}; expected some of {', '.join(SENSORS)}"
+    elif spec.kind is str:
+        if not isinstance(value, str):
+            return f"a string expected, got {value!r}"
+        if spec.name == "robot" and value not in ROBOTS:
+            return f"{value!r} is not one of {', '.join(ROBOTS)}"
+        if spec.name == "arm" and not (value[:1].isalpha() and all(c.isalnum() or c == "_" for c in value)):
+            return f"{value!r} is not a valid ROS name (letters, digits, _; a letter first)"
+        if spec.name == "record" and value:
+            parent = os.path.dirname(os.path.abspath(value))
+            if not os.path.isdir(parent):
+                return f"folder {parent} does not exist"
+            if os.path.exists(value):
+                return f"{value} exists already (a recording is never overwritten)"
+    return None
+
+
+__all__ = ["BY_NAME", "SPECS", "Spec", "check", "defaults"]

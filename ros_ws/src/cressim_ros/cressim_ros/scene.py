@@ -1,0 +1,231 @@
+"""The twin's scene description (scenes/psm_twin.yaml): parsing with line-numbered errors.
+
+The file is small YAML. We parse it with yaml.compose (not safe_load) so that every value
+keeps its node and so its line: a bad field is reported as `psm_twin.yaml:12:3: arm.base.
+position: expected 3 numbers, got 2`, which is what a user editing the file needs. Unknown
+keys are errors too (a typo such as `num_env` would otherwise be silently ignored).
+"""
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import yaml
+
+SCENE_DIR_ENV = "CRESSIM_SCENE_DIR"  # overrides where scenes/ is (an install outside the repo)
+DEFAULT_SCENE = "psm_twin.yaml"
+ROBOTS = ("psm_lnd", "psm_suction")
+SENSORS = ("joints", "cartesian", "velocity", "wrench", "jacobian", "tf", "clock")
+
+
+class SceneError(ValueError):
+    """A bad scene file; the message starts with `file:line:column:`."""
+
+
+@dataclass
+class Scene:
+    path: str = "<defaults>"
+    arm: str = "PSM1"
+    robot: str = "psm_lnd"
+    base_position: tuple = (0.0, 0.0, 0.3)
+    base_rotation: tuple = (0.0, 0.0, 0.0, 1.0)  # xyzw
+    initial_jp: tuple = (0.0, 0.0, 0.1, 0.0, 0.0, 0.0)
+    initial_jaw: float = 0.0
+    home_jp: tuple | None = None
+    measured_lag: float = 0.005
+    velocity_ratio: float = 0.5
+    acceleration_ratio: float = 4.0
+    stale_command_after: float = 1.0
+    num_envs: int = 1
+    physics_rate: float = 200.0
+    publish_rate: float = 100.0
+    tf_rate: float = 50.0
+    camera_rate: float = 30.0
+    camera_width: int = 640
+    camera_height: int = 480
+    sensors: tuple = SENSORS
+    record: str = ""
+    lines: dict = field(default_factory=dict, repr=False)  # field -> "file:line:col" (for later checks)
+
+
+def find_scene(name: str) -> Path:
+    """A scene file by path, or by name in scenes/ of the checkout ($CRESSIM_SCENE_DIR wins)."""
+    path = Path(name).expanduser()
+    if path.is_file():
+        return path
+    dirs = [Path(os.environ[SCENE_DIR_ENV])] if os.environ.get(SCENE_DIR_ENV) else []
+    for start in (Path.cwd().resolve(), Path(__file__).resolve()):
+        dirs += [folder / "scenes" for folder in (start, *start.parents)]
+    for folder in dirs:
+        if (folder / path.name).is_file():
+            return folder / path.name
+    raise SceneError(f"{name}: scene file not found (as a path, in ${SCENE_DIR_ENV}, or in a scenes/ "
+                     f"folder above {Path.cwd()})")
+
+
+def load_scene(name: str = DEFAULT_SCENE) -> Scene:
+    path = find_scene(name)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise SceneError(f"{path}: {exc}") from None
+    return parse_scene(text, str(path))
+
+
+def parse_scene(text: str, path: str = "<string>") -> Scene:
+    try:
+        root = yaml.compose(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f"{path}:{mark.line + 1}:{mark.column + 1}" if mark else path
+        raise SceneError(f"{where}: not valid YAML: {getattr(exc, 'problem', exc)}") from None
+    scene = Scene(path=path)
+    if root is None:  # an empty file: all defaults
+        return scene
+    p = _Parser(path)
+    top = p.mapping(root, "", {"arm", "num_envs", "rates", "camera", "sensors", "record"})
+    if "arm" in top:
+        arm = p.mapping(top["arm"], "arm", {"name", "robot", "base", "initial_jp", "initial_jaw", "home_jp",
+                                            "measured_lag", "trajectory", "stale_command_after"})
+        if "name" in arm:
+            scene.arm = p.name(arm["name"], "arm.name")
+        if "robot" in arm:
+            scene.robot = p.choice(arm["robot"], "arm.robot", ROBOTS)
+        if "base" in arm:
+            base = p.mapping(arm["base"], "arm.base", {"position", "rotation"})
+            if "position" in base:
+                scene.base_position = p.numbers(base["position"], "arm.base.position", 3)
+            if "rotation" in base:
+                q = p.numbers(base["rotation"], "arm.base.rotation", 4)
+                norm = math.sqrt(sum(v * v for v in q))
+                if abs(norm - 1.0) > 1e-3:
+                    p.fail(base["rotation"], "arm.base.rotation", f"quaternion x, y, z, w of norm 1 expected, norm is {norm:.6g}")
+                scene.base_rotation = tuple(v / norm for v in q)
+        if "initial_jp" in arm:
+            scene.initial_jp = p.numbers(arm["initial_jp"], "arm.initial_jp", 6)
+        if "initial_jaw" in arm:
+            scene.initial_jaw = p.number(arm["initial_jaw"], "arm.initial_jaw")
+        if "home_jp" in arm:
+            scene.home_jp = None if _is_null(arm["home_jp"]) else p.numbers(arm["home_jp"], "arm.home_jp", 6)
+        if "measured_lag" in arm:
+            scene.measured_lag = p.number(arm["measured_lag"], "arm.measured_lag", low=0.0, high=1.0)
+        if "stale_command_after" in arm:
+            scene.stale_command_after = p.number(arm["stale_command_after"], "arm.stale_command_after", low=0.0)
+        if "trajectory" in arm:
+            traj = p.mapping(arm["trajectory"], "arm.trajectory", {"velocity_ratio", "acceleration_ratio"})
+            if "velocity_ratio" in traj:
+                scene.velocity_ratio = p.number(traj["velocity_ratio"], "arm.trajectory.velocity_ratio",
+                                                low=1e-3, high=1.0)
+            if "acceleration_ratio" in traj:
+                scene.acceleration_ratio = p.number(traj["acceleration_ratio"], "arm.trajectory.acceleration_ratio",
+                                                    low=1e-3, high=1e3)
+    if "num_envs" in top:
+        scene.num_envs = p.integer(top["num_envs"], "num_envs", low=1, high=4096)
+    if "rates" in top:
+        rates = p.mapping(top["rates"], "rates", {"physics", "publish", "tf", "camera"})
+        for key in ("physics", "publish", "tf", "camera"):
+            if key in rates:
+                setattr(scene, f"{key}_rate", p.number(rates[key], f"rates.{key}", low=0.1, high=10000.0))
+                scene.lines[f"{key}_rate"] = p.where(rates[key])
+    if "camera" in top:
+        cam = p.mapping(top["camera"], "camera", {"width", "height"})
+        if "width" in cam:
+            scene.camera_width = p.integer(cam["width"], "camera.width", low=1, high=8192)
+        if "height" in cam:
+            scene.camera_height = p.integer(cam["height"], "camera.height", low=1, high=8192)
+    if "sensors" in top:
+        node = top["sensors"]
+        if not isinstance(node, yaml.SequenceNode):
+            p.fail(node, "sensors", f"a list of {', '.join(SENSORS)} expected")
+        scene.sensors = tuple(p.choice(item, "sensors", SENSORS) for item in node.value)
+    if "record" in top:
+        scene.record = "" if _is_null(top["record"]) else p.string(top["record"], "record")
+    # a check across fields, reported at the line of the one to change
+    ratio = scene.physics_rate / scene.publish_rate
+    if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+        line = scene.lines.get("physics_rate", path)
+        raise SceneError(f"{line}: rates.physics: {scene.physics_rate:g} Hz is not an integer multiple of "
+                         f"rates.publish {scene.publish_rate:g} Hz")
+    return scene
+
+
+def _is_null(node) -> bool:
+    return isinstance(node, yaml.ScalarNode) and node.tag == "tag:yaml.org,2002:null"
+
+
+class _Parser:
+    """Typed readers of YAML nodes; each failure names the field and its line."""
+
+    def __init__(self, path):
+        self.path = path
+
+    def where(self, node) -> str:
+        return f"{self.path}:{node.start_mark.line + 1}:{node.start_mark.column + 1}"
+
+    def fail(self, node, key, problem):
+        raise SceneError(f"{self.where(node)}: {key or 'top level'}: {problem}")
+
+    def mapping(self, node, key, allowed) -> dict:
+        if not isinstance(node, yaml.MappingNode):
+            self.fail(node, key, f"a mapping with keys {', '.join(sorted(allowed))} expected")
+        out = {}
+        for k, v in node.value:
+            name = k.value if isinstance(k, yaml.ScalarNode) else None
+            full = f"{key}.{name}" if key else name
+            if name not in allowed:
+                self.fail(k, full, f"unknown field; expected one of {', '.join(sorted(allowed))}")
+            if name in out:
+                self.fail(k, full, "given twice")
+            out[name] = v
+        return out
+
+    def scalar(self, node, key):
+        if not isinstance(node, yaml.ScalarNode):
+            self.fail(node, key, "a single value expected")
+        return yaml.safe_load(yaml.serialize(node))  # the value with YAML's own typing
+
+    def number(self, node, key, low=-math.inf, high=math.inf) -> float:
+        value = self.scalar(node, key)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            self.fail(node, key, f"a finite number expected, got {node.value!r}")
+        if not low <= value <= high:
+            self.fail(node, key, f"{value:g} is outside [{low:g}, {high:g}]")
+        return float(value)
+
+    def integer(self, node, key, low, high) -> int:
+        value = self.scalar(node, key)
+        if isinstance(value, bool) or not isinstance(value, int):
+            self.fail(node, key, f"an integer expected, got {node.value!r}")
+        if not low <= value <= high:
+            self.fail(node, key, f"{value} is outside [{low}, {high}]")
+        return value
+
+    def numbers(self, node, key, count) -> tuple:
+        if not isinstance(node, yaml.SequenceNode):
+            self.fail(node, key, f"a list of {count} numbers expected")
+        if len(node.value) != count:
+            self.fail(node, key, f"expected {count} numbers, got {len(node.value)}")
+        return tuple(self.number(item, f"{key}[{i}]") for i, item in enumerate(node.value))
+
+    def string(self, node, key) -> str:
+        value = self.scalar(node, key)
+        if not isinstance(value, str):
+            self.fail(node, key, f"a string expected, got {node.value!r}")
+        return value
+
+    def name(self, node, key) -> str:
+        value = self.string(node, key)
+        if not value or not (value[0].isalpha() and all(c.isalnum() or c == "_" for c in value)):
+            self.fail(node, key, f"{value!r} is not a valid ROS name (letters, digits, _; a letter first)")
+        return value
+
+    def choice(self, node, key, options) -> str:
+        value = self.string(node, key)
+        if value not in options:
+            self.fail(node, key, f"{value!r} is not one of {', '.join(options)}")
+        return value
+
+
+__all__ = ["DEFAULT_SCENE", "ROBOTS", "SENSORS", "Scene", "SceneError", "find_scene", "load_scene", "parse_scene"]

@@ -1,0 +1,72 @@
+"""Tests of the ROS 2 twin (ros_ws/src/cressim_ros): real rclpy over DDS on loopback.
+
+Run after `ros_ws/build.sh` with `source ros_ws/env.sh && .venv/bin/python -m pytest tests/twin`.
+The twin runs as a subprocess (`python -m cressim_ros`, a DDS participant of its own) from the
+source tree (ros_ws/src/cressim_ros first on PYTHONPATH, so an older colcon install does not
+shadow it); test clients run in this process on a context of their own. Each twin gets its own
+ROS_DOMAIN_ID: the `ros_domain_id` fixture of tests/ros for a twin per test, `twin_domain` (same
+scheme, other ids) for a twin shared by a module. Without rclpy every test needing it is skipped
+(tests/ros/conftest.py says how to set it up); the unit tests of the node's pure-Python parts run.
+"""
+import importlib.util
+import itertools
+import os
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+PKG = REPO / "ros_ws" / "src" / "cressim_ros"
+sys.path.insert(0, str(PKG))  # cressim_ros from the source tree
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # dvrk_client, twin_process
+
+from twin_process import Twin  # noqa: E402
+
+# reuse tests/ros's environment checks and its ros_domain_id fixture (one implementation)
+_spec = importlib.util.spec_from_file_location("_cressim_tests_ros_conftest", REPO / "tests" / "ros" / "conftest.py")
+_ros = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_ros)
+crtk_env = _ros.crtk_env
+ros_domain_id = _ros.ros_domain_id
+RCLPY_ERROR = _ros.RCLPY_ERROR
+
+_module_ids = itertools.count(50)  # twin_domain's ids sit 50 away from ros_domain_id's
+
+
+def pytest_collection_modifyitems(config, items):
+    if RCLPY_ERROR is None:
+        return
+    mark = pytest.mark.skip(reason=RCLPY_ERROR)
+    for item in items:
+        if item.get_closest_marker("ros") is not None:
+            item.add_marker(mark)
+
+
+def pytest_configure(config):
+    config.addinivalue_line("markers", "ros: needs rclpy and crtk_msgs (skipped without rclpy)")
+
+
+@pytest.fixture(scope="module")
+def twin_domain():
+    """A ROS_DOMAIN_ID for a twin shared by one test module (ros_domain_id's scheme, 50 ids away)."""
+    problem = _ros.crtk_env_problem() if RCLPY_ERROR is None else RCLPY_ERROR
+    if problem:
+        pytest.fail(problem, pytrace=False)
+    return 1 + (os.getpid() * 7 + next(_module_ids)) % 100
+
+
+@pytest.fixture
+def start_twin(tmp_path):
+    """start_twin(domain, *params) -> a ready Twin; stopped (and checked alive) at teardown."""
+    twins = []
+
+    def start(domain, *params):
+        twin = Twin(domain, tmp_path / f"twin{len(twins)}.log", *params)
+        twins.append(twin)
+        twin.startup_s = twin.wait_ready()
+        return twin
+
+    yield start
+    for twin in twins:
+        twin.stop()

@@ -1,0 +1,81 @@
+"""Batched headless mode: num_envs = 2 twins in one engine under /env0/PSM1 and /env1/PSM1.
+
+Env 1 is enabled, homed and moved; env 0 must not notice (its own state machine, its own
+rows of the batched state). /PSM1 (without prefix) exists only when num_envs = 1. /clock runs
+and every stamp is non-zero.
+"""
+import time
+
+import numpy as np
+import pytest
+from rosgraph_msgs.msg import Clock
+from geometry_msgs.msg import TransformStamped
+
+from twin_process import module_twin
+
+pytestmark = pytest.mark.ros
+
+
+@pytest.fixture(scope="module")
+def batched(request, tmp_path_factory, twin_domain):
+    from dvrk_client import Arm, Ral
+
+    twin = module_twin(request, tmp_path_factory, twin_domain, "num_envs:=2")
+    ral = Ral("batched_client", twin_domain)
+    arms = [Arm(ral, f"/env{i}/PSM1") for i in range(2)]
+    ral.check_connections(timeout=30)
+    for arm in arms:
+        assert arm._measured_js.wait_for(lambda m: True, 5)
+        assert arm._state.wait_for(lambda m: True, 5)
+    yield twin, ral, arms
+    ral.shutdown()
+    assert twin.alive(), twin.output()
+
+
+def test_namespaces(batched):
+    twin, ral, arms = batched
+    topics = dict(ral.node.get_topic_names_and_types())
+    for i in range(2):
+        for name in ("measured_js", "setpoint_js", "measured_cp", "jaw/measured_js", "operating_state", "error",
+                     "servo_jp", "move_cp", "state_command", "body/jacobian"):
+            assert f"/env{i}/PSM1/{name}" in topics, name
+    assert not [t for t in topics if t.startswith("/PSM1/")], "unprefixed topics in batched mode"
+    services = dict(ral.node.get_service_names_and_types())
+    assert "/env1/PSM1/operating_state" in services and "/env0/PSM1/inverse_kinematics" in services
+
+
+def test_envs_are_independent(batched):
+    twin, ral, (arm0, arm1) = batched
+    q0 = arm0.measured_jp()
+    assert arm1.enable(5) and arm1.home(10)
+    goal = np.array([-0.3, 0.2, 0.15, -0.5, 0.1, 0.3])
+    assert arm1.move_jp(goal).wait(10)
+    time.sleep(0.1)
+    np.testing.assert_allclose(arm1.measured_jp(), goal, atol=1e-6)
+    np.testing.assert_allclose(arm0.measured_jp(), q0, atol=1e-12)
+    assert arm0.operating_state().state == "DISABLED" and not arm0.operating_state().is_homed
+    # env 0 refuses (it is disabled), env 1 got no error
+    errors1 = arm1.errors.count
+    before = arm0.errors.count
+    arm0.servo_jp(goal)
+    assert arm0.errors.wait_for(lambda m: arm0.errors.count > before and m.data.startswith("env0/PSM1:"), 3)
+    assert arm1.errors.count == errors1
+    # both envs keep their rate
+    time.sleep(2.0)
+    assert arm0.measured_js_rate(2.0) > 70 and arm1.measured_js_rate(2.0) > 70
+
+
+def test_clock_and_tf(batched):
+    twin, ral, arms = batched
+    from dvrk_client import _Latest
+
+    clock, tf = _Latest(keep=50), _Latest(keep=50)
+    ral.subscriber(Clock, "/clock", clock, 1)
+    ral.subscriber(TransformStamped, "/cressim/tf", tf, 100)
+    assert clock.wait_for(lambda m: clock.count >= 20, 5)
+    times = [m.clock.sec + m.clock.nanosec * 1e-9 for m in clock.history]
+    assert times[0] > 0 and all(b > a for a, b in zip(times, times[1:]))
+    assert tf.wait_for(lambda m: tf.count >= 10, 5)
+    children = {m.child_frame_id for m in tf.history}
+    assert children == {"env0/PSM1", "env1/PSM1"}, children
+    assert all(m.header.stamp.sec > 0 for m in tf.history)

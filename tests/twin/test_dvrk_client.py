@@ -1,0 +1,123 @@
+"""The bar: a dVRK-style client session runs against the twin to the end, no timeout, no error.
+
+The session is what dVRK example scripts do: check connections, enable, home, move_jp, a
+servo_jp sine, servo_cp and move_cp squares, open and close the jaw, waiting on is_busy.
+Along the way it checks what those scripts rely on: measured_js converges to the command,
+servo_cp reaches the pose (by FK of measured_js, with our own model), the is_busy/goal_reached
+sequence of each move, stamps after the command and never zero, no message on `error`.
+"""
+import math
+import time
+
+import numpy as np
+import pytest
+import torch
+
+from cressim.robots import PSM
+
+pytestmark = pytest.mark.ros
+
+PERIOD = 0.01  # the client's servo period (100 Hz, like the dVRK examples)
+
+
+@pytest.fixture
+def session(ros_domain_id, start_twin):
+    from dvrk_client import Arm, Ral
+
+    twin = start_twin(ros_domain_id)
+    ral = Ral("dvrk_client", ros_domain_id)
+    arm = Arm(ral, "/PSM1")
+    yield twin, ral, arm
+    ral.shutdown()
+
+
+def _fk(psm, q):
+    return psm.forward_kinematics(torch.as_tensor(np.asarray(q)[None], dtype=torch.float64))[0].numpy()
+
+
+def test_dvrk_client_session(session):
+    from dvrk_client import stamp_s
+
+    twin, ral, arm = session
+    psm = PSM(dtype=torch.float64)
+    t0 = time.monotonic()
+    ral.check_connections(timeout=20)
+    assert arm._measured_js.wait_for(lambda m: True, 5), "no measured_js"
+    assert arm._state.wait_for(lambda m: m.state == "DISABLED", 5), "no initial operating_state (transient local)"
+
+    assert arm.enable(5), f"enable timed out: {arm.operating_state()}"
+    assert arm.home(10), f"home timed out: {arm.operating_state()}"
+
+    # --- move_jp, and the is_busy / goal_reached sequence
+    goal = np.array([0.2, -0.15, 0.12, 0.3, 0.2, -0.2])
+    start = ral.now()
+    goals_before = arm.goal_reached.count
+    assert arm.move_jp(goal).wait(10), "move_jp: is_busy never went true then false"
+    busy = [m.is_busy for m in arm.states_since(start)]
+    assert busy[0] is True and busy[-1] is False and busy == sorted(busy, reverse=True), busy
+    assert arm.goal_reached.wait_for(lambda m: arm.goal_reached.count > goals_before and m.data, 2)
+    np.testing.assert_allclose(arm.setpoint_jp(), goal, atol=1e-9)
+    time.sleep(0.1)  # the measured lag (5 ms time constant) settles
+    np.testing.assert_allclose(arm.measured_jp(), goal, atol=1e-6)
+
+    # --- servo_jp sine on three joints (2 s at 100 Hz); measured tracks it and converges
+    q0 = arm.measured_jp()
+    worst = 0.0
+    for k in range(200):
+        t = k * PERIOD
+        q = q0.copy()
+        q[0] += 0.1 * math.sin(2 * math.pi * 0.5 * t)
+        q[2] += 0.02 * math.sin(2 * math.pi * 0.5 * t)
+        q[5] += 0.3 * math.sin(2 * math.pi * 1.0 * t)
+        arm.servo_jp(q)
+        if k > 10:
+            worst = max(worst, float(np.abs(arm.measured_jp() - q).max()))
+        time.sleep(PERIOD)
+    assert worst < 0.1, f"measured_js lags the servo_jp sine by {worst} rad"
+    time.sleep(0.2)
+    np.testing.assert_allclose(arm.measured_jp(), q, atol=1e-5)
+
+    # --- servo_cp square (1 cm sides in x/y of PSM1_base), streamed at 100 Hz
+    T0 = arm.measured_cp()
+    np.testing.assert_allclose(T0, _fk(psm, arm.measured_jp()), atol=1e-5)
+    corners = [(0.01, 0.0), (0.01, 0.01), (0.0, 0.01), (0.0, 0.0)]
+    here = T0[:3, 3].copy()
+    for dx, dy in corners:
+        target = T0.copy()
+        target[:3, 3] += (dx, dy, 0.0)
+        for s in np.linspace(0, 1, 30)[1:]:
+            step = target.copy()
+            step[:3, 3] = here + s * (target[:3, 3] - here)
+            arm.servo_cp(step)
+            time.sleep(PERIOD)
+        here = target[:3, 3].copy()
+        time.sleep(0.15)
+        T = _fk(psm, arm.measured_jp())  # the joints put the tip there, by FK
+        np.testing.assert_allclose(T[:3, 3], target[:3, 3], atol=1e-5)
+        np.testing.assert_allclose(T[:3, :3], target[:3, :3], atol=1e-5)
+        np.testing.assert_allclose(arm.measured_cp(), T, atol=1e-5)
+
+    # --- move_cp square, waiting on is_busy each time
+    for dx, dy in [(-0.01, 0.0), (-0.01, -0.01), (0.0, -0.01), (0.0, 0.0)]:
+        target = T0.copy()
+        target[:3, 3] += (dx, dy, 0.0)
+        start = ral.now()
+        assert arm.move_cp(target).wait(10), f"move_cp to {target[:3, 3]} did not finish"
+        assert [m.is_busy for m in arm.states_since(start)][-1] is False
+        time.sleep(0.1)
+        np.testing.assert_allclose(_fk(psm, arm.measured_jp())[:3, 3], target[:3, 3], atol=1e-5)
+
+    # --- jaw: open, close
+    assert arm.jaw.move_jp(0.8).wait(10), "jaw open did not finish"
+    time.sleep(0.1)
+    np.testing.assert_allclose(arm.jaw.measured_jp(), [0.8], atol=1e-5)
+    assert arm.jaw.move_jp(0.0).wait(10), "jaw close did not finish"
+    time.sleep(0.1)
+    np.testing.assert_allclose(arm.jaw.measured_jp(), [0.0], atol=1e-5)
+
+    # --- what the session saw: stamps never zero, no errors, data kept flowing
+    assert all(stamp_s(m.header) > 0 for m in arm.states_since(0.0))
+    assert arm.errors.count == 0, [m.data for m in arm.errors.history]
+    assert arm.measured_js_rate(1.0) > 70, arm.measured_js_rate(1.0)
+    assert twin.alive()
+    print(f"twin start-up {twin.startup_s:.1f} s, client session {time.monotonic() - t0:.1f} s")

@@ -1,0 +1,67 @@
+"""The twin as a subprocess for tests (a DDS participant of its own), and its module fixture helper.
+
+Kept out of conftest.py so that test modules can import it by a unique name.
+"""
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[2]
+PKG = REPO / "ros_ws" / "src" / "cressim_ros"
+STARTUP_TIMEOUT = 90.0  # s: torch, rclpy, the engine on lavapipe (about 8 s when the machine is idle)
+
+
+class Twin:
+    """A twin node in a subprocess; `stop()` sends SIGINT and returns its exit code."""
+
+    def __init__(self, domain: int, log_path: Path, *params: str):
+        self.domain, self.log_path = domain, log_path
+        env = dict(os.environ)
+        env.update(ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+                   PYTHONPATH=os.pathsep.join([str(PKG), env.get("PYTHONPATH", "")]), PYTHONUNBUFFERED="1")
+        env.pop("ROS_LOCALHOST_ONLY", None)
+        args = [sys.executable, "-m", "cressim_ros", "--ros-args"]
+        for p in params:
+            args += ["-p", p]
+        self.log = open(log_path, "w")
+        self.proc = subprocess.Popen(args, cwd=REPO, env=env, stdout=self.log, stderr=subprocess.STDOUT)
+        self.started = time.monotonic()
+
+    def output(self) -> str:
+        self.log.flush()
+        return self.log_path.read_text()
+
+    def wait_ready(self, timeout: float = STARTUP_TIMEOUT):
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if "cressim twin ready" in self.output():
+                return time.monotonic() - self.started
+            if self.proc.poll() is not None:
+                raise AssertionError(f"twin exited with {self.proc.returncode}:\n{self.output()}")
+            time.sleep(0.1)
+        raise AssertionError(f"twin not ready after {timeout} s:\n{self.output()}")
+
+    def alive(self) -> bool:
+        return self.proc.poll() is None
+
+    def stop(self) -> int:
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGINT)
+            try:
+                self.proc.wait(timeout=15)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        self.log.close()
+        return self.proc.returncode
+
+
+def module_twin(request, tmp_path_factory, domain, *params):
+    """A twin for a whole module (teardown registered with request)."""
+    twin = Twin(domain, tmp_path_factory.mktemp("twin") / "twin.log", *params)
+    request.addfinalizer(twin.stop)
+    twin.startup_s = twin.wait_ready()
+    return twin
