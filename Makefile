@@ -72,7 +72,8 @@ test: test-cpp test-python
 
 demo: $(STAMPS)/build $(STAMPS)/ros
 	$(VENV)/bin/cressim info
-	$(VENV)/bin/cressim demo
+	$(VENV)/bin/cressim demo batched
+	source ros_ws/env.sh && $(VENV)/bin/cressim demo twin
 
 clean:
 	rm -rf build $(STAMPS) out

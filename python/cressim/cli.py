@@ -27,6 +27,10 @@ def _info(args: argparse.Namespace) -> int:
 
 
 def _demo(args: argparse.Namespace) -> int:
+    if args.scene == "twin":
+        from cressim.demos.twin_session import run
+
+        return run(out_dir=args.out, seconds=args.seconds)
     from cressim.demos.batched_scene import run
 
     return run(num_envs=args.envs, frames=args.frames, out_dir=args.out)
@@ -61,8 +65,12 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--json", action="store_true", help="print the chosen device as JSON")
     p.set_defaults(run=_info)
     p = sub.add_parser("demo", help="the main job on the default scene")
-    p.add_argument("--envs", type=int, default=16)
-    p.add_argument("--frames", type=int, default=120)
+    p.add_argument("scene", nargs="?", default="twin", choices=("twin", "batched"),
+                   help="twin: the PSM twin driven over ROS 2, recording MCAP (default); batched: a batched "
+                        "scene and a custom compute pass")
+    p.add_argument("--seconds", type=float, default=2.0, help="twin: length of the servo_jp sine")
+    p.add_argument("--envs", type=int, default=16, help="batched: envs")
+    p.add_argument("--frames", type=int, default=120, help="batched: frames")
     p.add_argument("--out", default="out/demo", help="folder for the demo's outputs")
     p.set_defaults(run=_demo)
     p = sub.add_parser("train", help="PPO on a batched task (rsl-rl-lib when installed, else built-in)")

@@ -19,9 +19,9 @@ import pytest
 REPO = Path(__file__).resolve().parents[2]
 PKG = REPO / "ros_ws" / "src" / "cressim_ros"
 sys.path.insert(0, str(PKG))  # cressim_ros from the source tree
-sys.path.insert(0, str(Path(__file__).resolve().parent))  # dvrk_client, twin_process
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # twin_fixtures
 
-from twin_process import Twin  # noqa: E402
+from cressim_ros.twin_process import Twin  # noqa: E402
 
 # reuse tests/ros's environment checks and its ros_domain_id fixture (one implementation)
 _spec = importlib.util.spec_from_file_location("_cressim_tests_ros_conftest", REPO / "tests" / "ros" / "conftest.py")

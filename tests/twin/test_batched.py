@@ -11,14 +11,14 @@ import pytest
 from rosgraph_msgs.msg import Clock
 from geometry_msgs.msg import TransformStamped
 
-from twin_process import module_twin
+from twin_fixtures import module_twin
 
 pytestmark = pytest.mark.ros
 
 
 @pytest.fixture(scope="module")
 def batched(request, tmp_path_factory, twin_domain):
-    from dvrk_client import Arm, Ral
+    from cressim_ros.dvrk_client import Arm, Ral
 
     twin = module_twin(request, tmp_path_factory, twin_domain, "num_envs:=2")
     ral = Ral("batched_client", twin_domain)
@@ -67,7 +67,7 @@ def test_envs_are_independent(batched):
 
 def test_clock_and_tf(batched):
     twin, ral, arms = batched
-    from dvrk_client import _Latest
+    from cressim_ros.dvrk_client import _Latest
 
     clock, tf = _Latest(keep=50), _Latest(keep=50)
     ral.subscriber(Clock, "/clock", clock, 1)

@@ -22,7 +22,7 @@ PERIOD = 0.01  # the client's servo period (100 Hz, like the dVRK examples)
 
 @pytest.fixture
 def session(ros_domain_id, start_twin):
-    from dvrk_client import Arm, Ral
+    from cressim_ros.dvrk_client import Arm, Ral
 
     twin = start_twin(ros_domain_id)
     ral = Ral("dvrk_client", ros_domain_id)
@@ -36,7 +36,7 @@ def _fk(psm, q):
 
 
 def test_dvrk_client_session(session):
-    from dvrk_client import stamp_s
+    from cressim_ros.dvrk_client import stamp_s
 
     twin, ral, arm = session
     psm = PSM(dtype=torch.float64)

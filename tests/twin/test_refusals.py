@@ -14,7 +14,7 @@ from rcl_interfaces.srv import SetParameters
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Empty
 
-from twin_process import module_twin
+from twin_fixtures import module_twin
 
 pytestmark = pytest.mark.ros
 
@@ -23,7 +23,7 @@ MIN_RATE = 70.0  # Hz: the twin publishes at 100; allow for a loaded 2-core mach
 
 @pytest.fixture(scope="module")
 def client(request, tmp_path_factory, twin_domain):
-    from dvrk_client import Arm, Ral
+    from cressim_ros.dvrk_client import Arm, Ral
 
     twin = module_twin(request, tmp_path_factory, twin_domain)
     ral = Ral("refusal_client", twin_domain)

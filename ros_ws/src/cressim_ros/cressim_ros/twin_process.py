@@ -1,7 +1,4 @@
-"""The twin as a subprocess for tests (a DDS participant of its own), and its module fixture helper.
-
-Kept out of conftest.py so that test modules can import it by a unique name.
-"""
+"""The twin as a subprocess (a DDS participant of its own): for tests and the demo."""
 import os
 import signal
 import subprocess
@@ -9,8 +6,8 @@ import sys
 import time
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[2]
-PKG = REPO / "ros_ws" / "src" / "cressim_ros"
+PKG = Path(__file__).resolve().parents[1]  # ros_ws/src/cressim_ros (or its install)
+REPO = Path(__file__).resolve().parents[4] if (Path(__file__).resolve().parents[4] / "ros_ws").is_dir() else Path.cwd()
 STARTUP_TIMEOUT = 90.0  # s: torch, rclpy, the engine on lavapipe (about 8 s when the machine is idle)
 
 
@@ -40,9 +37,9 @@ class Twin:
             if "cressim twin ready" in self.output():
                 return time.monotonic() - self.started
             if self.proc.poll() is not None:
-                raise AssertionError(f"twin exited with {self.proc.returncode}:\n{self.output()}")
+                raise RuntimeError(f"twin exited with {self.proc.returncode}:\n{self.output()}")
             time.sleep(0.1)
-        raise AssertionError(f"twin not ready after {timeout} s:\n{self.output()}")
+        raise RuntimeError(f"twin not ready after {timeout} s:\n{self.output()}")
 
     def alive(self) -> bool:
         return self.proc.poll() is None
@@ -57,11 +54,3 @@ class Twin:
                 self.proc.wait()
         self.log.close()
         return self.proc.returncode
-
-
-def module_twin(request, tmp_path_factory, domain, *params):
-    """A twin for a whole module (teardown registered with request)."""
-    twin = Twin(domain, tmp_path_factory.mktemp("twin") / "twin.log", *params)
-    request.addfinalizer(twin.stop)
-    twin.startup_s = twin.wait_ready()
-    return twin
