@@ -7,7 +7,8 @@ file(MAKE_DIRECTORY ${CRESSIM_SHADER_INCLUDE})
 # "cressim/x.h" names shaders/common/x.h for C++, build-time and run-time HLSL alike
 file(CREATE_LINK ${CRESSIM_SHADER_DIR}/common ${CRESSIM_SHADER_INCLUDE}/cressim SYMBOLIC)
 
-file(GLOB_RECURSE CRESSIM_SHADERS CONFIGURE_DEPENDS ${CRESSIM_SHADER_DIR}/*.comp.hlsl)
+file(GLOB_RECURSE CRESSIM_SHADERS CONFIGURE_DEPENDS ${CRESSIM_SHADER_DIR}/*.comp.hlsl ${CRESSIM_SHADER_DIR}/*.vert.hlsl
+     ${CRESSIM_SHADER_DIR}/*.frag.hlsl)
 file(GLOB CRESSIM_SHADER_HEADERS CONFIGURE_DEPENDS ${CRESSIM_SHADER_DIR}/common/*.h)
 
 set(CRESSIM_SPIRV_INCS)
@@ -16,14 +17,21 @@ set(table_arrays "")
 set(i 0)
 foreach(src ${CRESSIM_SHADERS})
   file(RELATIVE_PATH rel ${CRESSIM_SHADER_DIR} ${src})
-  string(REGEX REPLACE "\\.comp\\.hlsl$" "" name ${rel})
+  # "scene/reset_envs" for compute shaders, "render/raster.vert" for graphics stages
+  string(REGEX MATCH "\\.(comp|vert|frag)\\.hlsl$" suffix ${rel})
+  set(stage ${CMAKE_MATCH_1})
+  if(stage STREQUAL "comp")
+    string(REGEX REPLACE "\\.comp\\.hlsl$" "" name ${rel})
+  else()
+    string(REGEX REPLACE "\\.hlsl$" "" name ${rel})
+  endif()
   set(out ${CMAKE_BINARY_DIR}/spirv/${name}.inc)
   get_filename_component(out_dir ${out} DIRECTORY)
   # -g keeps OpName: pipelines bind buffers by their HLSL names, read back from the SPIR-V
   add_custom_command(
     OUTPUT ${out}
     COMMAND ${CMAKE_COMMAND} -E make_directory ${out_dir}
-    COMMAND ${GLSLC} -fshader-stage=compute -x hlsl --target-env=vulkan1.3 --target-spv=spv1.3
+    COMMAND ${GLSLC} -fshader-stage=${stage} -x hlsl --target-env=vulkan1.3 --target-spv=spv1.3
             -fauto-bind-uniforms -O -g -I ${CRESSIM_SHADER_INCLUDE} -mfmt=num -MD -MF ${out}.d -o ${out} ${src}
     DEPENDS ${src} ${CRESSIM_SHADER_HEADERS}
     DEPFILE ${out}.d

@@ -10,6 +10,7 @@ DTypeInfo dtype_info(DType t) {
     case DType::INT32: return {"int32", 4, 0};
     case DType::UINT32: return {"uint32", 4, 1};
     case DType::FLOAT64: return {"float64", 8, 2};
+    case DType::UINT8: return {"uint8", 1, 1};
     default: return {"none", 0, 0};
   }
 }
@@ -19,7 +20,8 @@ DType parse_dtype(const std::string& n) {
   if (n == "int32" || n == "i4" || n == "int" || n == "<i4") return DType::INT32;
   if (n == "uint32" || n == "u4" || n == "uint" || n == "<u4") return DType::UINT32;
   if (n == "float64" || n == "f8" || n == "double" || n == "<f8") return DType::FLOAT64;
-  throw std::invalid_argument("unsupported dtype '" + n + "': use float32, int32, uint32 or float64");
+  if (n == "uint8" || n == "u1" || n == "|u1") return DType::UINT8;
+  throw std::invalid_argument("unsupported dtype '" + n + "': use float32, int32, uint32, float64 or uint8");
 }
 
 uint64_t TypedBuffer::elements() const {

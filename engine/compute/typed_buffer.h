@@ -11,7 +11,7 @@
 
 namespace cressim::compute {
 
-enum class DType { NONE = 0, FLOAT32, INT32, UINT32, FLOAT64 };
+enum class DType { NONE = 0, FLOAT32, INT32, UINT32, FLOAT64, UINT8 };
 
 struct DTypeInfo {
   const char* name;

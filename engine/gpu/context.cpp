@@ -235,6 +235,9 @@ std::shared_ptr<Context> create_context(const ContextOptions& options) {
   ctx->external_semaphore_fd = has_device_extension(ctx->physical, VK_KHR_EXTERNAL_SEMAPHORE_FD_EXTENSION_NAME);
   if (ctx->external_memory_fd) extensions.push_back(VK_KHR_EXTERNAL_MEMORY_FD_EXTENSION_NAME);
   if (ctx->external_semaphore_fd) extensions.push_back(VK_KHR_EXTERNAL_SEMAPHORE_FD_EXTENSION_NAME);
+  // cameras of many envs render in one pass, each instance writing its layer from the vertex
+  // shader (SPIR-V 1.3 needs the extension; Vulkan 1.2 then wants both features on)
+  bool output_layer = false;
 
   // features the engine relies on: timeline semaphores, sync2, buffer addresses, scalar layouts
   VkPhysicalDeviceVulkan13Features f13{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES};
@@ -254,6 +257,12 @@ std::shared_ptr<Context> create_context(const ContextOptions& options) {
   e12.scalarBlockLayout = f12.scalarBlockLayout;
   e12.hostQueryReset = f12.hostQueryReset;
   e13.synchronization2 = VK_TRUE;
+  e13.dynamicRendering = f13.dynamicRendering;
+  output_layer = f12.shaderOutputLayer && f12.shaderOutputViewportIndex &&
+                 has_device_extension(ctx->physical, VK_EXT_SHADER_VIEWPORT_INDEX_LAYER_EXTENSION_NAME);
+  if (output_layer) extensions.push_back(VK_EXT_SHADER_VIEWPORT_INDEX_LAYER_EXTENSION_NAME);
+  e12.shaderOutputLayer = output_layer;
+  e12.shaderOutputViewportIndex = output_layer;
   e2.features.shaderFloat64 = f2.features.shaderFloat64;
   e2.features.shaderInt64 = f2.features.shaderInt64;
 

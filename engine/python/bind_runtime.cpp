@@ -176,6 +176,20 @@ void bind_runtime(py::module_& m) {
         d["env_count"] = to_numpy(m.env_count);
         return d;
       })
+      .def_property_readonly("cameras", [](const Engine& e) {
+        py::dict d;
+        std::vector<uint32_t> entity, env, group, layer;
+        if (e.renderer()) {
+          const auto& m = e.renderer()->model();
+          entity = m.camera_entity;
+          for (auto& c : m.cameras) env.push_back(c.ids.y), group.push_back(c.ids.z), layer.push_back(c.ids.w);
+        }
+        d["entity"] = to_numpy(entity);
+        d["env"] = to_numpy(env);
+        d["group"] = to_numpy(group);
+        d["layer"] = to_numpy(layer);
+        return d;
+      }, "Each camera's entity, env, and where its images are: camera{group}.rgb[layer] etc.")
       .def_property_readonly("prepared", &Engine::prepared)
       .def_property_readonly("uploaded", &Engine::uploaded)
       .def_property_readonly("frame_count", &Engine::frame_count)

@@ -4,6 +4,7 @@
 
 #include "python/bindings.h"
 #include "python/entity.h"
+#include "render/primitives.h"
 #include "scene/world.h"
 
 namespace py = pybind11;
@@ -168,6 +169,57 @@ void bind_physics_components(py::module_& m) {
       });
 }
 
+void bind_render_components(py::module_& m) {
+  using scene::Vec3;
+  py::class_<scene::Mesh>(m, "Mesh", "A triangle mesh for Renderable.mesh (add it with world.add_mesh).")
+      .def(py::init([](py::array_t<float, py::array::c_style | py::array::forcecast> positions,
+                       py::array_t<uint32_t, py::array::c_style | py::array::forcecast> triangles,
+                       py::array_t<float, py::array::c_style | py::array::forcecast> normals) {
+             scene::Mesh mesh;
+             mesh.positions.assign(positions.data(), positions.data() + positions.size());
+             mesh.indices.assign(triangles.data(), triangles.data() + triangles.size());
+             mesh.normals.assign(normals.data(), normals.data() + normals.size());
+             return mesh;
+           }),
+           py::arg("positions"), py::arg("triangles"), py::arg("normals"),
+           "positions (V, 3), triangles (T, 3) vertex indices, normals (V, 3), e.g. from trimesh.")
+      .def_static("box", &render::box_mesh, py::arg("half_extents"))
+      .def_static("sphere", &render::sphere_mesh, py::arg("radius"), py::arg("rings") = 24, py::arg("segments") = 48)
+      .def_static("capsule", &render::capsule_mesh, py::arg("radius"), py::arg("half_height"), py::arg("rings") = 12,
+                  py::arg("segments") = 32)
+      .def_static("plane", &render::plane_mesh, py::arg("half_size"))
+      .def_property_readonly("vertex_count", &scene::Mesh::vertex_count)
+      .def_property_readonly("triangle_count", [](const scene::Mesh& m) { return m.indices.size() / 3; });
+
+  py::class_<scene::Renderable>(m, "Renderable")
+      .def(py::init([](uint32_t mesh, std::array<float, 4> color, float metallic, float roughness, uint32_t seg) {
+             return scene::Renderable{mesh, color, metallic, roughness, seg};
+           }),
+           py::arg("mesh"), py::kw_only(), py::arg("color") = std::array<float, 4>{0.8f, 0.8f, 0.8f, 1.0f},
+           py::arg("metallic") = 0.f, py::arg("roughness") = 0.5f, py::arg("segmentation_id") = 0u,
+           "Drawn by its env's cameras; segmentation_id 0: entity id + 1 (0 is the background).")
+      .def_readwrite("mesh", &scene::Renderable::mesh)
+      .def_readwrite("color", &scene::Renderable::color)
+      .def_readwrite("segmentation_id", &scene::Renderable::segmentation_id);
+
+  py::class_<scene::Camera>(m, "Camera")
+      .def(py::init([](uint32_t w, uint32_t h, float fov_y, float fx, float fy, float cx, float cy, float near, float far) {
+             return scene::Camera{w, h, fov_y, fx, fy, cx, cy, near, far};
+           }),
+           py::kw_only(), py::arg("width") = 64u, py::arg("height") = 64u, py::arg("fov_y") = 50.f, py::arg("fx") = 0.f,
+           py::arg("fy") = 0.f, py::arg("cx") = -1.f, py::arg("cy") = -1.f, py::arg("near") = 0.01f,
+           py::arg("far") = 100.f,
+           "A pinhole camera looking along the entity's +z (x right, y down). fx/fy 0: from fov_y in degrees; "
+           "cx/cy < 0: the image centre.")
+      .def_readonly("width", &scene::Camera::width)
+      .def_readonly("height", &scene::Camera::height);
+
+  py::class_<scene::Light>(m, "Light")
+      .def(py::init([](Vec3 color, float intensity, float ambient) { return scene::Light{color, intensity, ambient}; }),
+           py::kw_only(), py::arg("color") = Vec3{1, 1, 1}, py::arg("intensity") = 1.f, py::arg("ambient") = 0.2f,
+           "A directional light travelling along the entity's +z (the env's first light is shaded).");
+}
+
 }  // namespace
 
 void bind_scene(py::module_& m) {
@@ -191,6 +243,7 @@ void bind_scene(py::module_& m) {
       });
 
   bind_physics_components(m);
+  bind_render_components(m);
 
   py::class_<scene::Transform>(m, "Transform")
       .def(py::init([](std::array<float, 3> p, std::array<float, 4> r, std::array<float, 3> s) {
@@ -216,11 +269,17 @@ void bind_scene(py::module_& m) {
       .def("add", &add<scene::RigidBody>, py::arg("component"))
       .def("add", &add<scene::Collider>, py::arg("component"))
       .def("add", &add<scene::Joint>, py::arg("component"))
+      .def("add", &add<scene::Renderable>, py::arg("component"))
+      .def("add", &add<scene::Camera>, py::arg("component"))
+      .def("add", &add<scene::Light>, py::arg("component"))
       .def("has", [](const Entity& e, py::object type) {
         if (type.is(py::type::of<scene::Transform>())) return e.world->has<scene::Transform>(e.id);
         if (type.is(py::type::of<scene::RigidBody>())) return e.world->has<scene::RigidBody>(e.id);
         if (type.is(py::type::of<scene::Collider>())) return e.world->has<scene::Collider>(e.id);
         if (type.is(py::type::of<scene::Joint>())) return e.world->has<scene::Joint>(e.id);
+        if (type.is(py::type::of<scene::Renderable>())) return e.world->has<scene::Renderable>(e.id);
+        if (type.is(py::type::of<scene::Camera>())) return e.world->has<scene::Camera>(e.id);
+        if (type.is(py::type::of<scene::Light>())) return e.world->has<scene::Light>(e.id);
         throw py::type_error("unknown component type");
       })
       .def_property(
@@ -245,6 +304,7 @@ void bind_scene(py::module_& m) {
         w->env_of(id);  // validates
         return Entity{w, id};
       })
+      .def("add_mesh", &scene::World::add_mesh, py::arg("mesh"), "Adds a shared mesh; returns its index.")
       .def_property_readonly("entity_count", &scene::World::entity_count)
       .def_property_readonly("topology_version", &scene::World::topology_version);
 }

@@ -48,6 +48,9 @@ void Engine::prepare() {
   prepared_ = false;
   mapping_ = scene::build_layout_mapping(*world_);
   rigid_model_ = physics::build_rigid_model(*world_, mapping_);  // authoring errors surface here
+  const auto& limits = ctx_->properties.limits;
+  render_model_ = render::build_render_model(*world_, mapping_,
+                                             std::min(limits.maxImageArrayLayers, limits.maxFramebufferLayers));
   prepared_ = true;
   uploaded_ = false;
 }
@@ -118,10 +121,12 @@ void Engine::upload_world() {
     rigid_ = std::make_unique<physics::RigidSystem>(ctx_, rigid_model_, physics_settings_, generation_, internal_,
                                                      shared_, scene);
   }
+  if (!render_model_.empty()) renderer_ = std::make_unique<render::Renderer>(ctx_, render_model_, generation_, internal_, internal_);
   uploaded_ = true;
 }
 
 void Engine::release_world_buffers() {
+  renderer_.reset();
   rigid_.reset();
   reset_pass_.reset();
   internal_.clear();
@@ -301,6 +306,8 @@ void Engine::record_op(VkCommandBuffer cmd, const FrameOp& op) {
     vkCmdFillBuffer(cmd, shared_.at("env.reset_mask")->storage->buffer.buffer, 0, VK_WHOLE_SIZE, 0);
   } else if (op.stage == Stage::PHYSICS && rigid_) {
     rigid_->record_step(cmd);
+  } else if (op.stage == Stage::VISUAL_SENSORS && renderer_) {
+    renderer_->record(cmd);
   }
   for (auto& r : recorders_[size_t(op.stage)]) r(cmd);
 }

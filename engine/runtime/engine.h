@@ -16,6 +16,7 @@
 #include "gpu/context.h"
 #include "physics/rigid_system.h"
 #include "physics/settings.h"
+#include "render/renderer.h"
 #include "runtime/frame.h"
 #include "scene/layout_mapping.h"
 #include "scene/world.h"
@@ -64,6 +65,7 @@ class Engine {
   const physics::PhysicsSettings& physics_settings() const { return physics_settings_; }
   void set_physics_settings(const physics::PhysicsSettings& s);
   const physics::RigidSystem* rigid() const { return rigid_.get(); }
+  const render::Renderer* renderer() const { return renderer_.get(); }
 
   // env control: envs flagged here (or in env.reset_mask by a pass) reset at the next frame
   void reset_envs(const std::vector<uint32_t>& envs);
@@ -119,6 +121,8 @@ class Engine {
   physics::PhysicsSettings physics_settings_;
   physics::RigidModel rigid_model_;  // built by prepare(), moved to rigid_ by upload_world()
   std::unique_ptr<physics::RigidSystem> rigid_;
+  render::RenderModel render_model_;  // built by prepare(), moved to renderer_ by upload_world()
+  std::unique_ptr<render::Renderer> renderer_;
   std::shared_ptr<compute::ComputePass> reset_pass_;
 
   std::vector<FrameOp> ops_;

@@ -72,6 +72,39 @@ struct Joint {
   bool collide_connected = false;
 };
 
-using ComponentTypes = std::tuple<Transform, RigidBody, Collider, Joint>;
+// Drawn by the cameras of its env: a mesh of the world's mesh table (world.add_mesh), scaled
+// by the entity's Transform.scale. segmentation_id 0: the entity id + 1 (0 is background).
+struct Renderable {
+  uint32_t mesh = 0;
+  std::array<float, 4> color{0.8f, 0.8f, 0.8f, 1.0f};  // linear RGBA
+  float metallic = 0, roughness = 0.5f;
+  uint32_t segmentation_id = 0;
+};
+
+// A pinhole camera looking along the entity's +z, x right, y down (optical frame).
+// fx, fy 0: from fov_y (degrees); cx, cy < 0: the image centre.
+struct Camera {
+  uint32_t width = 64, height = 64;
+  float fov_y = 50;
+  float fx = 0, fy = 0, cx = -1, cy = -1;
+  float near = 0.01f, far = 100;
+};
+
+// A directional light travelling along the entity's +z; one per env (the env's first).
+struct Light {
+  Vec3 color{1, 1, 1};
+  float intensity = 1;
+  float ambient = 0.2f;
+};
+
+using ComponentTypes = std::tuple<Transform, RigidBody, Collider, Joint, Renderable, Camera, Light>;
+
+// Triangle meshes shared by all envs; vertex normals per vertex.
+struct Mesh {
+  std::vector<float> positions;  // x y z per vertex
+  std::vector<float> normals;    // x y z per vertex
+  std::vector<uint32_t> indices;  // three per triangle
+  uint32_t vertex_count() const { return uint32_t(positions.size() / 3); }
+};
 
 }  // namespace cressim::scene

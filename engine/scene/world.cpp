@@ -15,6 +15,20 @@ EntityId World::create_entity(uint32_t env, const std::string& name) {
   return e;
 }
 
+uint32_t World::add_mesh(Mesh mesh) {
+  const size_t n = mesh.positions.size();
+  if (n == 0 || n % 3 || mesh.normals.size() != n || mesh.indices.size() % 3)
+    throw std::invalid_argument("add_mesh: positions and normals need 3 numbers per vertex (the same count), "
+                                "indices 3 per triangle");
+  for (uint32_t i : mesh.indices)
+    if (i >= mesh.vertex_count())
+      throw std::invalid_argument("add_mesh: index " + std::to_string(i) + " beyond the " +
+                                  std::to_string(mesh.vertex_count()) + " vertices");
+  meshes_.push_back(std::move(mesh));
+  bump_topology("added mesh " + std::to_string(meshes_.size() - 1));
+  return uint32_t(meshes_.size() - 1);
+}
+
 std::string World::describe(EntityId e) const {
   std::string s = "entity " + std::to_string(e);
   if (e < names_.size() && !names_[e].empty()) s += " '" + names_[e] + "'";

@@ -71,6 +71,10 @@ class World {
     dirty_.push_back(e);
   }
 
+  // shared meshes: the index goes into Renderable.mesh
+  uint32_t add_mesh(Mesh mesh);
+  const std::vector<Mesh>& meshes() const { return meshes_; }
+
   uint64_t topology_version() const { return topology_version_; }
   const std::string& last_topology_change() const { return last_change_; }
   // Entities whose values changed since the last call (for incremental uploads).
@@ -87,6 +91,7 @@ class World {
   uint64_t topology_version_ = 0, value_version_ = 0;
   std::string last_change_;
   std::vector<EntityId> dirty_;
+  std::vector<Mesh> meshes_;
 };
 
 }  // namespace cressim::scene

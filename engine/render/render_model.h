@@ -1,0 +1,45 @@
+// prepare() for the rasterizer: meshes packed into one vertex/index buffer, renderables and
+// cameras of every env, cameras grouped by resolution into layered targets, and the draw
+// list (one instanced draw per mesh and group).
+#pragma once
+#include <cstdint>
+#include <vector>
+
+#include "cressim/render.h"
+#include "scene/layout_mapping.h"
+#include "scene/world.h"
+
+namespace cressim::render {
+
+struct MeshRange {
+  uint32_t first_index = 0, index_count = 0;
+  int32_t vertex_offset = 0;
+};
+
+struct DrawCall {
+  uint32_t mesh = 0;
+  uint32_t first_instance = 0, instance_count = 0;
+};
+
+struct CameraGroup {
+  uint32_t width = 0, height = 0, layers = 0;
+  std::vector<DrawCall> draws;
+};
+
+struct RenderModel {
+  std::vector<shader::float4> vertex_positions, vertex_normals;
+  std::vector<uint32_t> indices;
+  std::vector<MeshRange> meshes;
+  std::vector<shader::RenderableData> renderables;
+  std::vector<shader::CameraData> cameras;
+  std::vector<uint32_t> camera_entity;
+  std::vector<shader::EnvLight> lights;  // per env
+  std::vector<std::array<uint32_t, 2>> instances;  // (renderable, camera), by group then mesh
+  std::vector<CameraGroup> groups;
+
+  bool empty() const { return cameras.empty(); }
+};
+
+RenderModel build_render_model(const scene::World& world, const scene::LayoutMapping& mapping, uint32_t max_layers);
+
+}  // namespace cressim::render

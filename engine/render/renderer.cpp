@@ -1,0 +1,149 @@
+#include "render/renderer.h"
+
+#include "gpu/commands.h"
+#include "gpu/context.h"
+#include "gpu/embedded_shaders.h"
+#include "gpu/graphics_pipeline.h"
+
+namespace cressim::render {
+namespace {
+
+using compute::DType;
+
+constexpr VkFormat kColor = VK_FORMAT_R8G8B8A8_UNORM, kDepth = VK_FORMAT_R32_SFLOAT,
+                   kSegmentation = VK_FORMAT_R32_UINT, kZ = VK_FORMAT_D32_SFLOAT;
+
+template <class T>
+std::shared_ptr<compute::TypedBuffer> make(std::shared_ptr<gpu::Context> ctx, BufferMap& into, const std::string& key,
+                                           const std::vector<T>& data, std::vector<int64_t> shape, DType t,
+                                           uint64_t generation, bool exportable = false) {
+  auto b = compute::make_typed_buffer(ctx, key, std::move(shape), t, true, exportable);
+  b->generation = generation;
+  if (!data.empty()) gpu::upload(*ctx, b->storage->buffer, data.data(), data.size() * sizeof(T));
+  into[key] = b;
+  return b;
+}
+
+VkRenderingAttachmentInfo attachment(const gpu::Image& im, VkImageLayout layout, VkClearValue clear) {
+  VkRenderingAttachmentInfo a{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+  a.imageView = im.view;
+  a.imageLayout = layout;
+  a.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  a.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  a.clearValue = clear;
+  return a;
+}
+
+void copy_out(VkCommandBuffer cmd, const gpu::Image& im, const compute::TypedBuffer& out) {
+  VkBufferImageCopy region{};
+  region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, im.layers};
+  region.imageExtent = {im.width, im.height, 1};
+  vkCmdCopyImageToBuffer(cmd, im.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, out.storage->buffer.buffer, 1, &region);
+}
+
+}  // namespace
+
+Renderer::Renderer(std::shared_ptr<gpu::Context> ctx, RenderModel model, uint64_t generation, BufferMap& internal,
+                   const BufferMap& scene)
+    : ctx_(std::move(ctx)), model_(std::move(model)) {
+  const bool exportable = ctx_->external_memory_fd && !ctx_->unified_memory;
+  auto n = [](const auto& v) { return int64_t(v.size()); };
+  std::vector<uint32_t> flat_instances;
+  for (auto& i : model_.instances) flat_instances.insert(flat_instances.end(), i.begin(), i.end());
+  const BufferMap bound{
+      {"vertex_positions", make(ctx_, internal, "render.vertex_positions", model_.vertex_positions,
+                                {n(model_.vertex_positions), 4}, DType::FLOAT32, generation)},
+      {"vertex_normals", make(ctx_, internal, "render.vertex_normals", model_.vertex_normals,
+                              {n(model_.vertex_normals), 4}, DType::FLOAT32, generation)},
+      {"instances", make(ctx_, internal, "render.instances", flat_instances, {n(model_.instances), 2}, DType::UINT32,
+                         generation)},
+      {"renderables", make(ctx_, internal, "render.renderables", model_.renderables,
+                           {n(model_.renderables), int64_t(sizeof(shader::RenderableData) / 4)}, DType::UINT32, generation)},
+      {"cameras", make(ctx_, internal, "render.cameras", model_.cameras,
+                       {n(model_.cameras), int64_t(sizeof(shader::CameraData) / 4)}, DType::UINT32, generation)},
+      {"lights", make(ctx_, internal, "render.lights", model_.lights,
+                      {n(model_.lights), int64_t(sizeof(shader::EnvLight) / 4)}, DType::FLOAT32, generation)},
+      {"positions", scene.at("transform.positions")},
+      {"rotations", scene.at("transform.rotations")},
+      {"scales", scene.at("transform.scales")}};
+  indices_ = std::make_unique<gpu::OwnedBuffer>(
+      ctx_, std::max<size_t>(model_.indices.size(), 1) * 4,
+      gpu::BufferOptions{gpu::Memory::DEVICE, VK_BUFFER_USAGE_INDEX_BUFFER_BIT, false});
+  gpu::upload(*ctx_, indices_->buffer, model_.indices.data(), model_.indices.size() * 4);
+
+  gpu::GraphicsPipelineDesc desc;
+  desc.name = "render/raster";
+  desc.vertex = &gpu::embedded_shader("render/raster.vert");
+  desc.fragment = &gpu::embedded_shader("render/raster.frag");
+  desc.color_formats = {kColor, kDepth, kSegmentation};
+  desc.depth_format = kZ;
+  pipeline_ = gpu::create_graphics_pipeline(*ctx_, desc);
+  for (const auto& b : pipeline_.reflection.bindings) gpu::bind_buffer(*ctx_, pipeline_, b.binding, bound.at(b.name)->storage->buffer.buffer);
+
+  const VkImageUsageFlags target = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+  for (size_t g = 0; g < model_.groups.size(); ++g) {
+    const auto& grp = model_.groups[g];
+    const int64_t L = grp.layers, H = grp.height, W = grp.width;
+    Targets t;
+    t.color = gpu::create_image(*ctx_, kColor, grp.width, grp.height, grp.layers, target);
+    t.depth = gpu::create_image(*ctx_, kDepth, grp.width, grp.height, grp.layers, target);
+    t.segmentation = gpu::create_image(*ctx_, kSegmentation, grp.width, grp.height, grp.layers, target);
+    t.z_buffer = gpu::create_image(*ctx_, kZ, grp.width, grp.height, grp.layers, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT);
+    const std::string prefix = "camera" + std::to_string(g) + ".";
+    t.rgb_out = make(ctx_, internal, prefix + "rgb", std::vector<uint8_t>{}, {L, H, W, 4}, DType::UINT8, generation, exportable);
+    t.depth_out = make(ctx_, internal, prefix + "depth", std::vector<float>{}, {L, H, W}, DType::FLOAT32, generation, exportable);
+    t.segmentation_out = make(ctx_, internal, prefix + "segmentation", std::vector<uint32_t>{}, {L, H, W}, DType::UINT32,
+                              generation, exportable);
+    targets_.push_back(std::move(t));
+  }
+}
+
+Renderer::~Renderer() {
+  for (auto& t : targets_)
+    for (gpu::Image* im : {&t.color, &t.depth, &t.segmentation, &t.z_buffer}) gpu::destroy_image(*ctx_, *im);
+  gpu::destroy_compute_pipeline(*ctx_, pipeline_);
+}
+
+void Renderer::record(VkCommandBuffer cmd) const {
+  for (size_t g = 0; g < model_.groups.size(); ++g) {
+    const auto& grp = model_.groups[g];
+    const Targets& t = targets_[g];
+    for (const gpu::Image* im : {&t.color, &t.depth, &t.segmentation})
+      gpu::image_barrier(cmd, *im, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
+    gpu::image_barrier(cmd, t.z_buffer, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
+    VkClearValue background{}, far_plane{};
+    far_plane.depthStencil.depth = 1.0f;
+    VkRenderingAttachmentInfo colors[3] = {
+        attachment(t.color, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, background),
+        attachment(t.depth, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, background),
+        attachment(t.segmentation, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, background)};
+    VkRenderingAttachmentInfo depth = attachment(t.z_buffer, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, far_plane);
+    depth.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+    VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+    ri.renderArea = {{0, 0}, {grp.width, grp.height}};
+    ri.layerCount = grp.layers;
+    ri.colorAttachmentCount = 3;
+    ri.pColorAttachments = colors;
+    ri.pDepthAttachment = &depth;
+    vkCmdBeginRendering(cmd, &ri);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_.pipeline);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_.layout, 0, 1, &pipeline_.set, 0, nullptr);
+    vkCmdBindIndexBuffer(cmd, indices_->buffer.buffer, 0, VK_INDEX_TYPE_UINT32);
+    const VkViewport viewport{0, 0, float(grp.width), float(grp.height), 0, 1};
+    const VkRect2D scissor{{0, 0}, {grp.width, grp.height}};
+    vkCmdSetViewport(cmd, 0, 1, &viewport);
+    vkCmdSetScissor(cmd, 0, 1, &scissor);
+    for (const auto& d : grp.draws) {
+      const MeshRange& m = model_.meshes[d.mesh];
+      vkCmdDrawIndexed(cmd, m.index_count, d.instance_count, m.first_index, m.vertex_offset, d.first_instance);
+    }
+    vkCmdEndRendering(cmd);
+    for (const gpu::Image* im : {&t.color, &t.depth, &t.segmentation})
+      gpu::image_barrier(cmd, *im, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
+    copy_out(cmd, t.color, *t.rgb_out);
+    copy_out(cmd, t.depth, *t.depth_out);
+    copy_out(cmd, t.segmentation, *t.segmentation_out);
+  }
+}
+
+}  // namespace cressim::render

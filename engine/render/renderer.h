@@ -1,0 +1,44 @@
+// The batched rasterizer: per camera group, one dynamic-rendering pass into layered targets
+// (colour, metric depth, segmentation), then copies into typed buffers that passes and torch
+// read ("camera{g}.rgb" (layers, H, W, 4) uint8, "camera{g}.depth" (layers, H, W) float32 in
+// metres, 0 where nothing was hit, "camera{g}.segmentation" (layers, H, W) uint32, 0 background).
+#pragma once
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "compute/typed_buffer.h"
+#include "gpu/image.h"
+#include "gpu/pipeline.h"
+#include "render/render_model.h"
+
+namespace cressim::render {
+
+using BufferMap = std::map<std::string, std::shared_ptr<compute::TypedBuffer>>;
+
+class Renderer {
+ public:
+  // internal: receives the renderer's buffers; scene: the engine's transform buffers
+  Renderer(std::shared_ptr<gpu::Context> ctx, RenderModel model, uint64_t generation, BufferMap& internal,
+           const BufferMap& scene);
+  ~Renderer();
+  Renderer(const Renderer&) = delete;
+  Renderer& operator=(const Renderer&) = delete;
+
+  void record(VkCommandBuffer cmd) const;
+  const RenderModel& model() const { return model_; }
+
+ private:
+  struct Targets {
+    gpu::Image color, depth, segmentation, z_buffer;
+    std::shared_ptr<compute::TypedBuffer> rgb_out, depth_out, segmentation_out;
+  };
+  std::shared_ptr<gpu::Context> ctx_;
+  RenderModel model_;
+  gpu::ComputePipeline pipeline_;  // a graphics pipeline (same layout/descriptor struct)
+  std::unique_ptr<gpu::OwnedBuffer> indices_;
+  std::vector<Targets> targets_;
+};
+
+}  // namespace cressim::render

@@ -1,0 +1,39 @@
+// Every (renderable, camera of its env) pair is one instance; each writes its camera's layer
+// of the group's layered targets, so all envs' cameras render in one pass.
+#include "cressim/quat.h"
+#include "cressim/render.h"
+
+#include "raster_resources.hlsli"
+
+struct VSOut {
+  float4 position : SV_Position;
+  float3 world : POSITION1;
+  float3 normal : NORMAL;
+  float depth : DEPTH;
+  nointerpolation uint renderable : RENDERABLE;
+  nointerpolation uint camera : CAMERA;
+  uint layer : SV_RenderTargetArrayIndex;
+};
+
+VSOut main(uint vertex : SV_VertexID, uint instance : SV_InstanceID) {
+  const uint2 pair = instances[instance];
+  const RenderableData r = renderables[pair.x];
+  const CameraData c = cameras[pair.y];
+  const uint row = r.ids.x, eye = c.ids.x;
+  const float3 s = scales[row].xyz;
+  const float4 q = rotations[row];
+  const float3 world = positions[row].xyz + quat_rotate(q, s * vertex_positions[vertex].xyz);
+  const float3 local = quat_unrotate(rotations[eye], world - positions[eye].xyz);
+  const float near = c.clip.x, far = c.clip.y;
+  VSOut o;
+  // clip space of a pinhole with the given intrinsics; Vulkan's y points down like the image's
+  const float2 pixel = c.intrinsics.xy * local.xy + c.intrinsics.zw * local.z;  // (u, v) * z
+  o.position = float4(2.0 * pixel / c.clip.zw - local.z, far * (local.z - near) / (far - near), local.z);
+  o.world = world;
+  o.normal = quat_rotate(q, vertex_normals[vertex].xyz / s);
+  o.depth = local.z;
+  o.renderable = pair.x;
+  o.camera = pair.y;
+  o.layer = c.ids.w;
+  return o;
+}
