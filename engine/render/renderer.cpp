@@ -111,10 +111,11 @@ void Renderer::record(VkCommandBuffer cmd) const {
     for (const gpu::Image* im : {&t.color, &t.depth, &t.segmentation})
       gpu::image_barrier(cmd, *im, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
     gpu::image_barrier(cmd, t.z_buffer, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
-    VkClearValue background{}, far_plane{};
+    VkClearValue background{}, black{}, far_plane{};
+    black.color.float32[3] = 1.0f;  // opaque
     far_plane.depthStencil.depth = 1.0f;
     VkRenderingAttachmentInfo colors[3] = {
-        attachment(t.color, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, background),
+        attachment(t.color, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, black),
         attachment(t.depth, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, background),
         attachment(t.segmentation, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, background)};
     VkRenderingAttachmentInfo depth = attachment(t.z_buffer, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, far_plane);

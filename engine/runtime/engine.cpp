@@ -1,6 +1,7 @@
 #include "runtime/engine.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 
 #include "gpu/error.h"
@@ -14,6 +15,12 @@ constexpr size_t kFrameCacheSize = 8;      // distinct frame shapes kept recorde
 constexpr uint32_t kMaxProfiledOps = 255;  // timestamp slots per profiled frame
 
 using compute::DType;
+
+// authored quaternions need not be unit: shaders rotate with them as they are
+std::array<float, 4> unit(const std::array<float, 4>& q) {
+  const float n = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+  return n > 0 ? std::array<float, 4>{q[0] / n, q[1] / n, q[2] / n, q[3] / n} : std::array<float, 4>{0, 0, 0, 1};
+}
 
 std::string join(const std::vector<std::string>& v) {
   std::string s;
@@ -90,7 +97,8 @@ void Engine::upload_world() {
     scene::Transform t = world_->has<scene::Transform>(e) ? world_->get<scene::Transform>(e) : scene::Transform{};
     std::copy(t.position.begin(), t.position.end(), &pos[size_t(r) * 4]);
     pos[size_t(r) * 4 + 3] = 1.f;
-    std::copy(t.rotation.begin(), t.rotation.end(), &rot[size_t(r) * 4]);
+    const auto q = unit(t.rotation);
+    std::copy(q.begin(), q.end(), &rot[size_t(r) * 4]);
     std::copy(t.scale.begin(), t.scale.end(), &scl[size_t(r) * 4]);
   }
   for (const char* k : {"transform.positions", "transform.initial_positions"}) put(internal(k, {rows, 4}, DType::FLOAT32), pos.data());
@@ -240,8 +248,8 @@ void Engine::flush_host_writes() {
     const float p[4] = {t.position[0], t.position[1], t.position[2], 1.f};
     const float s[4] = {t.scale[0], t.scale[1], t.scale[2], 0.f};
     for (const char* k : {"transform.positions", "transform.initial_positions"}) write_rows(*internal_.at(k), row, p, 16);
-    for (const char* k : {"transform.rotations", "transform.initial_rotations"})
-      write_rows(*internal_.at(k), row, t.rotation.data(), 16);
+    const auto q = unit(t.rotation);
+    for (const char* k : {"transform.rotations", "transform.initial_rotations"}) write_rows(*internal_.at(k), row, q.data(), 16);
     write_rows(*internal_.at("transform.scales"), row, s, 16);
     // a rigid body follows: kinematic ones move there over the next step, dynamic ones jump
     const int64_t body = rigid_ ? rigid_->body_of(e) : -1;
@@ -253,7 +261,7 @@ void Engine::flush_host_writes() {
       rotations.insert(rotations.end(), {"rigid.rotations", "rigid.initial_rotations"});
     }
     for (const char* k : positions) write_rows(*lookup(k), uint32_t(body), p, 16);
-    for (const char* k : rotations) write_rows(*lookup(k), uint32_t(body), t.rotation.data(), 16);
+    for (const char* k : rotations) write_rows(*lookup(k), uint32_t(body), q.data(), 16);
   }
 }
 
