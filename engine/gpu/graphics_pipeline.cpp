@@ -28,27 +28,7 @@ ComputePipeline create_graphics_pipeline(Context& ctx, const GraphicsPipelineDes
   }
   p.module = modules[0];
 
-  const VkShaderStageFlags stages = VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
-  std::vector<VkDescriptorSetLayoutBinding> bindings;
-  for (const auto& b : p.reflection.bindings) {
-    VkDescriptorSetLayoutBinding lb{};
-    lb.binding = b.binding;
-    lb.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-    lb.descriptorCount = 1;
-    lb.stageFlags = stages;
-    bindings.push_back(lb);
-  }
-  VkDescriptorSetLayoutCreateInfo li{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
-  li.bindingCount = uint32_t(bindings.size());
-  li.pBindings = bindings.data();
-  check(vkCreateDescriptorSetLayout(ctx.device, &li, nullptr, &p.set_layout), "vkCreateDescriptorSetLayout");
-  VkPushConstantRange range{stages, 0, p.reflection.push_constant_size};
-  VkPipelineLayoutCreateInfo pli{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
-  pli.setLayoutCount = 1;
-  pli.pSetLayouts = &p.set_layout;
-  pli.pushConstantRangeCount = range.size ? 1 : 0;
-  pli.pPushConstantRanges = &range;
-  check(vkCreatePipelineLayout(ctx.device, &pli, nullptr, &p.layout), "vkCreatePipelineLayout");
+  create_layout_and_set(ctx, p, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT);
 
   VkPipelineShaderStageCreateInfo st[2]{};
   for (int i = 0; i < 2; ++i) {
@@ -103,19 +83,6 @@ ComputePipeline create_graphics_pipeline(Context& ctx, const GraphicsPipelineDes
   vkDestroyShaderModule(ctx.device, modules[1], nullptr);
   check(r, ("vkCreateGraphicsPipelines " + desc.name).c_str());
 
-  if (!bindings.empty()) {
-    VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, uint32_t(bindings.size())};
-    VkDescriptorPoolCreateInfo dpi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
-    dpi.maxSets = 1;
-    dpi.poolSizeCount = 1;
-    dpi.pPoolSizes = &size;
-    check(vkCreateDescriptorPool(ctx.device, &dpi, nullptr, &p.pool), "vkCreateDescriptorPool");
-    VkDescriptorSetAllocateInfo ai{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
-    ai.descriptorPool = p.pool;
-    ai.descriptorSetCount = 1;
-    ai.pSetLayouts = &p.set_layout;
-    check(vkAllocateDescriptorSets(ctx.device, &ai, &p.set), "vkAllocateDescriptorSets");
-  }
   return p;
 }
 

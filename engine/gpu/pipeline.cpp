@@ -5,6 +5,43 @@
 
 namespace cressim::gpu {
 
+void create_layout_and_set(Context& ctx, ComputePipeline& p, VkShaderStageFlags stages) {
+  std::vector<VkDescriptorSetLayoutBinding> bindings;
+  for (const auto& b : p.reflection.bindings) {
+    VkDescriptorSetLayoutBinding lb{};
+    lb.binding = b.binding;
+    lb.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    lb.descriptorCount = 1;
+    lb.stageFlags = stages;
+    bindings.push_back(lb);
+  }
+  VkDescriptorSetLayoutCreateInfo li{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
+  li.bindingCount = uint32_t(bindings.size());
+  li.pBindings = bindings.data();
+  check(vkCreateDescriptorSetLayout(ctx.device, &li, nullptr, &p.set_layout), "vkCreateDescriptorSetLayout");
+
+  VkPushConstantRange range{stages, 0, p.reflection.push_constant_size};
+  VkPipelineLayoutCreateInfo pli{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+  pli.setLayoutCount = 1;
+  pli.pSetLayouts = &p.set_layout;
+  pli.pushConstantRangeCount = range.size ? 1 : 0;
+  pli.pPushConstantRanges = &range;
+  check(vkCreatePipelineLayout(ctx.device, &pli, nullptr, &p.layout), "vkCreatePipelineLayout");
+
+  if (bindings.empty()) return;
+  VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, uint32_t(bindings.size())};
+  VkDescriptorPoolCreateInfo dpi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
+  dpi.maxSets = 1;
+  dpi.poolSizeCount = 1;
+  dpi.pPoolSizes = &size;
+  check(vkCreateDescriptorPool(ctx.device, &dpi, nullptr, &p.pool), "vkCreateDescriptorPool");
+  VkDescriptorSetAllocateInfo ai{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
+  ai.descriptorPool = p.pool;
+  ai.descriptorSetCount = 1;
+  ai.pSetLayouts = &p.set_layout;
+  check(vkAllocateDescriptorSets(ctx.device, &ai, &p.set), "vkAllocateDescriptorSets");
+}
+
 ComputePipeline create_compute_pipeline(Context& ctx, const std::vector<uint32_t>& spirv, const std::string& entry,
                                         const std::string& name) {
   ComputePipeline p;
@@ -20,27 +57,7 @@ ComputePipeline create_compute_pipeline(Context& ctx, const std::vector<uint32_t
   mi.pCode = spirv.data();
   check(vkCreateShaderModule(ctx.device, &mi, nullptr, &p.module), ("vkCreateShaderModule " + name).c_str());
 
-  std::vector<VkDescriptorSetLayoutBinding> bindings;
-  for (const auto& b : p.reflection.bindings) {
-    VkDescriptorSetLayoutBinding lb{};
-    lb.binding = b.binding;
-    lb.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-    lb.descriptorCount = 1;
-    lb.stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
-    bindings.push_back(lb);
-  }
-  VkDescriptorSetLayoutCreateInfo li{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
-  li.bindingCount = uint32_t(bindings.size());
-  li.pBindings = bindings.data();
-  check(vkCreateDescriptorSetLayout(ctx.device, &li, nullptr, &p.set_layout), "vkCreateDescriptorSetLayout");
-
-  VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, p.reflection.push_constant_size};
-  VkPipelineLayoutCreateInfo pli{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
-  pli.setLayoutCount = 1;
-  pli.pSetLayouts = &p.set_layout;
-  pli.pushConstantRangeCount = range.size ? 1 : 0;
-  pli.pPushConstantRanges = &range;
-  check(vkCreatePipelineLayout(ctx.device, &pli, nullptr, &p.layout), "vkCreatePipelineLayout");
+  create_layout_and_set(ctx, p, VK_SHADER_STAGE_COMPUTE_BIT);
 
   VkComputePipelineCreateInfo ci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
   ci.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
@@ -51,19 +68,6 @@ ComputePipeline create_compute_pipeline(Context& ctx, const std::vector<uint32_t
   check(vkCreateComputePipelines(ctx.device, VK_NULL_HANDLE, 1, &ci, nullptr, &p.pipeline),
         ("vkCreateComputePipelines " + name).c_str());
 
-  if (!bindings.empty()) {
-    VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, uint32_t(bindings.size())};
-    VkDescriptorPoolCreateInfo dpi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
-    dpi.maxSets = 1;
-    dpi.poolSizeCount = 1;
-    dpi.pPoolSizes = &size;
-    check(vkCreateDescriptorPool(ctx.device, &dpi, nullptr, &p.pool), "vkCreateDescriptorPool");
-    VkDescriptorSetAllocateInfo ai{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
-    ai.descriptorPool = p.pool;
-    ai.descriptorSetCount = 1;
-    ai.pSetLayouts = &p.set_layout;
-    check(vkAllocateDescriptorSets(ctx.device, &ai, &p.set), "vkAllocateDescriptorSets");
-  }
   return p;
 }
 

@@ -22,6 +22,10 @@ struct ComputePipeline {
   ShaderReflection reflection;
 };
 
+// The descriptor set layout (every reflected binding a storage buffer), the pipeline layout with
+// the push-constant range, and the one descriptor set, for `stages`; p.reflection must be set.
+void create_layout_and_set(Context& ctx, ComputePipeline& p, VkShaderStageFlags stages);
+
 ComputePipeline create_compute_pipeline(Context& ctx, const std::vector<uint32_t>& spirv, const std::string& entry,
                                         const std::string& name);
 void destroy_compute_pipeline(Context& ctx, ComputePipeline& p);

@@ -5,22 +5,13 @@
 
 #include "raster_resources.hlsli"
 
-struct PSIn {
-  float4 position : SV_Position;
-  float3 world : POSITION1;
-  float3 normal : NORMAL;
-  float depth : DEPTH;
-  nointerpolation uint renderable : RENDERABLE;
-  nointerpolation uint camera : CAMERA;
-};
-
 struct PSOut {
   float4 color : SV_Target0;
   float depth : SV_Target1;
   uint segmentation : SV_Target2;
 };
 
-PSOut main(PSIn i) {
+PSOut main(Varyings i) {
   const RenderableData r = renderables[i.renderable];
   const CameraData c = cameras[i.camera];
   const EnvLight light = lights[r.ids.w];

@@ -5,17 +5,8 @@
 
 #include "raster_resources.hlsli"
 
-struct VSOut {
-  float4 position : SV_Position;
-  float3 world : POSITION1;
-  float3 normal : NORMAL;
-  float depth : DEPTH;
-  nointerpolation uint renderable : RENDERABLE;
-  nointerpolation uint camera : CAMERA;
-  uint layer : SV_RenderTargetArrayIndex;
-};
-
-VSOut main(uint vertex : SV_VertexID, uint instance : SV_InstanceID) {
+// the layer is an output of its own: the fragment stage may not read it (it would need Geometry)
+Varyings main(uint vertex : SV_VertexID, uint instance : SV_InstanceID, out uint layer : SV_RenderTargetArrayIndex) {
   const uint2 pair = instances[instance];
   const RenderableData r = renderables[pair.x];
   const CameraData c = cameras[pair.y];
@@ -25,7 +16,7 @@ VSOut main(uint vertex : SV_VertexID, uint instance : SV_InstanceID) {
   const float3 world = positions[row].xyz + quat_rotate(q, s * vertex_positions[vertex].xyz);
   const float3 local = quat_unrotate(rotations[eye], world - positions[eye].xyz);
   const float near = c.clip.x, far = c.clip.y;
-  VSOut o;
+  Varyings o;
   // clip space of a pinhole with the given intrinsics; Vulkan's y points down like the image's
   const float2 pixel = c.intrinsics.xy * local.xy + c.intrinsics.zw * local.z;  // (u, v) * z
   o.position = float4(2.0 * pixel / c.clip.zw - local.z, far * (local.z - near) / (far - near), local.z);
@@ -34,6 +25,6 @@ VSOut main(uint vertex : SV_VertexID, uint instance : SV_InstanceID) {
   o.depth = local.z;
   o.renderable = pair.x;
   o.camera = pair.y;
-  o.layer = c.ids.w;
+  layer = c.ids.w;
   return o;
 }
