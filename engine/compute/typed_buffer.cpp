@@ -48,7 +48,7 @@ std::string TypedBuffer::describe() const {
 
 std::shared_ptr<TypedBuffer> make_typed_buffer(std::shared_ptr<gpu::Context> ctx, std::string key,
                                                std::vector<int64_t> shape, DType dtype, bool read_only,
-                                               bool exportable) {
+                                               bool exportable, gpu::Memory memory) {
   auto b = std::make_shared<TypedBuffer>();
   b->key = std::move(key);
   b->shape = std::move(shape);
@@ -59,6 +59,7 @@ std::shared_ptr<TypedBuffer> make_typed_buffer(std::shared_ptr<gpu::Context> ctx
   if (dtype == DType::NONE) throw std::invalid_argument("buffer '" + b->key + "': no dtype");
   gpu::BufferOptions options;
   options.exportable = exportable;
+  options.memory = memory;
   b->storage = std::make_shared<gpu::OwnedBuffer>(std::move(ctx), b->bytes(), options);
   return b;
 }

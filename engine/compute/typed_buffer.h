@@ -41,6 +41,6 @@ struct TypedBuffer {
 
 std::shared_ptr<TypedBuffer> make_typed_buffer(std::shared_ptr<gpu::Context> ctx, std::string key,
                                                std::vector<int64_t> shape, DType dtype, bool read_only,
-                                               bool exportable = false);
+                                               bool exportable = false, gpu::Memory memory = gpu::Memory::DEVICE);
 
 }  // namespace cressim::compute

@@ -58,6 +58,12 @@ RigidSystem::RigidSystem(std::shared_ptr<gpu::Context> ctx, RigidModel model, co
   in("joint.positions", std::vector<float>(size_t(nj), 0.f), {nj}, DType::FLOAT32, exportable);
   in("joint.velocities", std::vector<float>(size_t(nj), 0.f), {nj}, DType::FLOAT32, exportable);
   in("env.health", std::vector<uint32_t>(size_t(ne), 0u), {ne}, DType::UINT32, exportable);
+  {  // one host-visible counter, so that the host learns of unhealthy envs without reading them all
+    auto events = compute::make_typed_buffer(ctx, "env.health_events", {1}, DType::UINT32, true, false, gpu::Memory::READBACK);
+    events->generation = generation;
+    gpu::fill(*ctx, events->storage->buffer, 0);
+    internal["env.health_events"] = events;
+  }
   // scratch
   in("rigid.prev_positions", zeros_b, {nb, 4}, DType::FLOAT32);
   in("rigid.prev_rotations", zeros_b, {nb, 4}, DType::FLOAT32);
@@ -91,7 +97,7 @@ RigidSystem::RigidSystem(std::shared_ptr<gpu::Context> ctx, RigidModel model, co
        {"joint_lambdas", get("joint.lambdas")}, {"joint_positions", get("joint.positions")},
        {"joint_velocities", get("joint.velocities")}, {"transform_positions", get("transform.positions")},
        {"transform_rotations", get("transform.rotations")}, {"health", get("env.health")},
-       {"reset_mask", get("env.reset_mask")}});
+       {"reset_mask", get("env.reset_mask")}, {"health_events", get("env.health_events")}});
   reset_ = compute::create_builtin_pass(
       ctx, "physics/rigid_reset",
       {{"env_ranges", get("rigid.env_ranges")}, {"joints", get("joint.model")},
@@ -109,6 +115,11 @@ RigidSystem::RigidSystem(std::shared_ptr<gpu::Context> ctx, RigidModel model, co
   reset_->set_threads({std::max<uint64_t>(envs, 1), 1, 1});
   step_->set_threads({std::max<uint64_t>(envs, 1), 1, 1});
   set_settings(settings);
+}
+
+uint64_t RigidSystem::health_events(const BufferMap& internal) const {
+  const auto& b = internal.at("env.health_events")->storage->buffer;
+  return b.mapped ? *static_cast<const volatile uint32_t*>(b.mapped) : 0;
 }
 
 void RigidSystem::set_settings(const PhysicsSettings& s) {

@@ -25,6 +25,8 @@ class RigidSystem {
   void record_step(VkCommandBuffer cmd) const { step_->record(cmd); }
   void record_reset(VkCommandBuffer cmd) const { reset_->record(cmd); }
   const RigidModel& model() const { return model_; }
+  // envs flagged unhealthy (and reset) since upload_world(), read from host-visible memory
+  uint64_t health_events(const BufferMap& internal) const;
   int64_t body_of(uint32_t entity) const { return entity < model_.entity_body.size() ? model_.entity_body[entity] : -1; }
 
  private:

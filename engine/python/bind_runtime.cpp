@@ -190,6 +190,8 @@ void bind_runtime(py::module_& m) {
         d["layer"] = to_numpy(layer);
         return d;
       }, "Each camera's entity, env, and where its images are: camera{group}.rgb[layer] etc.")
+      .def_property_readonly("health_events", &Engine::health_events,
+                             "Envs flagged unhealthy (NaN/Inf, speed, penetration) and reset since upload_world().")
       .def_property_readonly("prepared", &Engine::prepared)
       .def_property_readonly("uploaded", &Engine::uploaded)
       .def_property_readonly("frame_count", &Engine::frame_count)

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 
 #include "gpu/error.h"
@@ -130,6 +131,7 @@ void Engine::upload_world() {
                                                      shared_, scene);
   }
   if (!render_model_.empty()) renderer_ = std::make_unique<render::Renderer>(ctx_, render_model_, generation_, internal_, internal_);
+  reported_health_events_ = 0;
   uploaded_ = true;
 }
 
@@ -384,6 +386,15 @@ void Engine::end_frame() {
   gpu::wait(*ctx_, timeline_, value, last_stage_);
   ++frames_;
 
+  // report envs the solver flagged this frame (one host-visible counter, O(1))
+  if (const uint64_t events = health_events(); events > reported_health_events_) {
+    std::fprintf(stderr, "cressim: warning: %llu env(s) flagged unhealthy (NaN, speed or penetration) in frame %llu "
+                 "and reset; env.health says which and why\n",
+                 static_cast<unsigned long long>(events - reported_health_events_),
+                 static_cast<unsigned long long>(frames_));
+    reported_health_events_ = events;
+  }
+
   if (frame.profiled && frame.ops.size() + 1 <= kMaxProfiledOps) {
     const uint32_t n = uint32_t(frame.ops.size()) + 2;
     std::vector<uint64_t> ticks(n);
@@ -397,6 +408,8 @@ void Engine::end_frame() {
       timings_.push_back({frame.ops[i].label(), double(ticks[i + 2] - ticks[i + 1]) * ms_per_tick});
   }
 }
+
+uint64_t Engine::health_events() const { return rigid_ ? rigid_->health_events(internal_) : 0; }
 
 void Engine::set_cuda_stream(uintptr_t stream, bool host_sync) {
   cuda_stream_ = stream;

@@ -66,6 +66,8 @@ class Engine {
   void set_physics_settings(const physics::PhysicsSettings& s);
   const physics::RigidSystem* rigid() const { return rigid_.get(); }
   const render::Renderer* renderer() const { return renderer_.get(); }
+  // envs the solver flagged (NaN, speed, penetration) and reset since upload_world()
+  uint64_t health_events() const;
 
   // env control: envs flagged here (or in env.reset_mask by a pass) reset at the next frame
   void reset_envs(const std::vector<uint32_t>& envs);
@@ -129,6 +131,7 @@ class Engine {
   std::vector<RecordedFrame> frames_cache_;
   uint64_t frames_ = 0, recorded_ = 0, submits_ = 0;
   std::string last_stage_;
+  uint64_t reported_health_events_ = 0;
 
   // host writes for memory the host cannot map: staged, copied at the head of the next submit
   gpu::Buffer staging_;

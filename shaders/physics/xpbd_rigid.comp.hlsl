@@ -32,6 +32,7 @@ RWStructuredBuffer<float4> transform_positions;
 RWStructuredBuffer<float4> transform_rotations;
 RWStructuredBuffer<uint> health;
 RWStructuredBuffer<uint> reset_mask;
+RWStructuredBuffer<uint> health_events;       // [0]: envs flagged so far (host-visible, read each frame)
 
 #include "rigid_bodies.hlsli"
 #include "rigid_joints.hlsli"
@@ -283,5 +284,8 @@ void main(uint3 id : SV_DispatchThreadID) {
   }
   if (sink.deepest > pc.max_penetration) flags |= HEALTH_PENETRATION;
   health[env] = flags;
-  if (flags != 0) reset_mask[env] = 1;
+  if (flags != 0) {
+    reset_mask[env] = 1;
+    InterlockedAdd(health_events[0], 1u);
+  }
 }

@@ -187,11 +187,13 @@ def test_an_exploding_env_is_flagged_and_reset_alone(make_engine):
     step(engine, 1)
     assert list(engine.buffer("env.health").read()) == [0, 2]  # HEALTH_SPEED in env 1 only
     assert list(engine.buffer("env.reset_mask").read()) == [0, 1]  # reset requested
+    assert engine.health_events == 1  # and reported (the engine logs a warning)
     resets_before = engine.buffer("env.reset_count").read().copy()
     engine.buffer("control.body_reset_velocities").write(np.zeros((2, 4)))
     step(engine, 1)
     assert list(engine.buffer("env.reset_count").read() - resets_before) == [0, 1]
     assert list(engine.buffer("env.health").read()) == [0, 0]
+    assert engine.health_events == 1
     pos = engine.buffer("rigid.positions").read()
     assert np.all(np.isfinite(pos)) and abs(pos[1, 0]) < 0.01
 
