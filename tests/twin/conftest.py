@@ -70,3 +70,31 @@ def start_twin(tmp_path):
     yield start
     for twin in twins:
         twin.stop()
+
+
+@pytest.fixture
+def make_node(ros_domain_id):
+    """make_node(**params) -> a TwinNode in this process (own rclpy context, ticked by hand with
+    node._tick()); closed, checked for Vulkan validation messages and destroyed at teardown."""
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.parameter import Parameter
+
+    from cressim_ros.twin_node import TwinNode
+
+    context = Context()
+    rclpy.init(context=context, domain_id=ros_domain_id)
+    nodes = []
+
+    def make(**params):
+        node = TwinNode(context=context, parameter_overrides=[Parameter(k, value=v) for k, v in params.items()])
+        nodes.append(node)
+        return node
+
+    yield make
+    for node in nodes:
+        node.close()
+        engine = node.bodies.engine  # tests/conftest.py turns the Vulkan validation layer on
+        assert engine.validation_messages == [], "\n".join(engine.validation_messages)
+        node.destroy_node()
+    rclpy.try_shutdown(context=context)

@@ -8,32 +8,6 @@ import yaml
 pytestmark = pytest.mark.ros
 
 
-@pytest.fixture
-def make_node(ros_domain_id):
-    import rclpy
-    from rclpy.context import Context
-    from rclpy.parameter import Parameter
-
-    from cressim_ros.twin_node import TwinNode
-
-    context = Context()
-    rclpy.init(context=context, domain_id=ros_domain_id)
-    nodes = []
-
-    def make(**params):
-        node = TwinNode(context=context, parameter_overrides=[Parameter(k, value=v) for k, v in params.items()])
-        nodes.append(node)
-        return node
-
-    yield make
-    for node in nodes:
-        node.close()
-        engine = node.bodies.engine  # tests/conftest.py turns the Vulkan validation layer on
-        assert engine.validation_messages == [], "\n".join(engine.validation_messages)
-        node.destroy_node()
-    rclpy.try_shutdown(context=context)
-
-
 def test_recording_hook(make_node, tmp_path):
     bag = tmp_path / "bag"
     node = make_node(record=str(bag))

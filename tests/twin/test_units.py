@@ -116,3 +116,17 @@ def test_operating_state_machine():
     assert s.state == "DISABLED" and s.is_homed  # disable keeps the homing
     t = s.command("home")  # from DISABLED: powers up first, as the dVRK does
     assert t.start_homing and s.state == "ENABLED"
+
+
+def test_dynamics_option():
+    from cressim_ros import params as P
+
+    assert load_scene(str(REPO / "scenes" / "psm_twin.yaml")).dynamics == "kinematic"
+    assert parse_scene("arm:\n  dynamics: dynamic\n").dynamics == "dynamic"
+    with pytest.raises(SceneError) as info:
+        parse_scene("arm:\n  dynamics: soft\n", "x.yaml")
+    assert str(info.value).startswith("x.yaml:2:13:") and "not one of kinematic, dynamic" in str(info.value)
+    cfg = P.defaults(parse_scene(""))
+    assert "not one of" in P.check({"dynamics": "soft"}, cfg, running=False)
+    assert P.check({"dynamics": "dynamic"}, cfg, running=False) is None
+    assert "restart" in P.check({"dynamics": "dynamic"}, cfg, running=True)

@@ -1,17 +1,48 @@
-"""The PSM's links as kinematic bodies in a cressim engine, one arm per env.
+"""The PSM's links as rigid bodies in a cressim engine, one arm per env, kinematic or dynamic.
 
-Each URDF link with collision geometry becomes one kinematic rigid body whose colliders are
-the link's collision primitives (cylinder -> capsule of the same radius and length, box,
-sphere). Every tick the twin writes all envs' link poses into the engine's body targets in one
-batched step: the full URDF chain's FK (pytorch-kinematics, mimic joints expanded by a matrix),
-times the arm's base pose, scattered into `control.body_target_positions/rotations` through
-a precomputed index. No per-env Python loop runs per tick.
+Kinematic (`arm.dynamics: kinematic`, the default). Each URDF link with collision geometry
+becomes one kinematic rigid body whose colliders are the link's collision primitives (cylinder
+-> capsule of the same radius and length, box, sphere). Every tick the twin writes all envs'
+link poses into the engine's body targets in one batched step: the full URDF chain's FK
+(pytorch-kinematics, mimic joints expanded by a matrix), times the arm's base pose, scattered
+into `control.body_target_positions/rotations` through a precomputed index. The engine bodies
+follow the twin's own joint state, so contacts see the arm's motion (and its speed: kinematic
+bodies cover their way in equal shares per substep) but never push it back.
 
-The arm is kinematic on purpose: the twin reports setpoints and measured values from its own
-joint state; the engine bodies follow so that contacts with other scene objects see the arm's
-motion (and its speed: kinematic bodies cover their way in equal shares per substep).
+Dynamic (`arm.dynamics: dynamic`). The arm is the DH-equivalent serial chain of dynamic bodies
+connected by engine joints: yaw hinge (on the world: the base is fixed), pitch hinge about the
+RCM, insertion slider, roll hinge, wrist pitch and wrist yaw hinges, and one hinge per jaw
+blade (each blade at +-1/2 of the jaw angle, as the URDF's mimic joints). Which link rides on
+which body is found numerically: a link belongs to DH frame k when its pose relative to that
+frame is constant over random joint values (the parallelogram's pitch_front link turns about
+the RCM, so it is frame 2's). The links that belong to no DH frame (the parallelogram's back,
+top and bottom bars) and the mount stay kinematic and follow FK of the measured joints, one
+tick behind. Joint coordinates are the dVRK's joint values (the bodies are authored at q = 0
+and posed at the initial values by the engine's reset), so the engine's limits are the URDF
+limits, and measured values are `joint.positions` / `joint.velocities` gathered with one index
+tensor for all envs.
+
+What the engine's XPBD solver (Gauss-Seidel over the joints, 1-4 iterations) needed, found by
+experiment (docs/twin.md, "Dynamic arm", has the numbers):
+- body origins on the joints (`_mass_properties`): a body's origin (which the engine takes for
+  its centre of mass) sits where its joints meet on its axis, with the links' inertia about that
+  point; with origins at the links' centres of mass the yaw drifted by 0.7 rad under gravity
+  even with rigid drives;
+- armature (reflected motor inertia) on yaw and pitch and a little on roll: the drive acts on
+  its child body alone, and a light child under a heavy subtree made the drives weak;
+- no engine damping on the light joints (roll, wrist, jaw): the engine's damping is a
+  constraint toward rest solved after the drive, and on bodies this light it cancelled the
+  drive (the joint stalled);
+- in the twin, per joint and env, batched (`set_targets`): a velocity-limited ramp of the
+  command, gravity feed-forward, velocity feed-forward, damping of the velocity error on yaw and
+  pitch, a bounded integral term at rest, clamping to the limits.
+Segmentation: `link_names` and `link_entity_ids` ((num_envs, num_links) int64) map every link
+with geometry to the entity that carries it in each env (one entity per link, except links
+merged into one dynamic body, such as the suction tube on the shaft, which share it).
 """
 from __future__ import annotations
+
+import math
 
 import numpy as np
 import pytorch_kinematics as pk
@@ -20,12 +51,48 @@ import yourdfpy
 from pytorch_kinematics.transforms import matrix_to_quaternion
 
 import cressim
+from cressim.robots import PSM_DH, dh_forward_kinematics
 
 ARM_GROUP = 2  # collision group of arm links; they do not collide with each other (mask below)
+DYNAMICS = ("kinematic", "dynamic")
+INTERFACE_JOINTS = tuple(row.name for row in PSM_DH)
+
+# Position drives of the dynamic arm: (stiffness, damping, max force) per joint, SI units
+# (N m/rad, N m s/rad, N m for hinges; N/m, N s/m, N for the insertion slider; per jaw blade).
+# - max force = the dVRK's maximum joint effort (shared/DVRK.md: 3.316, 3.316, 9.878, 0.33,
+#   0.25, 0.20 N m / N; jaw 0.16 N m, which each blade gets).
+# - stiffness = max effort / saturation error, the error at which the drive gives its full
+#   effort: 0.01 rad for the arm's hinges, 1 mm for the insertion, 0.005 rad per jaw blade.
+# - damping (the engine's, toward rest) = max effort / (2 x the URDF velocity limit: 2 rad/s,
+#   0.4 m/s) on yaw, pitch and insertion: it is capped by max force too, so more would cap the
+#   joint's speed (at max force / damping); the twin cancels it while moving (velocity
+#   feed-forward). 0 on the light joints (module docstring).
+DRIVES = {
+    "yaw": (331.6, 0.829, 3.316),
+    "pitch": (331.6, 0.829, 3.316),
+    "insertion": (9878.0, 12.35, 9.878),
+    "roll": (33.0, 0.0, 0.33),
+    "wrist_pitch": (25.0, 0.0, 0.25),
+    "wrist_yaw": (20.0, 0.0, 0.20),
+    "jaw": (32.0, 0.0, 0.16),
+}
+# reflected motor inertia added about the joint axis, kg m^2 (module docstring)
+ARMATURE = {"yaw": 0.1, "pitch": 0.1, "roll": 1e-5, "wrist_pitch": 0.0, "wrist_yaw": 0.0, "jaw": 0.0}
+# the twin's damping of the velocity error (command - measured), N m s/rad, added to the target
+TWIN_DAMPING = {"yaw": 10.0, "pitch": 10.0}
+MAX_HINGE_STEP = 1.0  # rad (see ArmBodies.set_targets)
+INTEGRAL_TIME = 0.5  # s: integral term of the dynamic arm's drives (see ArmBodies.set_targets)
+INTEGRAL_LIMIT = 0.5  # its bound, as a share of the drive's saturation error (max force / stiffness)
+SOLVER_ITERATIONS = 2  # dynamic arm: XPBD iterations per substep (4 and more let the insertion creep down)
+# floors of the light wrist and jaw bodies (kg, kg m^2): with the links' own 1e-8 kg m^2 the
+# solver corrected gravity's pull on the wrist_yaw body (9 mm off the wrist pitch axis) by turning
+# the wrist pitch, which then sat 0.015 rad off its setpoint per 0.4 rad of wrist pitch
+MIN_MASS, MIN_INERTIA = 1e-3, 1e-6
+RIGID_TOLERANCE = 1e-6  # link pose relative to a DH frame constant within this: it rides on that frame
 
 
-def _rotation_xyzw(R: np.ndarray) -> tuple:
-    q = matrix_to_quaternion(torch.as_tensor(R, dtype=torch.float64))  # w, x, y, z
+def _rotation_xyzw(R) -> tuple:
+    q = matrix_to_quaternion(torch.as_tensor(np.asarray(R), dtype=torch.float64))  # w, x, y, z
     return (float(q[1]), float(q[2]), float(q[3]), float(q[0]))
 
 
@@ -41,23 +108,55 @@ def _shape(geometry, origin: np.ndarray):
     return None  # meshes: the engine has no mesh colliders; the link is shown only
 
 
-class ArmBodies:
-    """num_envs arms (links as kinematic bodies) in one engine.
+def _link_shapes(link, frame=np.eye(4)):
+    """The link's collision primitives, posed in `frame` (a 4x4 from the body frame to the link)."""
+    out = []
+    for c in link.collisions:
+        s = _shape(c.geometry, frame @ (c.origin if c.origin is not None else np.eye(4)))
+        if s is not None:
+            out.append(s)
+    return out
 
-    joint order of `write`: the 6 interface joints (a 4-dof tool ignores the wrist ones),
-    then the jaw.
+
+def _quat_matrix(x, y, z, w) -> np.ndarray:
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+class _Body:
+    """A body being authored: links, world pose at q = 0, mass properties."""
+
+    def __init__(self, name, frame):
+        self.name, self.frame, self.links = name, frame, []  # frame: 0 base/kinematic, 1..dof DH, "jaw_*"
+        self.pose = np.eye(4)
+        self.mass, self.inertia = 0.0, (0.0, 0.0, 0.0)
+
+
+class ArmBodies:
+    """num_envs arms (links as kinematic or dynamic bodies) in one engine.
+
+    Joint order everywhere: the 6 interface joints (a 4-dof tool ignores the wrist ones), then the
+    jaw. `write` poses the kinematic bodies; in dynamic mode `set_targets` drives the joints and
+    `read_joints` returns the simulated joint values.
     """
 
     def __init__(self, urdf_path, num_envs: int, *, base_position, base_rotation, publish_rate: float,
-                 physics_rate: float, initial_q: np.ndarray, initial_jaw: float, dof: int, device=None):
-        self.num_envs, self.dof = num_envs, dof
+                 physics_rate: float, initial_q: np.ndarray, initial_jaw: float, dof: int, device=None,
+                 dynamics: str = "kinematic", gravity=(0.0, 0.0, -9.81)):
+        if dynamics not in DYNAMICS:
+            raise ValueError(f"dynamics {dynamics!r} is not one of {', '.join(DYNAMICS)}")
+        self.num_envs, self.dof, self.dynamics = num_envs, dof, dynamics
+        self.dynamic = dynamics == "dynamic"
         urdf = yourdfpy.URDF.load(str(urdf_path), build_scene_graph=False, load_meshes=False)
+        self.urdf = urdf
         joints = {j.name: j for j in urdf.robot.joints}
         self.chain = pk.build_chain_from_urdf(open(urdf_path, "rb").read()).to(dtype=torch.float64)
+        self.has_jaw = "jaw" in joints and joints["jaw"].type != "fixed"
 
         # chain joint values = interface values @ expand.T + shift (mimic joints follow theirs)
         # columns: the tool's arm joints, then the jaw (a column of zeros for a tool without one)
-        sources = list(("yaw", "pitch", "insertion", "roll", "wrist_pitch", "wrist_yaw")[:dof]) + ["jaw"]
+        sources = list(INTERFACE_JOINTS[:dof]) + ["jaw"]
         chain_joints = self.chain.get_joint_parameter_names()
         expand = torch.zeros(len(chain_joints), dof + 1, dtype=torch.float64)
         shift = torch.zeros(len(chain_joints), dtype=torch.float64)
@@ -68,39 +167,70 @@ class ArmBodies:
             shift[row] = (mimic.offset or 0.0) if mimic else 0.0
         self._expand, self._shift = expand, shift
 
-        # links with collision geometry, and their shapes
-        self.links, shapes = [], []
-        for link in urdf.robot.links:
-            link_shapes = [s for s in (_shape(c.geometry, c.origin if c.origin is not None else np.eye(4))
-                                       for c in link.collisions) if s is not None]
-            if link_shapes:
-                self.links.append(link.name)
-                shapes.append(link_shapes)
-
         base = np.eye(4)
-        x, y, z, w = base_rotation
-        base[:3, :3] = [[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]]
+        base[:3, :3] = _quat_matrix(*base_rotation)
         base[:3, 3] = base_position
         self.base = torch.as_tensor(base)
+        self.gravity = np.asarray(gravity, dtype=np.float64)
 
-        q0 = torch.as_tensor(np.asarray(initial_q, dtype=np.float64)[None, :dof])
-        start = self._link_poses(q0, torch.tensor([[initial_jaw]], dtype=torch.float64))[0]  # (L, 4, 4)
+        # links with collision geometry (segmentation covers these), in URDF order
+        geometry_links = [link for link in urdf.robot.links if _link_shapes(link)]
+        self.link_names = [link.name for link in geometry_links]
+        q_author = np.zeros(dof) if self.dynamic else np.asarray(initial_q, dtype=np.float64)[:dof]
+        jaw_author = 0.0 if self.dynamic else float(initial_jaw)
+        poses = self._fk_links(torch.as_tensor(q_author[None]), torch.tensor([[jaw_author]], dtype=torch.float64))
+        if self.dynamic:
+            bodies, joint_specs = self._plan_dynamic(urdf, joints, poses)
+        else:
+            bodies, joint_specs = [], []
+            for link in geometry_links:
+                b = _Body(link.name, 0)
+                b.links, b.pose = [link], poses[link.name]
+                bodies.append(b)
+        # kinematic bodies follow FK (`write`): all links in kinematic mode, the rest in dynamic mode
+        self.follower_links = [b.links[0].name for b in bodies if b.frame == 0]
+
         world = cressim.World(cressim.SceneLayout(num_envs))
-        entity_ids = []
+        body_ids = np.zeros((num_envs, len(bodies)), dtype=np.int64)
+        joint_ids = np.zeros((num_envs, len(joint_specs)), dtype=np.int64)
         for env in range(num_envs):
-            for name, link_shapes, T in zip(self.links, shapes, start):
-                e = world.create_entity(env=env, name=name)
-                e.add(cressim.Transform(position=tuple(float(v) for v in T[:3, 3]),
-                                        rotation=_rotation_xyzw(T[:3, :3].numpy())))
-                e.add(cressim.RigidBody(mass=0.1, kinematic=True))
-                e.add(cressim.Collider(link_shapes, group=ARM_GROUP, mask=0xFFFFFFFF & ~ARM_GROUP))
-                entity_ids.append(e.id)
+            entities = []
+            for k, b in enumerate(bodies):
+                e = world.create_entity(env=env, name=b.name)
+                e.add(cressim.Transform(position=tuple(float(v) for v in b.pose[:3, 3]),
+                                        rotation=_rotation_xyzw(b.pose[:3, :3])))
+                if b.frame == 0:
+                    e.add(cressim.RigidBody(mass=0.1, kinematic=True))
+                else:
+                    e.add(cressim.RigidBody(mass=b.mass, inertia=b.inertia))
+                shapes = [s for link in b.links
+                          for s in _link_shapes(link, np.linalg.solve(b.pose, poses[link.name]))]
+                if shapes:
+                    e.add(cressim.Collider(shapes, group=ARM_GROUP, mask=0xFFFFFFFF & ~ARM_GROUP))
+                entities.append(e)
+                body_ids[env, k] = e.id
+            for k, spec in enumerate(joint_specs):
+                parent = None if spec["parent"] is None else entities[spec["parent"]]
+                e = world.create_entity(env=env, name=spec["name"])
+                e.add(cressim.Joint(spec["kind"], body_a=parent, body_b=entities[spec["child"]],
+                                    anchor=spec["anchor"], axis=spec["axis"], limits=spec["limits"],
+                                    drive="position", stiffness=spec["drive"][0], damping=spec["drive"][1],
+                                    max_force=spec["drive"][2]))
+                joint_ids[env, k] = e.id
+        self.body_names = [b.name for b in bodies]
+        self.body_entity_ids = body_ids  # (N, B): the entity of each body in each env
+        body_of_link = {link.name: k for k, b in enumerate(bodies) for link in b.links}
+        self.link_entity_ids = body_ids[:, [body_of_link[n] for n in self.link_names]]  # (N, L)
+        self.joint_names = [spec["name"] for spec in joint_specs]
+        self.joint_entity_ids = joint_ids
+
         self.engine = cressim.Engine(world, device=device)
+        self.solver_iterations = SOLVER_ITERATIONS if self.dynamic else 1
         substeps = int(round(physics_rate / publish_rate))
-        self.engine.physics = cressim.PhysicsSettings(dt=1.0 / publish_rate, substeps=substeps, iterations=1,
-                                                      gravity=(0.0, 0.0, -9.81))
+        self.engine.physics = cressim.PhysicsSettings(dt=1.0 / publish_rate, substeps=substeps,
+                                                      iterations=self.solver_iterations,
+                                                      gravity=tuple(float(g) for g in self.gravity))
+        self.dt = 1.0 / publish_rate
         self.engine.prepare()
         self.engine.upload_world()
 
@@ -111,36 +241,348 @@ class ArmBodies:
             self.engine.set_cuda_stream(torch.cuda.current_stream(self.device).cuda_stream)
         body_entity = np.asarray(self.engine.buffer("rigid.body_entity").read()).astype(np.int64)
         row_of_entity = {int(e): row for row, e in enumerate(body_entity)}
-        # rows[env * L + link]: the body of that link in that env
-        self.rows = torch.as_tensor([row_of_entity[e] for e in entity_ids], device=self.device)
+        follower = [k for k, b in enumerate(bodies) if b.frame == 0]
+        # rows[env * F + k]: the body row of follower link k in that env
+        self.rows = torch.as_tensor([row_of_entity[int(e)] for e in body_ids[:, follower].reshape(-1)],
+                                    device=self.device, dtype=torch.long)
+        self.body_rows = torch.as_tensor(np.vectorize(row_of_entity.get)(body_ids), device=self.device,
+                                         dtype=torch.long).reshape(num_envs, len(bodies))
         self.health = torch.from_dlpack(self.engine.buffer("env.health"))
+        self.reset_velocities = torch.from_dlpack(self.engine.buffer("control.body_reset_velocities"))
+        self.reset_angular_velocities = torch.from_dlpack(
+            self.engine.buffer("control.body_reset_angular_velocities"))
         self._on = dict(device=self.device, dtype=torch.float64)
         self._expand, self._shift, self.base = (t.to(**self._on) for t in (self._expand, self._shift, self.base))
         self.chain = self.chain.to(**self._on)
+        if self.dynamic:
+            self._init_dynamic(bodies, joint_specs, joint_ids, initial_q, initial_jaw)
 
-    def _link_poses(self, q, jaw):
-        """(N, dof), (N, 1) -> (N, L, 4, 4): link frames in the world (base pose applied)."""
+    # ------------------------------------------------------------------ authoring (dynamic)
+    def _plan_dynamic(self, urdf, joints, poses):
+        """Bodies (kinematic followers and the chain's dynamic bodies) and joints of the dynamic arm."""
+        dof = self.dof
+        links = {link.name: link for link in urdf.robot.links}
+        # which DH frame each link rides on: its pose relative to that frame is constant
+        gen = torch.Generator().manual_seed(0)
+        samples = 8
+        lower = torch.tensor([row.lower for row in PSM_DH[:dof]], dtype=torch.float64)
+        upper = torch.tensor([row.upper for row in PSM_DH[:dof]], dtype=torch.float64)
+        q = lower + (upper - lower) * torch.rand(samples, dof, generator=gen, dtype=torch.float64)
+        jaw = torch.rand(samples, 1, generator=gen, dtype=torch.float64)
+        sampled = self._fk_links(q, jaw, all_links=True, with_base=False)
+        frames = torch.cat([torch.eye(4, dtype=torch.float64).expand(samples, 1, 4, 4),
+                            dh_forward_kinematics(q, all_frames=True)[:, :dof]], dim=1)  # (S, dof + 1, 4, 4)
+        frame_of = {}
+        for name, T in sampled.items():
+            for k in range(dof, -1, -1):
+                rel = torch.linalg.solve(frames[:, k], T)
+                if float((rel - rel[0]).abs().max()) < RIGID_TOLERANCE:
+                    frame_of[name] = k
+                    break
+        # the jaw blades: hinges on the body of their parent link, driven at multiplier x jaw
+        blades = []
+        for j in urdf.robot.joints:
+            mimic = j.mimic
+            if j.type == "revolute" and mimic is not None and mimic.joint == "jaw" and _link_shapes(links[j.child]):
+                blades.append(j)
+
+        base = self.base.numpy()
+        dh0 = base @ np.concatenate([np.eye(4)[None], dh_forward_kinematics(np.zeros(6), all_frames=True)])
+        bodies = []
+        for name in self.link_names:  # kinematic followers: the mount (frame 0) and the parallelogram bars
+            if frame_of.get(name) in (None, 0) and all(b.child != name for b in blades):
+                b = _Body(name, 0)
+                b.links, b.pose = [links[name]], poses[name]
+                bodies.append(b)
+        # body origins: where the joints meet on the body's own axis (see _mass_properties): the
+        # RCM for yaw and pitch (frames 1, 2), the instrument's wrist (frame 4's origin, on the
+        # insertion axis) for the insertion carriage, frame k's origin for the rest
+        segment, origin = {}, {}
+        for k in range(1, dof + 1):
+            members = [links[n] for n in self.link_names if frame_of.get(n) == k]
+            b = _Body(members[0].name if members else f"PSM_{INTERFACE_JOINTS[k - 1]}_body", k)
+            b.links = members
+            prismatic = PSM_DH[k - 1].type == "prismatic"
+            origin[k] = dh0[k + 1 if prismatic and k < dof else k][:3, 3]
+            self._mass_properties(b, poses, dh0[k], origin[k], 0.0 if prismatic else ARMATURE[INTERFACE_JOINTS[k - 1]])
+            segment[k] = len(bodies)
+            bodies.append(b)
+        joint_specs = []
+        for k in range(1, dof + 1):
+            row = PSM_DH[k - 1]
+            name = row.name
+            joint_specs.append(dict(
+                name=name, kind="hinge" if row.type == "revolute" else "slider",
+                parent=None if k == 1 else segment[k - 1], child=segment[k],
+                anchor=tuple(float(v) for v in origin[k]), axis=tuple(float(v) for v in dh0[k][:3, 2]),
+                limits=(row.lower, row.upper), drive=DRIVES[name], gain=1.0, frame=k,
+                speed=float(joints[name].limit.velocity)))
+        for j in blades:
+            parent = frame_of.get(j.parent)
+            if parent is None or parent < 1:
+                raise ValueError(f"jaw blade joint {j.name}: its parent link {j.parent} rides on no DH frame")
+            b = _Body(j.child, f"jaw:{j.name}")
+            b.links = [links[j.child]]
+            T = poses[j.child]  # the blade's joint frame at jaw = 0
+            axis = T[:3, :3] @ np.asarray(j.axis if j.axis is not None else (1, 0, 0), dtype=np.float64)
+            self._mass_properties(b, poses, T, T[:3, 3], ARMATURE["jaw"])
+            bodies.append(b)
+            lo, hi = sorted((j.limit.lower, j.limit.upper))
+            joint_specs.append(dict(
+                name=j.name, kind="hinge", parent=segment[parent], child=len(bodies) - 1,
+                anchor=tuple(float(v) for v in T[:3, 3]), axis=tuple(float(v) for v in axis),
+                limits=(lo, hi), drive=DRIVES["jaw"], gain=float(j.mimic.multiplier or 1.0), frame=parent,
+                speed=float(j.limit.velocity)))
+        return bodies, joint_specs
+
+    @staticmethod
+    def _mass_properties(b: _Body, poses, frame, origin, armature=0.0):
+        """Body frame at `origin` (a point on the body's joint axis) with the orientation of `frame`;
+        the links' mass; their inertia about that point (diagonal in the body frame).
+
+        The engine takes the body origin for the centre of mass. We put it where the body's
+        joints meet on its axis, not at the links' centre of mass: XPBD's hinge constraints
+        (one Gauss-Seidel sweep per iteration) converge badly when an anchor sits far along the
+        axis from a body whose inertia across the axis is small (a long, light link such as the
+        yaw link: 0.41 m from the RCM, 0.009 kg m^2), and the arm then drifted under gravity even
+        with rigid drives. With the origin on the joints the inertia about each joint axis is
+        still the links' (parallel-axis term included), so each joint's own dynamics are right;
+        what changes is where gravity acts (at the joints, as in a counterbalanced arm; the
+        gravity feed-forward models exactly that) and the coupling between joints."""
+        parts = []
+        for link in b.links:
+            inertial = link.inertial
+            if inertial is None or not inertial.mass:
+                continue
+            T = poses[link.name] @ (inertial.origin if inertial.origin is not None else np.eye(4))
+            parts.append((float(inertial.mass), T, np.asarray(inertial.inertia, dtype=np.float64)))
+        pose = np.array(frame, dtype=np.float64)
+        pose[:3, 3] = origin
+        mass = sum(m for m, _, _ in parts)
+        inertia = np.zeros((3, 3))
+        for m, T, I in parts:
+            r = T[:3, 3] - pose[:3, 3]
+            inertia += T[:3, :3] @ I @ T[:3, :3].T + m * (r @ r * np.eye(3) - np.outer(r, r))
+        R = pose[:3, :3]
+        b.pose, b.mass = pose, max(mass, MIN_MASS)
+        diag = np.diag(R.T @ inertia @ R) + np.array([0.0, 0.0, armature])  # z: the joint axis
+        b.inertia = tuple(float(max(v, MIN_INERTIA)) for v in diag)
+
+    def _init_dynamic(self, bodies, joint_specs, joint_ids, initial_q, initial_jaw):
+        N, dev = self.num_envs, self.device
+        joint_entity = np.asarray(self.engine.buffer("joint.entity").read()).astype(np.int64)
+        row_of_entity = {int(e): row for row, e in enumerate(joint_entity)}
+        # joint_rows[env, k]: the row in joint.* / control.joint_* of joint k (dof arm joints, then blades)
+        self.joint_rows = torch.as_tensor(np.vectorize(row_of_entity.get)(joint_ids), device=dev,
+                                          dtype=torch.long).reshape(N, len(joint_specs))
+        self._flat_rows = self.joint_rows.reshape(-1)
+        self.joint_positions = torch.from_dlpack(self.engine.buffer("joint.positions"))
+        self.joint_velocities = torch.from_dlpack(self.engine.buffer("joint.velocities"))
+        self.joint_targets = torch.from_dlpack(self.engine.buffer("control.joint_targets"))
+        self.joint_reset = torch.from_dlpack(self.engine.buffer("control.joint_reset"))
+        self.stiffness = torch.tensor([s["drive"][0] for s in joint_specs], **self._on)
+        self.max_force = torch.tensor([s["drive"][2] for s in joint_specs], **self._on)
+        self._d_over_k = torch.tensor([s["drive"][1] / s["drive"][0] for s in joint_specs], **self._on)
+        self._twin_d_over_k = torch.tensor([TWIN_DAMPING.get(s["name"], 0.0) / s["drive"][0] for s in joint_specs],
+                                           **self._on)
+        self._speed = torch.tensor([s["speed"] for s in joint_specs], **self._on)
+        self._lower = torch.tensor([s["limits"][0] for s in joint_specs], **self._on)
+        self._upper = torch.tensor([s["limits"][1] for s in joint_specs], **self._on)
+        gains = torch.tensor([s["gain"] for s in joint_specs[self.dof:]], **self._on)
+        self.blade_gains = gains  # (J - dof,)
+        # joint values (N, dof + 1: arm then jaw) -> coordinates of every engine joint (N, J)
+        J = len(joint_specs)
+        to_coord = torch.zeros(self.dof + 1, J, **self._on)
+        to_coord[: self.dof, : self.dof] = torch.eye(self.dof, **self._on)
+        to_coord[self.dof, self.dof:] = gains
+        self._to_coord = to_coord
+        # coordinates (N, J) -> jaw: the mean over blades of coordinate / gain
+        self._jaw_of = (1.0 / gains / max(len(gains), 1))[:, None] if len(gains) else None
+        # gravity model: mass and local centre of mass of each dynamic body in its DH frame
+        dyn = [b for b in bodies if b.frame != 0]
+        frame_index = {s["child"]: s["frame"] for s in joint_specs}  # blades: their parent's frame
+        body_index = {id(b): k for k, b in enumerate(bodies)}
+        dh0 = self.base.cpu().numpy() @ np.concatenate(
+            [np.eye(4)[None], dh_forward_kinematics(np.zeros(6), all_frames=True)])
+        seg, mass, com = [], [], []
+        for b in dyn:
+            k = frame_index[body_index[id(b)]]
+            seg.append(k)
+            mass.append(b.mass)
+            com.append(np.linalg.solve(dh0[k], np.append(b.pose[:3, 3], 1.0))[:3])
+        seg = torch.tensor(seg, device=dev)
+        self._g_seg = seg
+        self._g_force = torch.tensor(np.outer(mass, self.gravity), **self._on)  # (B, 3)
+        self._g_com = torch.tensor(np.array(com), **self._on)  # (B, 3) in the body's DH frame
+        # carried[i, b]: arm joint i (0-based) moves body b
+        self._g_carried = (seg[None, :] >= torch.arange(1, self.dof + 1, device=dev)[:, None]).to(torch.float64)
+        self._prismatic = torch.tensor([row.type == "prismatic" for row in PSM_DH[: self.dof]], device=dev)
+        # start: every env posed at the initial joint values by the engine's reset
+        q0 = torch.as_tensor(np.asarray(initial_q, dtype=np.float64)[None, : self.dof], **self._on).repeat(N, 1)
+        jaw0 = torch.full((N, 1), float(initial_jaw), **self._on)
+        self._hinge = torch.tensor([s["kind"] == "hinge" for s in joint_specs], device=dev)
+        self._coords = self.coordinates(q0, jaw0)  # measured coordinates (unwrapped) after the last frame
+        self._rates = torch.zeros_like(self._coords)
+        self._bias = torch.zeros(N, J, **self._on)  # integral terms (coordinates)
+        self._bias_limit = INTEGRAL_LIMIT * self.max_force / self.stiffness
+        self._last_coords = self.coordinates(q0, jaw0)
+        self.set_targets(q0, jaw0)
+        self.prepare_reset(torch.arange(N, device=dev), q0, jaw0)
+        self.engine.reset_envs(list(range(N)))
+
+    # ------------------------------------------------------------------ kinematics
+    def _fk_links(self, q, jaw, *, all_links=False, with_base=True):
+        """(M, dof), (M, 1) float64 -> {link: (M, 4, 4)} (numpy (4, 4) for M = 1 unless all_links)."""
+        th = torch.cat([q[:, : self.dof], jaw], dim=-1) @ self._expand.T.to(q) + self._shift.to(q)
+        frames = self.chain.forward_kinematics(th)
+        base = self.base.to(q) if with_base else torch.eye(4, dtype=q.dtype, device=q.device)
+        if all_links:
+            return {name: frame.get_matrix() for name, frame in frames.items()}
+        return {name: (base @ frames[name].get_matrix())[0].cpu().numpy() for name in frames}
+
+    def _link_poses(self, q, jaw, names):
+        """(N, dof), (N, 1) -> (N, L, 4, 4): frames of `names` in the world (base pose applied)."""
         th = torch.cat([q[:, : self.dof], jaw], dim=-1) @ self._expand.T + self._shift
         frames = self.chain.forward_kinematics(th)
-        T = torch.stack([frames[name].get_matrix() for name in self.links], dim=1)
+        T = torch.stack([frames[name].get_matrix() for name in names], dim=1)
         return self.base @ T
 
+    # ------------------------------------------------------------------ per tick
     def write(self, q: torch.Tensor, jaw: torch.Tensor):
-        """Sets every env's link targets from joint values q (N, >= dof) and jaw (N, 1)."""
-        T = self._link_poses(q.to(**self._on), jaw.to(**self._on)).reshape(-1, 4, 4)
+        """Sets the kinematic bodies' targets (all links; dynamic mode: the followers) from joint
+        values q (N, >= dof) and jaw (N, 1)."""
+        if self.rows.numel() == 0:
+            return
+        T = self._link_poses(q.to(**self._on), jaw.to(**self._on), self.follower_links).reshape(-1, 4, 4)
         quat = matrix_to_quaternion(T[:, :3, :3])  # w, x, y, z
         self.target_p[self.rows, :3] = T[:, :3, 3].to(self.target_p.dtype)
         self.target_r[self.rows] = quat[:, [1, 2, 3, 0]].to(self.target_r.dtype)
+
+    def gravity_torques(self, q: torch.Tensor) -> torch.Tensor:
+        """(M, >= dof) -> (M, dof): generalized gravity force on each arm joint (N m or N) from the
+        dynamic bodies it carries (jaw blades counted as rigid on the wrist)."""
+        q = q[:, : self.dof].to(**self._on)
+        F = self.base @ dh_forward_kinematics(q, all_frames=True)[:, : self.dof]  # (M, dof, 4, 4)
+        frames = torch.cat([self.base.expand(q.shape[0], 1, 4, 4), F], dim=1)
+        z, o = F[..., :3, 2], F[..., :3, 3]  # joint axes and origins (M, dof, 3)
+        Tb = frames[:, self._g_seg]  # (M, B, 4, 4)
+        com = (Tb[..., :3, :3] @ self._g_com[None, :, :, None]).squeeze(-1) + Tb[..., :3, 3]  # (M, B, 3)
+        moments = torch.linalg.cross(com, self._g_force.expand_as(com), dim=-1)  # (M, B, 3)
+        m_sum = self._g_carried @ moments  # (M, dof, 3)
+        f_sum = self._g_carried @ self._g_force  # (dof, 3)
+        revolute = ((m_sum - torch.linalg.cross(o, f_sum.expand_as(o), dim=-1)) * z).sum(-1)
+        prismatic = (f_sum[None] * z).sum(-1)
+        return torch.where(self._prismatic[None], prismatic, revolute)
+
+    def coordinates(self, q: torch.Tensor, jaw: torch.Tensor) -> torch.Tensor:
+        """Interface values (N, >= dof), (N, 1) -> engine joint coordinates (N, J)."""
+        return torch.cat([q[:, : self.dof].to(**self._on), jaw.to(**self._on)], dim=1) @ self._to_coord
+
+    def set_targets(self, q: torch.Tensor, jaw: torch.Tensor, envs: torch.Tensor | None = None):
+        """Dynamic mode: drive targets of every env (or of `envs`, a long tensor) for the setpoint
+        joint values q (M, >= dof) and jaw (M, 1). Per joint coordinate:
+
+        - the commanded value moves toward the setpoint at most at the URDF velocity limit per
+          frame (a servo_jp step becomes a ramp; unramped, the light wrist overshot its limits);
+        - + the integral term, for joints whose command did not move since the last frame
+          (error = command - measured of the last frame; gain dt / INTEGRAL_TIME, bounded to
+          +-INTEGRAL_LIMIT x max force / stiffness). XPBD's drives, solved by Gauss-Seidel with
+          the chain's other constraints, are softer than their nominal stiffness (the parent body
+          takes part of each correction), so the gravity feed-forward alone leaves ~0.3 mm of
+          sag on the insertion; the integral term removes what remains at rest, as a PID would;
+        - + damping x command velocity / stiffness: cancels the engine drive's damping toward rest
+          while moving (velocity feed-forward);
+        - + TWIN_DAMPING x (command velocity - measured velocity) / stiffness on yaw and pitch;
+        - - Q_g(q) / stiffness on the arm joints (gravity feed-forward);
+        - clamped to the joint limits, and for hinges to within MAX_HINGE_STEP of the measured
+          angle (the engine turns a hinge by the wrapped error, and yaw and roll span more than pi).
+        """
+        idx = slice(None) if envs is None else envs
+        rows = self.joint_rows[idx]
+        last = self._last_coords[idx]
+        step = self._speed * self.dt
+        coords = last + torch.minimum(torch.maximum(self.coordinates(q, jaw) - last, -step), step)
+        velocity = (coords - last) / self.dt
+        measured = self._coords[idx]
+        rest = (coords == last) & torch.isfinite(measured)
+        bias = self._bias[idx]
+        bias = torch.where(rest, torch.minimum(torch.maximum(
+            bias + (self.dt / INTEGRAL_TIME) * (coords - measured), -self._bias_limit), self._bias_limit), bias)
+        self._bias[idx], self._last_coords[idx] = bias, coords
+        v_meas = torch.nan_to_num(self._rates[idx], nan=0.0, posinf=0.0, neginf=0.0)
+        target = coords + bias + velocity * self._d_over_k + (velocity - v_meas) * self._twin_d_over_k
+        target[:, : self.dof] -= self.gravity_torques(q) / self.stiffness[: self.dof]
+        target = torch.minimum(torch.maximum(target, self._lower), self._upper)
+        here = torch.where(torch.isfinite(measured), measured, coords)
+        target = torch.where(self._hinge, here + (target - here).clamp(-MAX_HINGE_STEP, MAX_HINGE_STEP), target)
+        self.joint_targets[rows.reshape(-1), 0] = target.reshape(-1).to(self.joint_targets.dtype)
+
+    def set_rate(self, dt: float, substeps: int):
+        """Frame time (one publish period) and substeps of the engine."""
+        physics = self.engine.physics
+        physics.dt, physics.substeps = dt, substeps
+        self.engine.physics = physics
+        self.dt = dt
+
+    def read_joints(self):
+        """Dynamic mode: (q (N, dof), qd (N, dof), jaw (N, 1), jaw_d (N, 1)) float64: the engine's
+        joint coordinates and rates after the last `step` (NaN where that frame failed)."""
+        p, v = self._coords, self._rates
+        if self._jaw_of is None:
+            zeros = torch.zeros(self.num_envs, 1, **self._on)
+            return p[:, : self.dof], v[:, : self.dof], zeros, zeros.clone()
+        return p[:, : self.dof], v[:, : self.dof], p[:, self.dof:] @ self._jaw_of, v[:, self.dof:] @ self._jaw_of
+
+    def _gather_joints(self):
+        """After a frame: every env's joint coordinates and rates, one gather each. The engine's
+        hinge coordinate is an angle in (-pi, pi] (the roll's range is +-4.54 rad): each reading
+        is unwrapped against the previous one (a joint turns far less than pi per frame)."""
+        raw = self.joint_positions[self.joint_rows].to(torch.float64)
+        prev = self._coords
+        turn = raw - prev
+        turn = torch.where(self._hinge, torch.remainder(turn + math.pi, 2 * math.pi) - math.pi, turn)
+        self._coords = torch.where(torch.isfinite(prev), prev + turn, raw)
+        self._rates = self.joint_velocities[self.joint_rows].to(torch.float64)
+
+    def prepare_reset(self, envs: torch.Tensor, q: torch.Tensor, jaw: torch.Tensor):
+        """What the engine's next reset of `envs` does to the arm: joints at q/jaw at rest (dynamic),
+        bodies without reset velocities (the twin owns its bodies' reset state)."""
+        rows = self.body_rows[envs].reshape(-1)
+        self.reset_velocities[rows] = 0
+        self.reset_angular_velocities[rows] = 0
+        if self.dynamic:
+            jrows = self.joint_rows[envs].reshape(-1)
+            self.joint_reset[jrows, 0] = self.coordinates(q, jaw).reshape(-1).to(self.joint_reset.dtype)
+            self.joint_reset[jrows, 1] = 0
+            self._bias[envs] = 0
+            self._coords[envs] = self.coordinates(q, jaw)  # what the reset poses
+            self._rates[envs] = 0
+            self._last_coords[envs] = self._coords[envs]
 
     def step(self):
         """One publish period of physics (the engine runs its substeps), submitted and waited for."""
         self.engine.step_physics()
         self.engine.end_frame()
+        if self.dynamic:
+            self._gather_joints()
+
+    def health_flags(self) -> torch.Tensor:
+        """(N,) int64: the solver's flags of the last frame per env (1 NaN/Inf, 2 speed, 4 penetration)."""
+        return self.health.view(torch.int32).to(torch.int64)
 
     def unhealthy_envs(self) -> list[int]:
-        """Envs the solver flagged this frame (NaN, speed, penetration); they were reset."""
+        """Envs the solver flagged this frame (NaN, speed, penetration); the engine resets them."""
         bad = self.health.view(torch.int32) != 0
         return torch.nonzero(bad).flatten().tolist() if bool(bad.any()) else []
 
 
-__all__ = ["ARM_GROUP", "ArmBodies"]
+HEALTH_FLAGS = ((1, "NaN/Inf in the body state"), (2, "a body faster than the solver's max_speed"),
+                (4, "penetration deeper than the solver's max_penetration"))
+
+
+def describe_health(flags: int) -> str:
+    names = [text for bit, text in HEALTH_FLAGS if flags & bit]
+    return " and ".join(names) if names else f"flags {flags}"
+
+
+__all__ = ["ARM_GROUP", "DRIVES", "DYNAMICS", "HEALTH_FLAGS", "ArmBodies", "describe_health"]

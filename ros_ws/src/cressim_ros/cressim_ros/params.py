@@ -3,8 +3,9 @@
 `check` is the one validator: it runs on the start-up values (a bad value stops the node with
 the reason before anything is built) and in the set-parameters callback (a bad change is
 refused with the reason, returned in SetParametersResult.reason, and the node keeps running
-with its old values). Structural parameters (scene, robot, arm, num_envs, physics_rate) size
-the engine and the topic graph, so they cannot change while the node runs.
+with its old values). Structural parameters (scene, robot, dynamics, arm, num_envs,
+physics_rate) size or build the engine and the topic graph, so they cannot change while the
+node runs.
 """
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ import math
 import os
 from dataclasses import dataclass
 
-from .scene import ROBOTS, SENSORS, Scene
+from .scene import DYNAMICS, ROBOTS, SENSORS, Scene
 
 
 @dataclass(frozen=True)
@@ -26,6 +27,8 @@ class Spec:
 SPECS = (
     Spec("scene", str, "scene file (path, or a name in scenes/): arm variant, base pose, rates, ...", False),
     Spec("robot", str, f"instrument/arm variant: {', '.join(ROBOTS)} (robots/dvrk_psm/<robot>.urdf)", False),
+    Spec("dynamics", str, f"arm simulation: {', '.join(DYNAMICS)} (links follow the twin's joints, or "
+                          "jointed dynamic bodies driven to the setpoint)", False),
     Spec("arm", str, "arm name: ROS namespace (/PSM1) and frame prefix (PSM1_base)", False),
     Spec("num_envs", int, "number of twins in one engine; >1 puts env i under /env{i}/ARM", False),
     Spec("physics_rate", float, "engine rate in Hz; an integer multiple of publish_rate", False),
@@ -42,7 +45,7 @@ MAX_RATE = 2000.0
 
 
 def defaults(scene: Scene) -> dict:
-    return {"scene": scene.path, "robot": scene.robot, "arm": scene.arm, "num_envs": scene.num_envs,
+    return {"scene": scene.path, "robot": scene.robot, "dynamics": scene.dynamics, "arm": scene.arm, "num_envs": scene.num_envs,
             "physics_rate": scene.physics_rate, "publish_rate": scene.publish_rate, "tf_rate": scene.tf_rate,
             "camera_rate": scene.camera_rate, "camera_width": scene.camera_width,
             "camera_height": scene.camera_height, "sensors": list(scene.sensors), "record": scene.record}
@@ -94,6 +97,8 @@ def _check_one(spec: Spec, value) -> str | None:
             return f"a string expected, got {value!r}"
         if spec.name == "robot" and value not in ROBOTS:
             return f"{value!r} is not one of {', '.join(ROBOTS)}"
+        if spec.name == "dynamics" and value not in DYNAMICS:
+            return f"{value!r} is not one of {', '.join(DYNAMICS)}"
         if spec.name == "arm" and not (value[:1].isalpha() and all(c.isalnum() or c == "_" for c in value)):
             return f"{value!r} is not a valid ROS name (letters, digits, _; a letter first)"
         if spec.name == "record" and value:

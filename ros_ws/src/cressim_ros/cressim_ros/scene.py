@@ -17,6 +17,7 @@ import yaml
 SCENE_DIR_ENV = "CRESSIM_SCENE_DIR"  # overrides where scenes/ is (an install outside the repo)
 DEFAULT_SCENE = "psm_twin.yaml"
 ROBOTS = ("psm_lnd", "psm_suction")
+DYNAMICS = ("kinematic", "dynamic")  # arm.dynamics: the arm's links follow the twin, or are simulated
 SENSORS = ("joints", "cartesian", "velocity", "wrench", "jacobian", "tf", "clock")
 
 
@@ -29,6 +30,7 @@ class Scene:
     path: str = "<defaults>"
     arm: str = "PSM1"
     robot: str = "psm_lnd"
+    dynamics: str = "kinematic"
     base_position: tuple = (0.0, 0.0, 0.3)
     base_rotation: tuple = (0.0, 0.0, 0.0, 1.0)  # xyzw
     initial_jp: tuple = (0.0, 0.0, 0.1, 0.0, 0.0, 0.0)
@@ -87,12 +89,14 @@ def parse_scene(text: str, path: str = "<string>") -> Scene:
     p = _Parser(path)
     top = p.mapping(root, "", {"arm", "num_envs", "rates", "camera", "sensors", "record"})
     if "arm" in top:
-        arm = p.mapping(top["arm"], "arm", {"name", "robot", "base", "initial_jp", "initial_jaw", "home_jp",
-                                            "measured_lag", "trajectory", "stale_command_after"})
+        arm = p.mapping(top["arm"], "arm", {"name", "robot", "dynamics", "base", "initial_jp", "initial_jaw",
+                                            "home_jp", "measured_lag", "trajectory", "stale_command_after"})
         if "name" in arm:
             scene.arm = p.name(arm["name"], "arm.name")
         if "robot" in arm:
             scene.robot = p.choice(arm["robot"], "arm.robot", ROBOTS)
+        if "dynamics" in arm:
+            scene.dynamics = p.choice(arm["dynamics"], "arm.dynamics", DYNAMICS)
         if "base" in arm:
             base = p.mapping(arm["base"], "arm.base", {"position", "rotation"})
             if "position" in base:
@@ -228,4 +232,4 @@ class _Parser:
         return value
 
 
-__all__ = ["DEFAULT_SCENE", "ROBOTS", "SENSORS", "Scene", "SceneError", "find_scene", "load_scene", "parse_scene"]
+__all__ = ["DEFAULT_SCENE", "DYNAMICS", "ROBOTS", "SENSORS", "Scene", "SceneError", "find_scene", "load_scene", "parse_scene"]

@@ -11,9 +11,22 @@ Timing. A steady-clock timer at publish_rate runs the tick (a steady clock, so t
 use_sim_time the timer does not wait on the /clock it publishes itself). Each tick advances
 simulated time by one publish period and runs physics_rate / publish_rate engine substeps.
 
-Measured vs setpoint. The arm is kinematic: measured follows setpoint through a first-order
-lag with time constant `measured_lag` from the scene (default 5 ms; 0 makes them equal).
-measured velocity is the finite difference of measured; efforts and wrenches are zero.
+Measured vs setpoint. `dynamics: kinematic` (default): measured follows setpoint through a
+first-order lag with time constant `measured_lag` from the scene (default 5 ms; 0 makes them
+equal), measured velocity is its finite difference, and the engine's link bodies follow
+measured. `dynamics: dynamic`: the arm is jointed dynamic bodies in the engine whose position
+drives track the setpoint (arm_bodies.py); measured positions and velocities are the engine's
+joint coordinates and rates, gathered for all envs by one index. Efforts and wrenches are zero.
+
+Faults. The engine flags an env whose solve went bad (env.health: NaN, speed, penetration) and
+resets it at the start of the next frame; the twin then puts that env's arm in FAULT (motion
+stops, a message on `error` names the flag) and has the reset pose the arm at its setpoint at
+rest. `enable` clears the fault.
+
+In-process use. Functions in `step_hooks` run inside every tick, after the trajectories set the
+setpoints and before the drive/body targets are written and the engine steps: a training loop
+in the same process reads the engine's tensors and writes the setpoints of the envs it owns
+(docs/twin.md, "Training beside the twin").
 
 Robustness. Every callback is wrapped: a bad message is refused with a reason on `error`
 (or `warning` for commands the kinematic twin cannot do) and a throttled log line; an
@@ -48,8 +61,8 @@ from crtk_msgs.srv import QueryForwardKinematics, QueryInverseKinematics, Trigge
 from cressim.robots import PSM, PSM_JOINT_NAMES, robot_dir
 
 from . import params as P
-from .arm_bodies import ArmBodies
-from .arm_state import ArmState
+from .arm_bodies import ArmBodies, describe_health
+from .arm_state import FAULT, ArmState
 from .command_checks import joint_values, limit_refusal, pose_matrix, ratio_value, stale_refusal
 from .kinematics import INTERFACE_DOF, ArmKinematics, body_jacobian, matrix_to_pose7
 from .recorder import RecordingUnavailable, open_recorder
@@ -94,8 +107,9 @@ class TwinNode(Node):
         self._build()
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.get_logger().info(
-            f"cressim twin ready: {self.num_envs} x {self.robot} as {', '.join(n for ns in self.namespaces for n in ns)}"
-            f" at {self.cfg['publish_rate']:g} Hz (physics {self.cfg['physics_rate']:g} Hz, device {self.device})")
+            f"cressim twin ready: {self.num_envs} x {self.robot} ({self.cfg['dynamics']} arm) as "
+            f"{', '.join(n for ns in self.namespaces for n in ns)} at {self.cfg['publish_rate']:g} Hz "
+            f"(physics {self.cfg['physics_rate']:g} Hz, device {self.device})")
 
     # ------------------------------------------------------------------ configuration
     def _read_parameters(self):
@@ -157,7 +171,10 @@ class TwinNode(Node):
         self.bodies = ArmBodies(urdf, self.num_envs, base_position=scene.base_position,
                                 base_rotation=scene.base_rotation, publish_rate=cfg["publish_rate"],
                                 physics_rate=cfg["physics_rate"], initial_q=initial,
-                                initial_jaw=scene.initial_jaw if self.psm.has_jaw else 0.0, dof=self.psm.dof)
+                                initial_jaw=scene.initial_jaw if self.psm.has_jaw else 0.0, dof=self.psm.dof,
+                                dynamics=cfg["dynamics"])
+        self.dynamic = self.bodies.dynamic
+        self.step_hooks = []  # fn(node) run in each tick before the targets are written (module docstring)
         self.device = self.bodies.device
         self.kin = ArmKinematics(self.psm, self.device)
         problem = limit_refusal(initial, PSM_JOINT_NAMES, self.kin.lower_np, self.kin.upper_np, what="initial_jp")
@@ -226,9 +243,7 @@ class TwinNode(Node):
         period = 1.0 / self.cfg["publish_rate"]
         self.period_ns = int(round(period * 1e9))
         substeps = int(round(self.cfg["physics_rate"] / self.cfg["publish_rate"]))
-        physics = self.bodies.engine.physics
-        physics.dt, physics.substeps = period, substeps
-        self.bodies.engine.physics = physics
+        self.bodies.set_rate(period, substeps)
         if self.timer is not None:
             self.destroy_timer(self.timer)
         self.timer = self.create_timer(period, self._tick, clock=Clock(clock_type=ClockType.STEADY_TIME))
@@ -564,7 +579,8 @@ class TwinNode(Node):
         try:
             self._record_command(env, kind, msg)
             what = "free (a compliant arm)" if kind == "free" else "effort and force control"
-            self._refuse(env, kind, f"{kind} refused: {what} is not simulated; the twin's arm is kinematic",
+            arm = "joint-driven (position drives)" if self.dynamic else "kinematic"
+            self._refuse(env, kind, f"{kind} refused: {what} is not simulated; the twin's arm is {arm}",
                          level="warning")
         except Exception:  # noqa: BLE001
             self.get_logger().error(traceback.format_exc(), throttle_duration_sec=LOG_THROTTLE_S)
@@ -642,11 +658,13 @@ class TwinNode(Node):
     def _tick(self):
         started = time.perf_counter()
         try:
-            finished = self._advance()
+            finished, jfinished, faults = self._advance()
             self._publish()
             # events after the data of the same tick: a client that sees is_busy=false then
             # reads measured/setpoint gets the values at the goal
-            self._finish_motions(*finished)
+            self._finish_motions(finished, jfinished)
+            for env, flags in faults:
+                self._fault(env, flags)
         except Exception:  # noqa: BLE001 - a failing tick is reported and the next one runs
             self.get_logger().error("tick failed: " + traceback.format_exc(), throttle_duration_sec=LOG_THROTTLE_S)
         self._tick_times.append(time.perf_counter() - started)
@@ -662,23 +680,85 @@ class TwinNode(Node):
         jq, jqd, jmoving, jfinished = self.jaw_traj.evaluate(now)
         self.setpoint = torch.where(moving[:, None], q, self.setpoint)
         self.jaw_sp = torch.where(jmoving[:, None], jq, self.jaw_sp)
+        for hook in self.step_hooks:  # in-process drivers write the setpoints of their envs here
+            hook(self)
         self.setpoint_v = torch.where(moving[:, None], qd, (self.setpoint - self._last_sp) / dt)
         self.jaw_sp_v = torch.where(jmoving[:, None], jqd, (self.jaw_sp - self._last_jaw_sp) / dt)
         self._last_sp, self._last_jaw_sp = self.setpoint.clone(), self.jaw_sp.clone()
-        # measured follows setpoint through a first-order lag (exact for tau = 0)
-        tau = self.scene.measured_lag
-        alpha = 1.0 if tau <= 0 else 1.0 - math.exp(-dt / tau)
-        new_meas = self.measured + alpha * (self.setpoint - self.measured)
-        new_jaw = self.jaw_meas + alpha * (self.jaw_sp - self.jaw_meas)
-        self.measured_v, self.jaw_meas_v = (new_meas - self.measured) / dt, (new_jaw - self.jaw_meas) / dt
-        self.measured, self.jaw_meas = new_meas, new_jaw
-        self.bodies.write(self.measured, self.jaw_meas)
-        self.bodies.step()
-        if self.ticks % 10 == 0:  # the solver's health flags; a kinematic arm should never raise one
-            for env in self.bodies.unhealthy_envs():
-                self._refuse(env, "physics", "physics: the engine flagged this env (NaN, speed or penetration) "
-                                             "and reset its bodies", level="warning")
-        return finished, jfinished
+        if self.dynamic:
+            # the engine's joint drives track the setpoint; kinematic links follow measured
+            self.bodies.set_targets(self.setpoint, self.jaw_sp)
+            self.bodies.write(self.measured, self.jaw_meas)
+            self.bodies.step()
+            q_m, qd_m, jaw_m, jawd_m = self.bodies.read_joints()
+            dof = self.psm.dof
+            self.measured, self.measured_v = self.measured.clone(), self.measured_v.clone()
+            self.measured[:, :dof], self.measured_v[:, :dof] = q_m, qd_m
+            self.jaw_meas, self.jaw_meas_v = jaw_m, jawd_m
+        else:
+            # measured follows setpoint through a first-order lag (exact for tau = 0)
+            tau = self.scene.measured_lag
+            alpha = 1.0 if tau <= 0 else 1.0 - math.exp(-dt / tau)
+            new_meas = self.measured + alpha * (self.setpoint - self.measured)
+            new_jaw = self.jaw_meas + alpha * (self.jaw_sp - self.jaw_meas)
+            self.measured_v, self.jaw_meas_v = (new_meas - self.measured) / dt, (new_jaw - self.jaw_meas) / dt
+            self.measured, self.jaw_meas = new_meas, new_jaw
+            self.bodies.write(self.measured, self.jaw_meas)
+            self.bodies.step()
+        faults = self._check_health()
+        return finished, jfinished, faults
+
+    def _check_health(self):
+        """Envs the engine flagged this frame: [(env, flags)]. Their measured state (NaN or
+        exploded in dynamic mode) is replaced by the setpoint at rest, which is also where the
+        engine's reset at the start of the next frame puts the arm."""
+        flags = self.bodies.health_flags()
+        bad = flags != 0
+        if not bool(bad.any()):  # one small device -> host read per tick
+            return []
+        envs = torch.nonzero(bad).flatten()
+        self.measured[envs] = self.setpoint[envs]
+        self.measured_v[envs] = 0.0
+        self.jaw_meas[envs] = self.jaw_sp[envs]
+        self.jaw_meas_v[envs] = 0.0
+        self.bodies.prepare_reset(envs, self.setpoint[envs], self.jaw_sp[envs])
+        return list(zip(envs.tolist(), flags[envs].tolist()))
+
+    def _fault(self, env: int, flags: int):
+        """The engine flagged env: FAULT (motion stops), the reason on `error` once per fault."""
+        what = describe_health(flags)
+        self.get_logger().error(f"{self._label(env)}: physics fault: {what} (env.health = {flags})",
+                                throttle_duration_sec=LOG_THROTTLE_S)
+        if self.states[env].state == FAULT:
+            return  # still faulting: reported when it started
+        self._stop_arm_motion(env, reached=False)
+        self._stop_jaw_motion(env)
+        self.states[env].fault()
+        self._update_busy(env, force=True)
+        self._emit(env, "error", String(data=f"{self._label(env)}: physics fault: the engine flagged {what} "
+                                             f"(env.health = {flags}) and reset the env; the arm is FAULT, "
+                                             "send enable to clear it"))
+
+    def reset_envs(self, envs, q=None, jaw=None):
+        """In-process API: resets `envs` (a list or long tensor) in the engine at the next step,
+        with the arm at joint values q (len(envs), 6) and jaw (len(envs), 1) at rest (default:
+        their current setpoints). Setpoints and measured follow; running motions of these envs
+        stop. Call it from a step hook (or between ticks)."""
+        envs = torch.as_tensor(envs, device=self.device, dtype=torch.long).reshape(-1)
+        kw = dict(device=self.device, dtype=torch.float64)
+        q = self.setpoint[envs] if q is None else torch.as_tensor(q, **kw).reshape(len(envs), INTERFACE_DOF)
+        jaw = self.jaw_sp[envs] if jaw is None else torch.as_tensor(jaw, **kw).reshape(len(envs), 1)
+        for env in envs.tolist():
+            self._stop_arm_motion(env, reached=False)
+            self._stop_jaw_motion(env)
+        for name in ("setpoint", "measured", "_last_sp"):
+            getattr(self, name)[envs] = q
+        for name in ("jaw_sp", "jaw_meas", "_last_jaw_sp"):
+            getattr(self, name)[envs] = jaw
+        for name in ("setpoint_v", "measured_v", "jaw_sp_v", "jaw_meas_v"):
+            getattr(self, name)[envs] = 0.0
+        self.bodies.prepare_reset(envs, q, jaw)
+        self.bodies.engine.reset_envs(envs.tolist())
 
     def _finish_motions(self, finished, jfinished):
         """Events of trajectories that reached their goal this tick (arm, jaw: (N,) bool)."""
