@@ -22,6 +22,7 @@ sys.path.insert(0, str(PKG))  # cressim_ros from the source tree
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # twin_fixtures
 
 from cressim_ros.twin_process import Twin  # noqa: E402
+from twin_fixtures import TEST_CAMERA  # noqa: E402
 
 # reuse tests/ros's environment checks and its ros_domain_id fixture (one implementation)
 _spec = importlib.util.spec_from_file_location("_cressim_tests_ros_conftest", REPO / "tests" / "ros" / "conftest.py")
@@ -62,7 +63,7 @@ def start_twin(tmp_path):
     twins = []
 
     def start(domain, *params):
-        twin = Twin(domain, tmp_path / f"twin{len(twins)}.log", *params)
+        twin = Twin(domain, tmp_path / f"twin{len(twins)}.log", *TEST_CAMERA, *params)
         twins.append(twin)
         twin.startup_s = twin.wait_ready()
         return twin
@@ -87,6 +88,7 @@ def make_node(ros_domain_id):
     nodes = []
 
     def make(**params):
+        params = {"camera_width": 64, "camera_height": 48, **params}
         node = TwinNode(context=context, parameter_overrides=[Parameter(k, value=v) for k, v in params.items()])
         nodes.append(node)
         return node

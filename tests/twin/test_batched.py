@@ -9,7 +9,6 @@ import time
 import numpy as np
 import pytest
 from rosgraph_msgs.msg import Clock
-from geometry_msgs.msg import TransformStamped
 
 from twin_fixtures import module_twin
 
@@ -68,14 +67,38 @@ def test_envs_are_independent(batched):
 def test_clock_and_tf(batched):
     twin, ral, arms = batched
     from cressim_ros.dvrk_client import _Latest
+    from cressim_ros.topics import TF_STATIC_QOS
+    from tf2_msgs.msg import TFMessage
 
-    clock, tf = _Latest(keep=50), _Latest(keep=50)
+    clock, tf, static = _Latest(keep=50), _Latest(keep=50), _Latest()
     ral.subscriber(Clock, "/clock", clock, 1)
-    ral.subscriber(TransformStamped, "/cressim/tf", tf, 100)
+    ral.subscriber(TFMessage, "/tf", tf, 100)
+    ral.subscriber(TFMessage, "/tf_static", static, TF_STATIC_QOS)
     assert clock.wait_for(lambda m: clock.count >= 20, 5)
     times = [m.clock.sec + m.clock.nanosec * 1e-9 for m in clock.history]
     assert times[0] > 0 and all(b > a for a, b in zip(times, times[1:]))
     assert tf.wait_for(lambda m: tf.count >= 10, 5)
-    children = {m.child_frame_id for m in tf.history}
-    assert children == {"env0/PSM1", "env1/PSM1"}, children
-    assert all(m.header.stamp.sec > 0 for m in tf.history)
+    for m in tf.history:  # one message per tick with every env's base -> tip
+        assert [(t.header.frame_id, t.child_frame_id) for t in m.transforms] == [
+            ("env0/PSM1_base", "env0/PSM1"), ("env1/PSM1_base", "env1/PSM1")]
+        assert all(t.header.stamp.sec > 0 for t in m.transforms)
+    # latched: a late subscriber still gets world -> base and world -> camera of each env
+    assert static.wait_for(lambda m: True, 5)
+    pairs = {(t.header.frame_id, t.child_frame_id) for t in static.msg.transforms}
+    assert pairs == {(f"env{i}/world", f"env{i}/{child}") for i in range(2)
+                     for child in ("PSM1_base", "camera_color_optical_frame")}, pairs
+
+
+def test_cameras_per_env(batched):
+    twin, ral, arms = batched
+    from cressim_ros.dvrk_client import _Latest
+    from sensor_msgs.msg import Image
+
+    images = [_Latest() for _ in range(2)]
+    for i, latest in enumerate(images):
+        ral.subscriber(Image, f"/env{i}/camera/color/image_raw", latest, 2)
+    for i, latest in enumerate(images):
+        assert latest.wait_for(lambda m: True, 10), f"no image on /env{i}/camera/color/image_raw"
+        m = latest.msg
+        assert m.header.frame_id == f"env{i}/camera_color_optical_frame"
+        assert (m.width, m.height, m.encoding, m.step) == (64, 48, "rgb8", 64 * 3)

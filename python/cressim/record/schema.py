@@ -20,6 +20,7 @@ _CANONICAL = {**dict(zip(OLD_ARM_JOINTS, ARM_JOINTS)), **{n: n for n in ARM_JOIN
 DEFAULT_NAMESPACE = "PSM1"
 BASE_FRAME = "{ns}_base"  # frame 0, at the remote centre of motion
 TIP_FRAME = "{ns}"
+CAMERA_FRAME = "camera_color_optical_frame"
 
 JS_UNITS = "position rad (insertion m); velocity rad/s (m/s); effort N m (N)"
 JAW_UNITS = "position rad; velocity rad/s; effort N m"
@@ -53,6 +54,7 @@ class TopicSpec(NamedTuple):
 
 _JS, _PS, _WS = "sensor_msgs/msg/JointState", "geometry_msgs/msg/PoseStamped", "geometry_msgs/msg/WrenchStamped"
 _STR = "std_msgs/msg/String"
+_IMG, _INFO = "sensor_msgs/msg/Image", "sensor_msgs/msg/CameraInfo"
 
 PSM_TOPICS: tuple[TopicSpec, ...] = (
     # published by the twin, periodic (QoS reliable, volatile, depth 100)
@@ -74,6 +76,16 @@ PSM_TOPICS: tuple[TopicSpec, ...] = (
               "rows [v m/s; w rad/s] per unit joint rate", "6x6, row-major"),
     TopicSpec("/tf", "tf2_msgs/msg/TFMessage", "state", "50 Hz", BASE_FRAME, POSE_UNITS,
               "{ns}_base -> {ns} (child_frame_id {ns})"),
+    # the camera (one per env; docs/twin.md, "Camera"): all three products share one intrinsics
+    TopicSpec("/camera/color/image_raw", _IMG, "state", "30 Hz", CAMERA_FRAME, "rgb8", "640x480 by default"),
+    TopicSpec("/camera/color/camera_info", _INFO, "state", "30 Hz", CAMERA_FRAME, "K, P in pixels",
+              "ROS pixel convention (pixel centres at integers), no distortion"),
+    TopicSpec("/camera/depth/image_raw", _IMG, "state", "30 Hz", CAMERA_FRAME, "32FC1, m along the optical axis",
+              "NaN where nothing was hit (REP 118)"),
+    TopicSpec("/camera/depth/camera_info", _INFO, "state", "30 Hz", CAMERA_FRAME, "K, P in pixels", "as color"),
+    TopicSpec("/camera/segmentation/image_raw", _IMG, "state", "30 Hz", CAMERA_FRAME, "16UC1 label ids",
+              "0 background; names on /camera/segmentation/labels"),
+    TopicSpec("/camera/segmentation/camera_info", _INFO, "state", "30 Hz", CAMERA_FRAME, "K, P in pixels", "as color"),
     # published by the twin on change (QoS reliable, transient local, depth 100)
     TopicSpec("operating_state", "crtk_msgs/msg/OperatingState", "event", "on change", "", "-",
               "state DISABLED/ENABLED/PAUSED/FAULT, is_homed, is_busy"),
@@ -82,6 +94,9 @@ PSM_TOPICS: tuple[TopicSpec, ...] = (
     TopicSpec("error", _STR, "event", "on change", "", "-"),
     TopicSpec("warning", _STR, "event", "on change", "", "-"),
     TopicSpec("status", _STR, "event", "on change", "", "-"),
+    TopicSpec("/tf_static", "tf2_msgs/msg/TFMessage", "event", "once", "world", POSE_UNITS,
+              "world -> {ns}_base (the scene's base pose), world -> " + CAMERA_FRAME),
+    TopicSpec("/camera/segmentation/labels", _STR, "event", "once", "", "-", "JSON object, label id -> name"),
     # commands sent to the arm by clients (QoS reliable, volatile, depth 1)
     TopicSpec("state_command", "crtk_msgs/msg/StringStamped", "command", "as sent", "", "-",
               "enable, disable, home, unhome, pause, resume"),

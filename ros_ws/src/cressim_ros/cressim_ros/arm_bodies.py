@@ -43,6 +43,7 @@ merged into one dynamic body, such as the suction tube on the shaft, which share
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytorch_kinematics as pk
@@ -52,6 +53,8 @@ from pytorch_kinematics.transforms import matrix_to_quaternion
 
 import cressim
 from cressim.robots import PSM_DH, dh_forward_kinematics
+
+from .scenery import ArmVisuals, CameraSpec, Scenery
 
 ARM_GROUP = 2  # collision group of arm links; they do not collide with each other (mask below)
 DYNAMICS = ("kinematic", "dynamic")
@@ -143,7 +146,7 @@ class ArmBodies:
 
     def __init__(self, urdf_path, num_envs: int, *, base_position, base_rotation, publish_rate: float,
                  physics_rate: float, initial_q: np.ndarray, initial_jaw: float, dof: int, device=None,
-                 dynamics: str = "kinematic", gravity=(0.0, 0.0, -9.81)):
+                 dynamics: str = "kinematic", gravity=(0.0, 0.0, -9.81), camera: CameraSpec | None = None):
         if dynamics not in DYNAMICS:
             raise ValueError(f"dynamics {dynamics!r} is not one of {', '.join(DYNAMICS)}")
         self.num_envs, self.dof, self.dynamics = num_envs, dof, dynamics
@@ -190,7 +193,16 @@ class ArmBodies:
         # kinematic bodies follow FK (`write`): all links in kinematic mode, the rest in dynamic mode
         self.follower_links = [b.links[0].name for b in bodies if b.frame == 0]
 
-        world = cressim.World(cressim.SceneLayout(num_envs))
+        if camera is not None:
+            layout = cressim.SceneLayout(num_envs, max_renderables_per_env=Scenery.renderables_per_env(len(bodies)),
+                                         max_lights_per_env=1, max_cameras_per_env=1)
+        else:
+            layout = cressim.SceneLayout(num_envs)
+        world = cressim.World(layout)
+        scenery = None
+        if camera is not None:  # the arm's visuals, table, tissue, light and a camera per env
+            scenery = Scenery(world, ArmVisuals(urdf, Path(urdf_path).parent, bodies, poses), camera)
+        self.scenery = scenery
         body_ids = np.zeros((num_envs, len(bodies)), dtype=np.int64)
         joint_ids = np.zeros((num_envs, len(joint_specs)), dtype=np.int64)
         for env in range(num_envs):
@@ -207,8 +219,12 @@ class ArmBodies:
                           for s in _link_shapes(link, np.linalg.solve(b.pose, poses[link.name]))]
                 if shapes:
                     e.add(cressim.Collider(shapes, group=ARM_GROUP, mask=0xFFFFFFFF & ~ARM_GROUP))
+                if scenery is not None:
+                    scenery.add_body_visual(e, k)
                 entities.append(e)
                 body_ids[env, k] = e.id
+            if scenery is not None:
+                scenery.add_env(world, env)
             for k, spec in enumerate(joint_specs):
                 parent = None if spec["parent"] is None else entities[spec["parent"]]
                 e = world.create_entity(env=env, name=spec["name"])
@@ -559,9 +575,12 @@ class ArmBodies:
             self._rates[envs] = 0
             self._last_coords[envs] = self._coords[envs]
 
-    def step(self):
-        """One publish period of physics (the engine runs its substeps), submitted and waited for."""
+    def step(self, render: bool = False):
+        """One publish period of physics (the engine runs its substeps), then the cameras when
+        `render`, in one submit, waited for."""
         self.engine.step_physics()
+        if render:
+            self.engine.step_visual_sensors()
         self.engine.end_frame()
         if self.dynamic:
             self._gather_joints()

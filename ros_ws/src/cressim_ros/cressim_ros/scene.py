@@ -18,7 +18,7 @@ SCENE_DIR_ENV = "CRESSIM_SCENE_DIR"  # overrides where scenes/ is (an install ou
 DEFAULT_SCENE = "psm_twin.yaml"
 ROBOTS = ("psm_lnd", "psm_suction")
 DYNAMICS = ("kinematic", "dynamic")  # arm.dynamics: the arm's links follow the twin, or are simulated
-SENSORS = ("joints", "cartesian", "velocity", "wrench", "jacobian", "tf", "clock")
+SENSORS = ("joints", "cartesian", "velocity", "wrench", "jacobian", "tf", "clock", "color", "depth", "segmentation")
 
 
 class SceneError(ValueError):
@@ -47,6 +47,9 @@ class Scene:
     camera_rate: float = 30.0
     camera_width: int = 640
     camera_height: int = 480
+    camera_fov_y: float = 60.0  # degrees
+    camera_position: tuple = (0.12, -0.12, 0.32)  # m, in the env's world (z up)
+    camera_look_at: tuple = (0.0, 0.0, 0.19)
     sensors: tuple = SENSORS
     record: str = ""
     lines: dict = field(default_factory=dict, repr=False)  # field -> "file:line:col" (for later checks)
@@ -134,11 +137,21 @@ def parse_scene(text: str, path: str = "<string>") -> Scene:
                 setattr(scene, f"{key}_rate", p.number(rates[key], f"rates.{key}", low=0.1, high=10000.0))
                 scene.lines[f"{key}_rate"] = p.where(rates[key])
     if "camera" in top:
-        cam = p.mapping(top["camera"], "camera", {"width", "height"})
+        cam = p.mapping(top["camera"], "camera", {"width", "height", "fov_y", "position", "look_at"})
         if "width" in cam:
             scene.camera_width = p.integer(cam["width"], "camera.width", low=1, high=8192)
         if "height" in cam:
             scene.camera_height = p.integer(cam["height"], "camera.height", low=1, high=8192)
+        if "fov_y" in cam:
+            scene.camera_fov_y = p.number(cam["fov_y"], "camera.fov_y", low=1.0, high=170.0)
+        if "position" in cam:
+            scene.camera_position = p.numbers(cam["position"], "camera.position", 3)
+        if "look_at" in cam:
+            scene.camera_look_at = p.numbers(cam["look_at"], "camera.look_at", 3)
+        gap = math.dist(scene.camera_position, scene.camera_look_at)
+        if gap < 1e-6:
+            p.fail(cam.get("look_at", cam.get("position", top["camera"])), "camera.look_at",
+                   "the camera looks at its own position; give a point away from camera.position")
     if "sensors" in top:
         node = top["sensors"]
         if not isinstance(node, yaml.SequenceNode):

@@ -38,10 +38,13 @@ SERVICES = ("operating_state", "crtk_version", "forward_kinematics", "local/forw
             "inverse_kinematics")
 CRTK_VERSION = "1.1.0"
 CLOCK_TOPIC = "/clock"
-# tf2_msgs has no Jazzy wheel, so there is no /tf: the base -> tip transform goes out as
-# geometry_msgs/TransformStamped on this one topic for all arms and envs (child frame
-# `PSM1`, or `env3/PSM1` in batched mode), at the tf rate.
-TF_TOPIC = "/cressim/tf"
+# tf: base -> tip of every env on /tf at the tf rate (one TFMessage per tick for all envs);
+# world -> base and world -> camera of every env once on /tf_static (transient local, depth 1,
+# as tf2's static broadcaster). tf2_msgs is built in ros_ws (no Jazzy wheel ships it).
+TF_TOPIC = "/tf"
+TF_STATIC_TOPIC = "/tf_static"
+TF_STATIC_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                           durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
 def env_namespaces(arm: str, num_envs: int) -> list[list[str]]:
@@ -57,4 +60,4 @@ def env_frame_prefix(env: int, num_envs: int) -> str:
 
 
 __all__ = ["CLOCK_QOS", "CLOCK_TOPIC", "COMMAND_QOS", "COMMAND_TOPICS", "CRTK_VERSION", "EVENT_QOS", "EVENT_TOPICS",
-           "PERIODIC_QOS", "SENSOR_TOPICS", "SERVICES", "TF_TOPIC", "env_frame_prefix", "env_namespaces"]
+           "PERIODIC_QOS", "SENSOR_TOPICS", "SERVICES", "TF_STATIC_QOS", "TF_STATIC_TOPIC", "TF_TOPIC", "env_frame_prefix", "env_namespaces"]

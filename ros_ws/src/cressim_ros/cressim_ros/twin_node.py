@@ -38,6 +38,7 @@ from __future__ import annotations
 import collections
 import functools
 import math
+import os
 import time
 import traceback
 from array import array
@@ -54,6 +55,7 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Empty, Float64, Float64MultiArray, MultiArrayDimension, String
 from std_srvs.srv import Trigger
+from tf2_msgs.msg import TFMessage
 
 from crtk_msgs.msg import OperatingState, StringStamped
 from crtk_msgs.srv import QueryForwardKinematics, QueryInverseKinematics, TriggerOperatingState
@@ -63,13 +65,15 @@ from cressim.robots import PSM, PSM_JOINT_NAMES, robot_dir
 from . import params as P
 from .arm_bodies import ArmBodies, describe_health
 from .arm_state import FAULT, ArmState
+from .camera_topics import PRODUCTS, CameraTopics, camera_frame
 from .command_checks import joint_values, limit_refusal, pose_matrix, ratio_value, stale_refusal
 from .kinematics import INTERFACE_DOF, ArmKinematics, body_jacobian, matrix_to_pose7
 from .recorder import RecordingUnavailable, open_recorder
 from .scene import DEFAULT_SCENE, SceneError, load_scene
+from .scenery import CameraSpec
 from .trajectory import BatchedTrajectory
 from .topics import (CLOCK_QOS, CLOCK_TOPIC, COMMAND_QOS, CRTK_VERSION, EVENT_QOS, PERIODIC_QOS, SENSOR_TOPICS,
-                     TF_TOPIC, env_frame_prefix, env_namespaces)
+                     TF_STATIC_QOS, TF_STATIC_TOPIC, TF_TOPIC, env_frame_prefix, env_namespaces)
 
 ERROR_INTERVAL_S = 0.05  # the same refusal (env, kind) goes to `error` at most this often
 LOG_THROTTLE_S = 1.0
@@ -143,6 +147,7 @@ class TwinNode(Node):
             else:
                 self._close_recorder()
                 self.recorder = new_recorder
+                self._record(TF_STATIC_TOPIC, self.static_tf)  # a bag is self-contained
         if problem:
             self.get_logger().warning(f"parameter change refused: {problem}")
             return SetParametersResult(successful=False, reason=problem)
@@ -172,10 +177,17 @@ class TwinNode(Node):
                                 base_rotation=scene.base_rotation, publish_rate=cfg["publish_rate"],
                                 physics_rate=cfg["physics_rate"], initial_q=initial,
                                 initial_jaw=scene.initial_jaw if self.psm.has_jaw else 0.0, dof=self.psm.dof,
-                                dynamics=cfg["dynamics"])
+                                dynamics=cfg["dynamics"], camera=CameraSpec(
+                                    width=cfg["camera_width"], height=cfg["camera_height"], fov_y=scene.camera_fov_y,
+                                    position=scene.camera_position, look_at=scene.camera_look_at))
         self.dynamic = self.bodies.dynamic
         self.step_hooks = []  # fn(node) run in each tick before the targets are written (module docstring)
         self.device = self.bodies.device
+        if self.device.type == "cpu" and "OMP_NUM_THREADS" not in os.environ:
+            # the twin's tensors are (N, 6): torch's thread pool only costs here, and its spinning
+            # workers starve lavapipe's threads and DDS on a loaded machine (a first tick took
+            # minutes on 2 busy cores); set OMP_NUM_THREADS to choose otherwise
+            torch.set_num_threads(1)
         self.kin = ArmKinematics(self.psm, self.device)
         problem = limit_refusal(initial, PSM_JOINT_NAMES, self.kin.lower_np, self.kin.upper_np, what="initial_jp")
         if problem:
@@ -222,13 +234,17 @@ class TwinNode(Node):
         self.sim_ns = 0
         self.ticks = 0
         self.next_tf_ns = 0
+        self.next_camera_ns = 0
+        self._rendered = False
+        self.camera = CameraTopics(self, self.bodies.engine, self.bodies.scenery.camera, self.bodies.scenery.labels, N)
+        self._create_sensor_publishers()
         self._tick_times = collections.deque(maxlen=500)
         self._create_event_publishers()
-        self._create_sensor_publishers()
         self._create_subscriptions()
         self._create_services()
         self.clock_pub = self.create_publisher(ClockMsg, CLOCK_TOPIC, CLOCK_QOS)
-        self.tf_pub = self.create_publisher(TransformStamped, TF_TOPIC, PERIODIC_QOS)
+        self.tf_pub = self.create_publisher(TFMessage, TF_TOPIC, PERIODIC_QOS)
+        self.tf_static_pub = self.create_publisher(TFMessage, TF_STATIC_TOPIC, TF_STATIC_QOS)
         self.timer = None
         self._set_rate()
         if self.cfg["record"]:
@@ -236,8 +252,25 @@ class TwinNode(Node):
                 self.recorder = open_recorder(self.cfg["record"])
             except (RecordingUnavailable, OSError, ValueError) as exc:
                 raise ConfigError(f"record: {exc}") from None
+        self._publish_static_tf()
         for env in range(N):
             self._publish_state(env)
+
+    def _publish_static_tf(self):
+        """world -> base (the scene's base pose) and world -> camera of every env, once, latched."""
+        stamp, N, scene = self.stamp(), self.num_envs, self.scene
+        spec = self.bodies.scenery
+        transforms = []
+        for env in range(N):
+            prefix = env_frame_prefix(env, N)
+            transforms.append(_transform(stamp, f"{prefix}world", f"{prefix}{self.arm}_base",
+                                         (*scene.base_position, *scene.base_rotation)))
+            transforms.append(_transform(stamp, f"{prefix}world", camera_frame(env, N),
+                                         (*spec.camera.position, *spec.camera_rotation)))
+        self.static_tf = TFMessage(transforms=transforms)
+        self.tf_static_pub.publish(self.static_tf)
+        if self.recorder is not None:
+            self._record(TF_STATIC_TOPIC, self.static_tf)
 
     def _set_rate(self):
         period = 1.0 / self.cfg["publish_rate"]
@@ -270,6 +303,8 @@ class TwinNode(Node):
                         if topic not in self.sensor_pubs[env][k]:
                             self.sensor_pubs[env][k][topic] = self.create_publisher(
                                 types[topic], f"{ns}/{topic}", PERIODIC_QOS)
+        if hasattr(self, "camera"):
+            self.camera.enable(self.cfg["sensors"])
 
     def _create_subscriptions(self):
         handlers = (("state_command", StringStamped, self._on_state_command),
@@ -685,11 +720,17 @@ class TwinNode(Node):
         self.setpoint_v = torch.where(moving[:, None], qd, (self.setpoint - self._last_sp) / dt)
         self.jaw_sp_v = torch.where(jmoving[:, None], jqd, (self.jaw_sp - self._last_jaw_sp) / dt)
         self._last_sp, self._last_jaw_sp = self.setpoint.clone(), self.jaw_sp.clone()
+        # cameras render in the same submit as the physics of the tick they are due in
+        render = any(p in self.cfg["sensors"] for p in PRODUCTS) and self.sim_ns >= self.next_camera_ns
+        if render:
+            self.next_camera_ns += int(round(1e9 / self.cfg["camera_rate"]))
+            self.next_camera_ns = max(self.next_camera_ns, self.sim_ns)  # after a rate change: no burst
+        self._rendered = render
         if self.dynamic:
             # the engine's joint drives track the setpoint; kinematic links follow measured
             self.bodies.set_targets(self.setpoint, self.jaw_sp)
             self.bodies.write(self.measured, self.jaw_meas)
-            self.bodies.step()
+            self.bodies.step(render)
             q_m, qd_m, jaw_m, jawd_m = self.bodies.read_joints()
             dof = self.psm.dof
             self.measured, self.measured_v = self.measured.clone(), self.measured_v.clone()
@@ -704,7 +745,7 @@ class TwinNode(Node):
             self.measured_v, self.jaw_meas_v = (new_meas - self.measured) / dt, (new_jaw - self.jaw_meas) / dt
             self.measured, self.jaw_meas = new_meas, new_jaw
             self.bodies.write(self.measured, self.jaw_meas)
-            self.bodies.step()
+            self.bodies.step(render)
         faults = self._check_health()
         return finished, jfinished, faults
 
@@ -820,6 +861,7 @@ class TwinNode(Node):
         publish_tf = "tf" in groups and self.sim_ns >= self.next_tf_ns
         if publish_tf:
             self.next_tf_ns = self.sim_ns + int(1e9 / self.cfg["tf_rate"])
+        transforms = []
         for env in range(N):
             row = host[env]
             msgs = {}
@@ -848,16 +890,7 @@ class TwinNode(Node):
                     msgs["spatial/jacobian"] = _matrix_msg(row[o + 34:o + 70])
                     msgs["body/jacobian"] = _matrix_msg(row[o + 70:o + 106])
                 if publish_tf:
-                    t = TransformStamped()
-                    t.header.stamp, t.header.frame_id, t.child_frame_id = stamp, local_frame, tip_frame
-                    p = row[o:o + 7]
-                    t.transform.translation.x, t.transform.translation.y, t.transform.translation.z = (
-                        float(p[0]), float(p[1]), float(p[2]))
-                    r = t.transform.rotation
-                    r.x, r.y, r.z, r.w = float(p[3]), float(p[4]), float(p[5]), float(p[6])
-                    self.tf_pub.publish(t)
-                    if self.recorder is not None:
-                        self._record(TF_TOPIC, t, stamp_ns)
+                    transforms.append(_transform(stamp, local_frame, tip_frame, row[o:o + 7]))
             if "wrench" in groups:  # the kinematic arm senses no force
                 msgs["spatial/measured_cf"] = _wrench(stamp, base_frame)
                 msgs["body/measured_cf"] = _wrench(stamp, tip_frame)
@@ -868,6 +901,17 @@ class TwinNode(Node):
                         pub.publish(msg)
                         if self.recorder is not None and k == 0:
                             self._record(f"{self.namespaces[env][0]}/{topic}", msg, stamp_ns)
+        if transforms:  # all envs' base -> tip in one message
+            tf = TFMessage(transforms=transforms)
+            self.tf_pub.publish(tf)
+            if self.recorder is not None:
+                self._record(TF_TOPIC, tf, stamp_ns)
+        if self._rendered:
+            record = None
+            if self.recorder is not None:
+                def record(topic, msg):
+                    self._record(topic, msg, stamp_ns)
+            self.camera.publish(self.cfg["sensors"], stamp, record)
         if "clock" in groups:
             clock = ClockMsg()
             clock.clock = TimeMsg(sec=self.sim_ns // 1_000_000_000, nanosec=self.sim_ns % 1_000_000_000)
@@ -883,6 +927,16 @@ class TwinNode(Node):
             ticks = np.array(self._tick_times) * 1e3
             self.get_logger().info(f"tick time over the last {len(ticks)}: mean {ticks.mean():.2f} ms, "
                                    f"max {ticks.max():.2f} ms")
+
+
+def _transform(stamp, parent, child, p) -> TransformStamped:
+    t = TransformStamped()
+    t.header.stamp, t.header.frame_id, t.child_frame_id = stamp, parent, child
+    t.transform.translation.x, t.transform.translation.y, t.transform.translation.z = (float(p[0]), float(p[1]),
+                                                                                       float(p[2]))
+    r = t.transform.rotation
+    r.x, r.y, r.z, r.w = float(p[3]), float(p[4]), float(p[5]), float(p[6])
+    return t
 
 
 def _joint_state(stamp, names, position, velocity, effort) -> JointState:

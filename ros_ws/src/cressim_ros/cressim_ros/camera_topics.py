@@ -1,0 +1,137 @@
+"""The twin's camera topics: sensor_msgs/Image + CameraInfo per env from the engine's layered
+camera outputs, as a ROS camera driver publishes them.
+
+    /camera/color/image_raw            rgb8
+    /camera/depth/image_raw            32FC1, metres along the optical axis, NaN where nothing was hit (REP 118)
+    /camera/segmentation/image_raw     16UC1, 0 background, ids of `segmentation/labels`
+    /camera/<product>/camera_info      the same intrinsics for all three (registered: one camera)
+    /camera/segmentation/labels        std_msgs/String, JSON {id: name}, transient local
+
+In batched mode env i's are under /env{i}/camera. Frame: `camera_color_optical_frame` (with the
+env prefix in batched mode), z forward, x right, y down. CameraInfo follows ROS's pixel
+convention (the centre of pixel (0, 0) is at (0, 0)), so its cx, cy are the engine's minus 0.5.
+
+All envs' images come to the host in one copy per product per rendered frame; building and
+publishing the messages loops over envs (ROS needs a message per env and topic).
+"""
+from __future__ import annotations
+
+import json
+from array import array
+
+import numpy as np
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import CameraInfo, Image
+from std_msgs.msg import String
+
+PRODUCTS = ("color", "depth", "segmentation")  # sensor groups of the `sensors` parameter
+# Images: reliable (a reliable publisher serves best-effort and reliable readers alike) but a
+# short queue, since a late frame is worth less than the next one.
+IMAGE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=2, reliability=ReliabilityPolicy.RELIABLE,
+                       durability=DurabilityPolicy.VOLATILE)
+LABELS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                        durability=DurabilityPolicy.TRANSIENT_LOCAL)
+ENCODINGS = {"color": ("rgb8", 3), "depth": ("32FC1", 4), "segmentation": ("16UC1", 2)}
+BUFFERS = {"color": "rgb", "depth": "depth", "segmentation": "segmentation"}
+
+
+def camera_namespace(env: int, num_envs: int) -> str:
+    return "/camera" if num_envs == 1 else f"/env{env}/camera"
+
+
+def camera_frame(env: int, num_envs: int) -> str:
+    return "camera_color_optical_frame" if num_envs == 1 else f"env{env}/camera_color_optical_frame"
+
+
+class CameraTopics:
+    """Publishers of every env's camera products, fed from the engine after a rendered frame."""
+
+    def __init__(self, node, engine, spec, labels: dict, num_envs: int):
+        self.node, self.engine, self.spec, self.num_envs = node, engine, spec, num_envs
+        cams = engine.cameras
+        # env -> (group, layer) of its camera: images of env i are camera{group}.*[layer]
+        order = np.argsort(cams["env"])
+        self.where = [(int(cams["group"][k]), int(cams["layer"][k])) for k in order]
+        self.groups = sorted({g for g, _ in self.where})
+        self.pubs = [{} for _ in range(num_envs)]  # env -> {product: (image pub, info pub)}
+        self.infos = [self._camera_info(env) for env in range(num_envs)]
+        label_text = json.dumps({str(k): v for k, v in sorted(labels.items())})
+        self.label_pubs = []
+        for env in range(num_envs):
+            pub = node.create_publisher(String, f"{camera_namespace(env, num_envs)}/segmentation/labels", LABELS_QOS)
+            pub.publish(String(data=label_text))
+            self.label_pubs.append(pub)
+
+    def topics(self, product: str, env: int) -> tuple[str, str]:
+        ns = f"{camera_namespace(env, self.num_envs)}/{product}"
+        return f"{ns}/image_raw", f"{ns}/camera_info"
+
+    def enable(self, products):
+        """Creates the publishers of newly enabled products (publishers are never destroyed, so
+        readers keep their connection when a product is switched off and on again)."""
+        for env in range(self.num_envs):
+            for product in products:
+                if product in PRODUCTS and product not in self.pubs[env]:
+                    image, info = self.topics(product, env)
+                    self.pubs[env][product] = (self.node.create_publisher(Image, image, IMAGE_QOS),
+                                               self.node.create_publisher(CameraInfo, info, IMAGE_QOS))
+
+    def _camera_info(self, env: int) -> CameraInfo:
+        s = self.spec
+        fx, fy, cx, cy = s.intrinsics()
+        cx, cy = cx - 0.5, cy - 0.5  # ROS: pixel centres at integer coordinates
+        m = CameraInfo()
+        m.header.frame_id = camera_frame(env, self.num_envs)
+        m.width, m.height = s.width, s.height
+        m.distortion_model = "plumb_bob"
+        m.d = [0.0] * 5
+        m.k = [fx, 0.0, cx, 0.0, fy, cy, 0.0, 0.0, 1.0]
+        m.r = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
+        m.p = [fx, 0.0, cx, 0.0, 0.0, fy, cy, 0.0, 0.0, 0.0, 1.0, 0.0]
+        return m
+
+    def host_images(self, products) -> dict:
+        """product -> [per env (H, W, ...) numpy image], after the frame that rendered them."""
+        out = {}
+        for product in products:
+            per_group = {}
+            for g in self.groups:
+                a = self.engine.buffer(f"camera{g}.{BUFFERS[product]}").read()  # one copy per product
+                if product == "color":
+                    a = a[..., :3]
+                elif product == "segmentation":
+                    a = np.minimum(a, 65535).astype(np.uint16)
+                elif product == "depth":  # REP 118: no return is NaN
+                    a = np.where(a == 0, np.float32(np.nan), a)
+                per_group[g] = a
+            out[product] = [per_group[g][layer] for g, layer in self.where]
+        return out
+
+    def publish(self, products, stamp, record=None):
+        """Publishes the enabled products of all envs; record(topic, msg) sees each message."""
+        products = [p for p in PRODUCTS if p in products]
+        if not products:
+            return
+        images = self.host_images(products)
+        s = self.spec
+        for env in range(self.num_envs):
+            info = self.infos[env]
+            info.header.stamp = stamp
+            for product in products:
+                encoding, size = ENCODINGS[product]
+                img = Image()
+                img.header.stamp, img.header.frame_id = stamp, info.header.frame_id
+                img.height, img.width, img.encoding = s.height, s.width, encoding
+                img.is_bigendian = 0
+                img.step = s.width * size
+                img.data = array("B", np.ascontiguousarray(images[product][env]).tobytes())
+                image_pub, info_pub = self.pubs[env][product]
+                image_pub.publish(img)
+                info_pub.publish(info)
+                if record is not None:
+                    image_topic, info_topic = self.topics(product, env)
+                    record(image_topic, img)
+                    record(info_topic, info)
+
+
+__all__ = ["BUFFERS", "CameraTopics", "ENCODINGS", "IMAGE_QOS", "PRODUCTS", "camera_frame", "camera_namespace"]

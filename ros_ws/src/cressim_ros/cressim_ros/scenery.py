@@ -1,0 +1,161 @@
+"""What the twin's camera sees: the arm's URDF visuals, a table and a tissue block, a light, and
+one camera per env, authored into the engine's world next to the arm's bodies.
+
+Visuals. Each arm body gets one Renderable: the URDF visual geometry of its links (box,
+cylinder, sphere, or a mesh file through trimesh) merged into one mesh in the body's frame,
+coloured by the first link's material. The meshes are shared by all envs (the world's mesh
+table). The scenery is visual only: it has no colliders, so it never changes the arm's motion.
+
+Segmentation ids are the same in every env: arm body k is k + 1 (in `labels` order), then the
+tissue and the table; `labels` maps id -> name for the `segmentation/labels` topic.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+import cressim
+
+TISSUE_HALF = (0.05, 0.04, 0.01)  # m: a block of tissue under the tool
+TISSUE_COLOR = (0.78, 0.38, 0.36, 1.0)
+TABLE_HALF = 0.4
+TABLE_COLOR = (0.35, 0.42, 0.35, 1.0)
+
+
+@dataclass(frozen=True)
+class CameraSpec:
+    """One camera per env, posed in the env's world (z up) by position and a point it looks at."""
+    width: int = 640
+    height: int = 480
+    fov_y: float = 60.0  # degrees
+    position: tuple = (0.12, -0.12, 0.32)
+    look_at: tuple = (0.0, 0.0, 0.19)
+    near: float = 0.01
+    far: float = 5.0
+    table_z: float = 0.15  # height of the table top; the tissue block rests on it
+
+    def intrinsics(self) -> tuple[float, float, float, float]:
+        """fx, fy, cx, cy in the engine's convention (pixel i spans [i, i + 1))."""
+        fy = 0.5 * self.height / np.tan(np.radians(self.fov_y) / 2)
+        return fy, fy, self.width / 2, self.height / 2
+
+
+def look_at_rotation(position, target, up=(0.0, 0.0, 1.0)) -> tuple:
+    """xyzw of the optical frame (z forward, x right, y down) at `position` looking at `target`."""
+    z = np.asarray(target, float) - np.asarray(position, float)
+    z /= np.linalg.norm(z)
+    x = np.cross(z, up)
+    if np.linalg.norm(x) < 1e-6:  # looking straight up or down: any right will do
+        x = np.cross(z, (0.0, 1.0, 0.0))
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    return _xyzw(np.stack([x, y, z], axis=1))
+
+
+def _xyzw(R) -> tuple:
+    w = np.sqrt(max(0.0, 1 + R[0, 0] + R[1, 1] + R[2, 2])) / 2
+    x = np.copysign(np.sqrt(max(0.0, 1 + R[0, 0] - R[1, 1] - R[2, 2])) / 2, R[2, 1] - R[1, 2])
+    y = np.copysign(np.sqrt(max(0.0, 1 - R[0, 0] + R[1, 1] - R[2, 2])) / 2, R[0, 2] - R[2, 0])
+    z = np.copysign(np.sqrt(max(0.0, 1 - R[0, 0] - R[1, 1] + R[2, 2])) / 2, R[1, 0] - R[0, 1])
+    return (float(x), float(y), float(z), float(w))
+
+
+def _geometry_mesh(geometry, urdf_dir: Path):
+    if geometry.box is not None:
+        return _unmerged_box(geometry.box.size)
+    if geometry.cylinder is not None:
+        return trimesh.creation.cylinder(radius=geometry.cylinder.radius, height=geometry.cylinder.length, sections=32)
+    if geometry.sphere is not None:
+        return trimesh.creation.icosphere(subdivisions=2, radius=geometry.sphere.radius)
+    if geometry.mesh is not None:
+        mesh = trimesh.load(urdf_dir / geometry.mesh.filename, force="mesh")
+        if geometry.mesh.scale is not None:
+            mesh.apply_scale(geometry.mesh.scale)
+        return mesh
+    return None
+
+
+def _unmerged_box(extents):
+    box = trimesh.creation.box(extents=extents)
+    box.unmerge_vertices()  # faceted: each face its own vertices, so normals are the faces'
+    return box
+
+
+class ArmVisuals:
+    """The merged visual mesh and colour of each arm body, built once and shared by all envs."""
+
+    def __init__(self, urdf, urdf_dir: Path, bodies, link_poses):
+        colors = {m.name: tuple(m.color.rgba) for m in urdf.robot.materials if m.color is not None}
+        self.meshes, self.colors, self.names = [], [], []
+        for b in bodies:
+            parts, color = [], None
+            for link in b.links:
+                rel = np.linalg.solve(b.pose, link_poses[link.name])
+                for v in link.visuals:
+                    mesh = _geometry_mesh(v.geometry, urdf_dir)
+                    if mesh is None:
+                        continue
+                    mesh.apply_transform(rel @ (v.origin if v.origin is not None else np.eye(4)))
+                    parts.append(mesh)
+                    if color is None and v.material is not None:
+                        rgba = v.material.color.rgba if v.material.color is not None else colors.get(v.material.name)
+                        color = tuple(float(c) for c in rgba) if rgba is not None else None
+            self.meshes.append(trimesh.util.concatenate(parts) if parts else None)
+            self.colors.append(color or (0.6, 0.6, 0.6, 1.0))
+            self.names.append(b.name)
+
+
+def engine_mesh(mesh: trimesh.Trimesh) -> cressim.Mesh:
+    return cressim.Mesh(np.asarray(mesh.vertices, np.float32), np.asarray(mesh.faces, np.uint32),
+                        np.asarray(mesh.vertex_normals, np.float32))
+
+
+class Scenery:
+    """Authors visuals, scenery, light and camera into a world (call `add_env` for each env)."""
+
+    def __init__(self, world, visuals: ArmVisuals, camera: CameraSpec):
+        self.camera = camera
+        self.visuals = visuals
+        self.body_meshes = [None if m is None else world.add_mesh(engine_mesh(m)) for m in visuals.meshes]
+        self.tissue_mesh = world.add_mesh(cressim.Mesh.box(TISSUE_HALF))
+        self.table_mesh = world.add_mesh(cressim.Mesh.plane(TABLE_HALF))
+        n = len(visuals.names)
+        self.tissue_id, self.table_id = n + 1, n + 2
+        self.labels = {k + 1: name for k, name in enumerate(visuals.names)}
+        self.labels.update({self.tissue_id: "tissue", self.table_id: "table"})
+        self.camera_rotation = look_at_rotation(camera.position, camera.look_at)
+
+    @staticmethod
+    def renderables_per_env(num_bodies: int) -> int:
+        return num_bodies + 2
+
+    def add_body_visual(self, entity, body_index: int):
+        mesh = self.body_meshes[body_index]
+        if mesh is not None:
+            entity.add(cressim.Renderable(mesh, color=self.visuals.colors[body_index], metallic=0.3, roughness=0.4,
+                                          segmentation_id=body_index + 1))
+
+    def add_env(self, world, env: int):
+        """Table, tissue, light and camera of one env; returns the camera's entity."""
+        c = self.camera
+        table = world.create_entity(env=env, name="table")
+        table.add(cressim.Transform(position=(0.0, 0.0, c.table_z)))
+        table.add(cressim.Renderable(self.table_mesh, color=TABLE_COLOR, segmentation_id=self.table_id))
+        tissue = world.create_entity(env=env, name="tissue")
+        tissue.add(cressim.Transform(position=(0.0, 0.0, c.table_z + TISSUE_HALF[2])))
+        tissue.add(cressim.Renderable(self.tissue_mesh, color=TISSUE_COLOR, roughness=0.3,
+                                      segmentation_id=self.tissue_id))
+        light = world.create_entity(env=env, name="light")  # from above, slightly behind the camera
+        light.add(cressim.Transform(rotation=look_at_rotation((0.2, -0.3, 1.0), (0.0, 0.0, 0.0))))
+        light.add(cressim.Light(intensity=1.0, ambient=0.3))
+        camera = world.create_entity(env=env, name="camera")
+        camera.add(cressim.Transform(position=tuple(float(v) for v in c.position), rotation=self.camera_rotation))
+        fx, fy, cx, cy = c.intrinsics()
+        camera.add(cressim.Camera(width=c.width, height=c.height, fx=fx, fy=fy, cx=cx, cy=cy, near=c.near, far=c.far))
+        return camera
+
+
+__all__ = ["ArmVisuals", "CameraSpec", "Scenery", "engine_mesh", "look_at_rotation"]
