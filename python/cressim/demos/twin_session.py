@@ -20,7 +20,9 @@ import numpy as np
 PERIOD = 0.01  # the client's servo period (100 Hz)
 
 
-def run(out_dir: str = "out/demo", seconds: float = 2.0) -> int:
+def run(out_dir: str = "out/demo", seconds: float = 2.0, bag_dir: str = "bags/demo") -> int:
+    """Drives the twin for a few seconds; the recording goes to bag_dir (replaced each run),
+    images and the summary to out_dir."""
     from cressim_ros.dvrk_client import Arm, Ral
     from cressim_ros.twin_process import Twin
 
@@ -28,7 +30,8 @@ def run(out_dir: str = "out/demo", seconds: float = 2.0) -> int:
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    bag = out / "twin_bag"
+    bag = Path(bag_dir).resolve()  # the twin runs in the repository root
+    bag.parent.mkdir(parents=True, exist_ok=True)
     shutil.rmtree(bag, ignore_errors=True)
     domain = 1 + os.getpid() % 100
     twin = Twin(domain, out / "twin.log", f"record:={bag}", "camera_width:=320", "camera_height:=240",
