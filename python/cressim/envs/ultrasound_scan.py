@@ -48,7 +48,8 @@ class UltrasoundScan(VectorEnv):
         super().__init__(num_envs, **kwargs)
         self.passes["observe"].set_threads((num_envs * HEIGHT * WIDTH, 1, 1))
 
-    def probe(self) -> cressim.UltrasoundProbe:
+    @staticmethod
+    def probe() -> cressim.UltrasoundProbe:
         return cressim.UltrasoundProbe(
             kind="linear", scanlines=LINES, line_spacing=SPACING, line_length=LENGTH, width=WIDTH, height=HEIGHT,
             center_frequency=3.5e6, fractional_bandwidth=0.6, sampling_frequency=40e6, radial_decimation=8,
@@ -56,19 +57,24 @@ class UltrasoundScan(VectorEnv):
             gain=-20.0)
 
     def build_world(self, num_envs: int) -> cressim.World:
+        return self.scene(num_envs)
+
+    @classmethod
+    def scene(cls, num_envs: int) -> cressim.World:
+        """The task's world without its passes (benchmarks/bench_ultrasound.py images it alone)."""
         world = cressim.World(cressim.SceneLayout(num_envs))
-        starts = np.random.default_rng(12345).uniform(-self.start_range, self.start_range, num_envs)
+        starts = np.random.default_rng(12345).uniform(-cls.start_range, cls.start_range, num_envs)
         cyst = cressim.UltrasoundInclusion((0, 0, 0), TARGET_RADIUS, amplitude_scale=0.0)
         for env in range(num_envs):
             tissue = world.create_entity(env=env, name="tissue")
             tissue.add(cressim.Transform())
-            tissue.add(cressim.UltrasoundTissue(region="box", size=(CUBE, CUBE, CUBE), density=self.density,
+            tissue.add(cressim.UltrasoundTissue(region="box", size=(CUBE, CUBE, CUBE), density=cls.density,
                                                 inclusions=[cyst]))
             probe = world.create_entity(env=env, name="probe")
             probe.add(cressim.Transform(position=(float(starts[env]), 0, CUBE), rotation=(1, 0, 0, 0)))  # looks down
             probe.add(cressim.RigidBody(kinematic=True))
             probe.add(cressim.Collider(cressim.Shape.box((0.3, 0.03, 0.02)), group=0, mask=0))
-            probe.add(self.probe())
+            probe.add(cls.probe())
         return world
 
     def physics_settings(self) -> cressim.PhysicsSettings:

@@ -21,6 +21,8 @@ from .rollout import resolve_device, run_update, sync
 from .vec_env import CressimVecEnv
 
 PAPER_SWEEP = (1, 8, 16, 32, 64, 128, 256, 512, 1024, 2048, 4096, 8192)
+# TASKS.md's sweeps where they differ from CartPole's
+TASK_SWEEPS = {"UltrasoundScan": (1, 8, 32, 64)}
 # The paper's figures (TASKS.md, RTX 4090, Vulkan) and MJX on an H100 as the peer, env-steps/s.
 REFERENCE = {
     "CartPole": {
@@ -106,13 +108,13 @@ def _num(x) -> str:
     return "-" if x is None else f"{x:,.0f}"
 
 
-def run(task: str = "CartPole", env_counts=PAPER_SWEEP, mode: str = "both", out_dir="benchmarks/results",
+def run(task: str = "CartPole", env_counts=None, mode: str = "both", out_dir="benchmarks/results",
         device=None, backend: str = "auto", extend: bool = False, protocol: dict | None = None,
         minibatch: int | None = None) -> dict:
     """Measures each env count; with `extend`, keeps doubling past the last count while step
     throughput still rises by 5 % or more. Prints a table; writes JSON and a PNG."""
     p = {"warmup_steps": 64, "steps": 256, "warmup_updates": 5, "updates": 10, "rollout": 128, **(protocol or {})}
-    rows, counts = [], list(env_counts)
+    rows, counts = [], list(env_counts or TASK_SWEEPS.get(task, PAPER_SWEEP))
     while counts:
         n = counts.pop(0)
         row = {"envs": n}
