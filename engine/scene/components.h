@@ -110,7 +110,7 @@ struct UltrasoundProbe {
   float line_spacing = 0.0003f;  // linear: between neighbouring scanlines
   float sector_angle = 60;       // sector: degrees from the first scanline to the last
   float radius = 0.05f;          // sector: radius of the curved face (0: a phased array)
-  uint32_t width = 256, height = 256;   // output image, pixels
+  uint32_t width = 256, height = 200;   // output image, pixels (square at the defaults)
   float sampling_frequency = 40e6f;     // Hz, of the RF the IQ samples are decimated from
   uint32_t radial_decimation = 8;       // IQ samples keep every n-th RF sample
   float center_frequency = 3.5e6f;      // Hz

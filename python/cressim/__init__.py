@@ -37,6 +37,7 @@ from cressim._core import (
     list_devices,
 )
 from cressim.compute import load_compute_pass
+from cressim import sensors  # noqa: F401  (PNG export of sensor images)
 
 __all__ = [
     "BindingError",
