@@ -249,7 +249,8 @@ void bind_sensor_components(py::module_& m) {
                 "line_length, line_spacing (linear), sector_angle (degrees) and radius (sector; 0: phased "
                 "array), width, height, sampling_frequency (Hz), radial_decimation, center_frequency (Hz), "
                 "fractional_bandwidth, lateral_beam_width and elevational_beam_width (FWHM), speed_of_sound "
-                "(m/s), metres_per_unit, dynamic_range and gain (dB). Defaults: an abdominal curvilinear probe.")
+                "(m/s), metres_per_unit, dynamic_range and gain (dB), rf_output (also fill ultrasound0.rf). Defaults: "
+                "an abdominal curvilinear probe.")
       .def(py::init([](py::kwargs kw) { return from_keywords<P>("UltrasoundProbe", kw); }))
       .def_property("kind",
                     [](const P& p) { return p.kind == ProbeKind::LINEAR ? "linear" : "sector"; },
@@ -273,7 +274,8 @@ void bind_sensor_components(py::module_& m) {
       .def_readwrite("speed_of_sound", &P::speed_of_sound)
       .def_readwrite("metres_per_unit", &P::metres_per_unit)
       .def_readwrite("dynamic_range", &P::dynamic_range)
-      .def_readwrite("gain", &P::gain);
+      .def_readwrite("gain", &P::gain)
+      .def_readwrite("rf_output", &P::rf_output);
 
   using I = scene::UltrasoundInclusion;
   py::class_<I>(m, "UltrasoundInclusion",

@@ -121,6 +121,7 @@ struct UltrasoundProbe {
   float metres_per_unit = 1;            // metres in one scene unit
   float dynamic_range = 50;             // dB shown from white to black
   float gain = 0;                       // dB; envelope 1 (with gain) is white
+  bool rf_output = false;               // also fill "ultrasound0.rf" at the full sampling rate
 };
 
 enum class RegionKind : uint32_t { NONE = 0, BOX = 1, SPHERE = 2, CYLINDER = 3 };

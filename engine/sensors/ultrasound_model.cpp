@@ -134,12 +134,16 @@ UltrasoundModel build_ultrasound_model(const scene::World& world, const scene::L
       uint32_t samples = 0;
       auto d = probe_data(world, e, row, env, samples);
       const auto& p = world.get<scene::UltrasoundProbe>(e);
+      const uint32_t rf = p.rf_output ? p.radial_decimation : 0;
       if (m.probes.empty()) {
-        m.lines = p.scanlines, m.samples = samples, m.width = p.width, m.height = p.height;
+        m.lines = p.scanlines, m.samples = samples, m.width = p.width, m.height = p.height, m.rf_factor = rf;
       } else if (m.lines != p.scanlines || m.samples != samples || m.width != p.width || m.height != p.height) {
         fail(world, e, "every UltrasoundProbe of a world must have the same scanlines, image size and samples per "
                        "line (" + std::to_string(m.lines) + " lines, " + std::to_string(m.width) + "x" +
                        std::to_string(m.height) + ", " + std::to_string(m.samples) + " samples) for now");
+      } else if (m.rf_factor != rf) {
+        fail(world, e, "UltrasoundProbe.rf_output: every probe of a world asks for RF, with one radial_decimation, "
+                       "or none does");
       }
       d.ids.w = uint32_t(m.probes.size());
       m.probes.push_back(d);

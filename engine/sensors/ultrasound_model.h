@@ -19,6 +19,7 @@ struct UltrasoundModel {
   std::vector<uint32_t> scatterer_parent;  // entity row
   std::vector<std::array<uint32_t, 2>> env_scatterers;  // per env: first, count
   uint32_t lines = 0, samples = 0, width = 0, height = 0, max_env_scatterers = 0;
+  uint32_t rf_factor = 0;  // RF samples per IQ sample (the decimation) when RF is asked for, else 0
 
   bool empty() const { return probes.empty(); }
 };

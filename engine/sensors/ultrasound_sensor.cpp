@@ -46,7 +46,8 @@ UltrasoundSensor::UltrasoundSensor(std::shared_ptr<gpu::Context> ctx, Ultrasound
   auto image = make(ctx, internal, "ultrasound0.image", std::vector<float>{},
                     {P, int64_t(m.height), int64_t(m.width)}, DType::FLOAT32, generation, exportable);
 
-  const shader::UltrasoundConstants c{uint32_t(P), m.lines, m.samples, m.width, m.height, m.max_env_scatterers};
+  const shader::UltrasoundConstants c{uint32_t(P), m.lines, m.samples, m.width, m.height, m.max_env_scatterers,
+                                      m.rf_factor};
   auto constants = [&](compute::ComputePass& pass) {
     if (pass.constants.size() != sizeof(c)) throw std::logic_error("UltrasoundConstants does not match " + pass.name);
     std::memcpy(pass.constants.data(), &c, sizeof(c));
@@ -67,6 +68,14 @@ UltrasoundSensor::UltrasoundSensor(std::shared_ptr<gpu::Context> ctx, Ultrasound
                                                {{"probes", probes}, {"iq", iq}, {"image", image}});
   constants(*scan_convert_);
   scan_convert_->set_threads({uint64_t(m.width) * m.height, uint64_t(P), 1});
+  if (!m.rf_factor) return;
+  const int64_t rf_samples = samples * m.rf_factor;
+  auto rf = make(ctx, internal, "ultrasound0.rf", std::vector<float>{}, {P, lines, rf_samples}, DType::FLOAT32,
+                 generation, exportable);
+  modulate_ = compute::create_builtin_pass(ctx, "sensors/ultrasound_rf",
+                                           {{"probes", probes}, {"accumulator", accumulator_}, {"rf", rf}});
+  constants(*modulate_);
+  modulate_->set_threads({uint64_t(rf_samples), uint64_t(lines), uint64_t(P)});
 }
 
 void UltrasoundSensor::record(VkCommandBuffer cmd) const {
@@ -75,6 +84,7 @@ void UltrasoundSensor::record(VkCommandBuffer cmd) const {
   project_->record(cmd);
   gpu::compute_barrier(cmd);
   demodulate_->record(cmd);
+  if (modulate_) modulate_->record(cmd);
   gpu::compute_barrier(cmd);
   scan_convert_->record(cmd);
 }

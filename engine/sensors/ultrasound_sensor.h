@@ -2,7 +2,8 @@
 // by their parents and projected onto every probe's scanlines as IQ contributions, the pulse
 // envelope convolved along each line, then envelope, log compression and scan conversion into
 // one output layer per probe ("ultrasound0.image" (probes, H, W) float32 in [0, 1],
-// "ultrasound0.iq" (probes, lines, samples, 2) float32).
+// "ultrasound0.iq" (probes, lines, samples, 2) float32; with UltrasoundProbe.rf_output also
+// "ultrasound0.rf" (probes, lines, samples x radial_decimation) float32).
 #pragma once
 #include <map>
 #include <memory>
@@ -26,7 +27,7 @@ class UltrasoundSensor {
  private:
   UltrasoundModel model_;
   std::shared_ptr<compute::TypedBuffer> accumulator_;
-  std::shared_ptr<compute::ComputePass> project_, demodulate_, scan_convert_;
+  std::shared_ptr<compute::ComputePass> project_, demodulate_, scan_convert_, modulate_;  // modulate_: RF, on request
 };
 
 }  // namespace cressim::sensors

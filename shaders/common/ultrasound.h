@@ -32,6 +32,7 @@ struct UltrasoundConstants {
   uint width;     // output image
   uint height;
   uint max_env_scatterers;
+  uint rf_factor;  // RF samples per IQ sample ("ultrasound0.rf"), 0: no RF
 };
 
 CRESSIM_SHADER_END

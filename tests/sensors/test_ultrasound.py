@@ -112,6 +112,21 @@ def test_point_spread_matches_pulse_and_beam(make_engine):
     assert row == 53 and col in (47, 48)
 
 
+def test_rf_on_request_oscillates_at_the_centre_frequency(make_engine):
+    engine, _ = build(make_engine, 1, lambda w, env: point(w, env, (0.0, 0.0, 5 * MM)), {"rf_output": True})
+    env, _ = frame(engine)
+    rf = engine.buffer("ultrasound0.rf").read()
+    assert rf.shape == (1, 96, env.shape[2] * 4)  # the full sampling rate
+    line = np.argmax(env[0].max(axis=1))
+    spectrum = np.abs(np.fft.rfft(rf[0, line]))
+    peak = np.fft.rfftfreq(rf.shape[2], 1 / FS)[np.argmax(spectrum)]
+    print(f"RF peak frequency {peak / 1e6:.3f} MHz (5)")
+    assert abs(peak / F0 - 1) < 0.05
+    assert abs(np.abs(rf[0, line]).max() / env[0, line].max() - 1) < 0.05  # carrier under the same envelope
+    with pytest.raises(cressim.BindingError, match="unknown buffer key 'ultrasound0.rf'"):
+        build(make_engine, 1, lambda w, env: None)[0].buffer("ultrasound0.rf")
+
+
 def test_anechoic_cyst_is_dark_and_moves_with_the_tissue(make_engine):
     cyst = cressim.UltrasoundInclusion((0, 0, 0), 2.5 * MM, amplitude_scale=0.0)
     engine, world = build(make_engine, 1, lambda w, env: phantom(w, env, density=200e9, inclusions=[cyst]))
