@@ -120,7 +120,7 @@ struct UltrasoundProbe {
   float speed_of_sound = 1540;          // m/s
   float metres_per_unit = 1;            // metres in one scene unit
   float dynamic_range = 50;             // dB shown from white to black
-  float gain = 0;                       // dB; envelope 1 (with gain) is white
+  float gain = -25;                     // dB; envelope 1 (after gain) is white
   bool rf_output = false;               // also fill "ultrasound0.rf" at the full sampling rate
 };
 

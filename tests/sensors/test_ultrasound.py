@@ -22,7 +22,8 @@ def probe(**over):
     """A small linear probe in metres: 5 MHz, 0.6 mm lateral and 1 mm elevational beam."""
     kw = dict(kind="linear", scanlines=96, line_spacing=0.15 * MM, line_length=12 * MM, width=96, height=128,
               sampling_frequency=FS, radial_decimation=4, center_frequency=F0, fractional_bandwidth=B,
-              lateral_beam_width=0.6 * MM, elevational_beam_width=1.0 * MM, speed_of_sound=C, dynamic_range=60.0)
+              lateral_beam_width=0.6 * MM, elevational_beam_width=1.0 * MM, speed_of_sound=C, dynamic_range=60.0,
+              gain=0.0)
     kw.update(over)
     return cressim.UltrasoundProbe(**kw)
 
