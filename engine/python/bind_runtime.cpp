@@ -190,6 +190,24 @@ void bind_runtime(py::module_& m) {
         d["layer"] = to_numpy(layer);
         return d;
       }, "Each camera's entity, env, and where its images are: camera{group}.rgb[layer] etc.")
+      .def_property_readonly("ultrasound_probes", [](const Engine& e) {
+        py::dict d;
+        std::vector<uint32_t> entity, env, layer;
+        size_t scatterers = 0;
+        if (e.ultrasound()) {
+          const auto& m = e.ultrasound()->model();
+          entity = m.probe_entity;
+          for (auto& p : m.probes) env.push_back(p.ids.y), layer.push_back(p.ids.w);
+          scatterers = m.scatterers.size();
+          d["lines"] = m.lines, d["samples"] = m.samples, d["width"] = m.width, d["height"] = m.height;
+        }
+        d["entity"] = to_numpy(entity);
+        d["env"] = to_numpy(env);
+        d["layer"] = to_numpy(layer);
+        d["scatterers"] = scatterers;
+        return d;
+      }, "Each ultrasound probe's entity, env and layer of ultrasound0.image / ultrasound0.iq; the "
+         "scatterer count over all envs; scanlines, IQ samples per line and image size.")
       .def_property_readonly("health_events", &Engine::health_events,
                              "Envs flagged unhealthy (NaN/Inf, speed, penetration) and reset since upload_world().")
       .def_property_readonly("prepared", &Engine::prepared)

@@ -220,6 +220,99 @@ void bind_render_components(py::module_& m) {
            "A directional light travelling along the entity's +z (the env's first light is shaded).");
 }
 
+// keyword-only construction of a component with many fields: each keyword sets the field of
+// that name through its property, so a misspelt keyword is an error naming the valid ones
+template <class C>
+std::unique_ptr<C> from_keywords(const char* type, const py::kwargs& kw) {
+  auto c = std::make_unique<C>();
+  py::object self = py::cast(c.get(), py::return_value_policy::reference);
+  for (auto [key, value] : kw) {
+    const std::string k = py::str(key);
+    if (k.rfind("_", 0) == 0 || !py::hasattr(py::type::of(self), k.c_str())) {
+      std::string valid;
+      for (auto name : py::module_::import("builtins").attr("dir")(py::type::of(self)))
+        if (std::string n = py::str(name); n.rfind("_", 0) != 0) valid += (valid.empty() ? "" : ", ") + n;
+      throw py::type_error(std::string(type) + "() has no field '" + k + "'; fields: " + valid);
+    }
+    self.attr(k.c_str()) = value;
+  }
+  return c;
+}
+
+void bind_sensor_components(py::module_& m) {
+  using scene::ProbeKind;
+  using scene::RegionKind;
+  using P = scene::UltrasoundProbe;
+  py::class_<P>(m, "UltrasoundProbe",
+                "An ultrasound probe (COLE B-mode) on the entity's face, looking along +z with its scanlines "
+                "spread along x. Keyword fields (lengths in scene units): kind ('linear' or 'sector'), scanlines, "
+                "line_length, line_spacing (linear), sector_angle (degrees) and radius (sector; 0: phased "
+                "array), width, height, sampling_frequency (Hz), radial_decimation, center_frequency (Hz), "
+                "fractional_bandwidth, lateral_beam_width and elevational_beam_width (FWHM), speed_of_sound "
+                "(m/s), metres_per_unit, dynamic_range and gain (dB), rf_output (also fill ultrasound0.rf). Defaults: "
+                "an abdominal curvilinear probe.")
+      .def(py::init([](py::kwargs kw) { return from_keywords<P>("UltrasoundProbe", kw); }))
+      .def_property("kind",
+                    [](const P& p) { return p.kind == ProbeKind::LINEAR ? "linear" : "sector"; },
+                    [](P& p, const std::string& k) {
+                      p.kind = parse_enum<ProbeKind>(k, {{"linear", ProbeKind::LINEAR}, {"sector", ProbeKind::SECTOR}},
+                                                     "UltrasoundProbe kind");
+                    })
+      .def_readwrite("scanlines", &P::scanlines)
+      .def_readwrite("line_length", &P::line_length)
+      .def_readwrite("line_spacing", &P::line_spacing)
+      .def_readwrite("sector_angle", &P::sector_angle)
+      .def_readwrite("radius", &P::radius)
+      .def_readwrite("width", &P::width)
+      .def_readwrite("height", &P::height)
+      .def_readwrite("sampling_frequency", &P::sampling_frequency)
+      .def_readwrite("radial_decimation", &P::radial_decimation)
+      .def_readwrite("center_frequency", &P::center_frequency)
+      .def_readwrite("fractional_bandwidth", &P::fractional_bandwidth)
+      .def_readwrite("lateral_beam_width", &P::lateral_beam_width)
+      .def_readwrite("elevational_beam_width", &P::elevational_beam_width)
+      .def_readwrite("speed_of_sound", &P::speed_of_sound)
+      .def_readwrite("metres_per_unit", &P::metres_per_unit)
+      .def_readwrite("dynamic_range", &P::dynamic_range)
+      .def_readwrite("gain", &P::gain)
+      .def_readwrite("rf_output", &P::rf_output);
+
+  using I = scene::UltrasoundInclusion;
+  py::class_<I>(m, "UltrasoundInclusion",
+                "A sphere in a tissue (entity frame) whose scatterer amplitudes are scaled: 0 anechoic, < 1 "
+                "hypoechoic, > 1 hyperechoic.")
+      .def(py::init([](scene::Vec3 c, float r, float a) { return I{c, r, a}; }), py::arg("center"),
+           py::arg("radius"), py::kw_only(), py::arg("amplitude_scale") = 0.f)
+      .def_readwrite("center", &I::center)
+      .def_readwrite("radius", &I::radius)
+      .def_readwrite("amplitude_scale", &I::amplitude_scale);
+
+  using T = scene::UltrasoundTissue;
+  py::class_<T>(m, "UltrasoundTissue",
+                "Ultrasound scatterers of a tissue, made at prepare() in the entity frame and carried by its pose. "
+                "Keyword fields: region ('box', 'sphere', 'cylinder'), size (box half extents; sphere radius in "
+                "x; cylinder radius x, half height y along z), center, density (per cubic scene unit) or count, "
+                "amplitude_mean, amplitude_std (normal amplitudes), inclusions, seed.")
+      .def(py::init([](py::kwargs kw) { return from_keywords<T>("UltrasoundTissue", kw); }))
+      .def_property("region",
+                    [](const T& t) {
+                      return t.region == RegionKind::SPHERE ? "sphere" : t.region == RegionKind::CYLINDER ? "cylinder" : "box";
+                    },
+                    [](T& t, const std::string& k) {
+                      t.region = parse_enum<RegionKind>(k, {{"box", RegionKind::BOX}, {"sphere", RegionKind::SPHERE},
+                                                            {"cylinder", RegionKind::CYLINDER}},
+                                                        "UltrasoundTissue region");
+                    })
+      .def_readwrite("size", &T::size)
+      .def_readwrite("center", &T::center)
+      .def_readwrite("density", &T::density)
+      .def_readwrite("count", &T::count)
+      .def_readwrite("amplitude_mean", &T::amplitude_mean)
+      .def_readwrite("amplitude_std", &T::amplitude_std)
+      .def_readwrite("inclusions", &T::inclusions)
+      .def_readwrite("seed", &T::seed);
+}
+
 }  // namespace
 
 void bind_scene(py::module_& m) {
@@ -244,6 +337,7 @@ void bind_scene(py::module_& m) {
 
   bind_physics_components(m);
   bind_render_components(m);
+  bind_sensor_components(m);
 
   py::class_<scene::Transform>(m, "Transform")
       .def(py::init([](std::array<float, 3> p, std::array<float, 4> r, std::array<float, 3> s) {
@@ -272,6 +366,8 @@ void bind_scene(py::module_& m) {
       .def("add", &add<scene::Renderable>, py::arg("component"))
       .def("add", &add<scene::Camera>, py::arg("component"))
       .def("add", &add<scene::Light>, py::arg("component"))
+      .def("add", &add<scene::UltrasoundProbe>, py::arg("component"))
+      .def("add", &add<scene::UltrasoundTissue>, py::arg("component"))
       .def("has", [](const Entity& e, py::object type) {
         if (type.is(py::type::of<scene::Transform>())) return e.world->has<scene::Transform>(e.id);
         if (type.is(py::type::of<scene::RigidBody>())) return e.world->has<scene::RigidBody>(e.id);
@@ -280,6 +376,8 @@ void bind_scene(py::module_& m) {
         if (type.is(py::type::of<scene::Renderable>())) return e.world->has<scene::Renderable>(e.id);
         if (type.is(py::type::of<scene::Camera>())) return e.world->has<scene::Camera>(e.id);
         if (type.is(py::type::of<scene::Light>())) return e.world->has<scene::Light>(e.id);
+        if (type.is(py::type::of<scene::UltrasoundProbe>())) return e.world->has<scene::UltrasoundProbe>(e.id);
+        if (type.is(py::type::of<scene::UltrasoundTissue>())) return e.world->has<scene::UltrasoundTissue>(e.id);
         throw py::type_error("unknown component type");
       })
       .def_property(

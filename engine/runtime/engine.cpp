@@ -59,6 +59,7 @@ void Engine::prepare() {
   const auto& limits = ctx_->properties.limits;
   render_model_ = render::build_render_model(*world_, mapping_,
                                              std::min(limits.maxImageArrayLayers, limits.maxFramebufferLayers));
+  ultrasound_model_ = sensors::build_ultrasound_model(*world_, mapping_);
   prepared_ = true;
   uploaded_ = false;
 }
@@ -131,11 +132,14 @@ void Engine::upload_world() {
                                                      shared_, scene);
   }
   if (!render_model_.empty()) renderer_ = std::make_unique<render::Renderer>(ctx_, render_model_, generation_, internal_, internal_);
+  if (!ultrasound_model_.empty())
+    ultrasound_ = std::make_unique<sensors::UltrasoundSensor>(ctx_, ultrasound_model_, generation_, internal_, internal_);
   reported_health_events_ = 0;
   uploaded_ = true;
 }
 
 void Engine::release_world_buffers() {
+  ultrasound_.reset();
   renderer_.reset();
   rigid_.reset();
   reset_pass_.reset();
@@ -318,6 +322,8 @@ void Engine::record_op(VkCommandBuffer cmd, const FrameOp& op) {
     rigid_->record_step(cmd);
   } else if (op.stage == Stage::VISUAL_SENSORS && renderer_) {
     renderer_->record(cmd);
+  } else if (op.stage == Stage::SIMULATION_SENSORS && ultrasound_) {
+    ultrasound_->record(cmd);
   }
   for (auto& r : recorders_[size_t(op.stage)]) r(cmd);
 }

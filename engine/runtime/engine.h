@@ -20,6 +20,7 @@
 #include "runtime/frame.h"
 #include "scene/layout_mapping.h"
 #include "scene/world.h"
+#include "sensors/ultrasound_sensor.h"
 
 namespace cressim::runtime {
 
@@ -66,6 +67,7 @@ class Engine {
   void set_physics_settings(const physics::PhysicsSettings& s);
   const physics::RigidSystem* rigid() const { return rigid_.get(); }
   const render::Renderer* renderer() const { return renderer_.get(); }
+  const sensors::UltrasoundSensor* ultrasound() const { return ultrasound_.get(); }
   // envs the solver flagged (NaN, speed, penetration) and reset since upload_world()
   uint64_t health_events() const;
 
@@ -125,6 +127,8 @@ class Engine {
   std::unique_ptr<physics::RigidSystem> rigid_;
   render::RenderModel render_model_;  // built by prepare(), moved to renderer_ by upload_world()
   std::unique_ptr<render::Renderer> renderer_;
+  sensors::UltrasoundModel ultrasound_model_;  // built by prepare(), moved to ultrasound_ by upload_world()
+  std::unique_ptr<sensors::UltrasoundSensor> ultrasound_;
   std::shared_ptr<compute::ComputePass> reset_pass_;
 
   std::vector<FrameOp> ops_;

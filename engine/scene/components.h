@@ -97,7 +97,60 @@ struct Light {
   float ambient = 0.2f;
 };
 
-using ComponentTypes = std::tuple<Transform, RigidBody, Collider, Joint, Renderable, Camera, Light>;
+enum class ProbeKind : uint32_t { NONE = 0, LINEAR = 1, SECTOR = 2 };
+
+// An ultrasound probe (COLE B-mode synthesis) on the entity's face: it looks along +z, spreads
+// its scanlines along x, and y is the elevation. Lengths are scene units; metres_per_unit
+// relates them to the pulse (frequencies, speed of sound). The defaults are an abdominal
+// curvilinear probe in a scene in metres: 3.5 MHz, 60 degrees, 15 cm deep.
+struct UltrasoundProbe {
+  ProbeKind kind = ProbeKind::SECTOR;
+  uint32_t scanlines = 128;
+  float line_length = 0.15f;     // imaged depth along each scanline
+  float line_spacing = 0.0003f;  // linear: between neighbouring scanlines
+  float sector_angle = 60;       // sector: degrees from the first scanline to the last
+  float radius = 0.05f;          // sector: radius of the curved face (0: a phased array)
+  uint32_t width = 256, height = 200;   // output image, pixels (square at the defaults)
+  float sampling_frequency = 40e6f;     // Hz, of the RF the IQ samples are decimated from
+  uint32_t radial_decimation = 8;       // IQ samples keep every n-th RF sample
+  float center_frequency = 3.5e6f;      // Hz
+  float fractional_bandwidth = 0.6f;    // -6 dB bandwidth over the centre frequency
+  float lateral_beam_width = 0.0015f;   // FWHM of the two-way beam profile
+  float elevational_beam_width = 0.004f;
+  float speed_of_sound = 1540;          // m/s
+  float metres_per_unit = 1;            // metres in one scene unit
+  float dynamic_range = 50;             // dB shown from white to black
+  float gain = -25;                     // dB; envelope 1 (after gain) is white
+  bool rf_output = false;               // also fill "ultrasound0.rf" at the full sampling rate
+};
+
+enum class RegionKind : uint32_t { NONE = 0, BOX = 1, SPHERE = 2, CYLINDER = 3 };
+
+// A sphere inside a tissue region (entity frame) whose scatterers' amplitudes are scaled:
+// 0 makes an anechoic cyst (no scatterers), 0.3 a hypoechoic lesion, 2 a brighter one.
+struct UltrasoundInclusion {
+  Vec3 center{0, 0, 0};
+  float radius = 0;
+  float amplitude_scale = 0;
+};
+
+// Scatterers of a tissue, generated at prepare() in the entity frame and carried by its pose
+// (a static, kinematic or dynamic body). Region: box half extents, sphere radius (size x),
+// cylinder radius x and half height y along z; centred at `center`.
+struct UltrasoundTissue {
+  RegionKind region = RegionKind::BOX;
+  Vec3 size{0.02f, 0.02f, 0.02f};
+  Vec3 center{0, 0, 0};
+  float density = 0;     // scatterers per cubic scene unit, or
+  uint32_t count = 0;    // this many in the region (one of the two)
+  float amplitude_mean = 1;   // amplitudes are normal(mean, std)
+  float amplitude_std = 0.5f;
+  std::vector<UltrasoundInclusion> inclusions;
+  uint32_t seed = 0;     // with the entity id: envs get different speckle
+};
+
+using ComponentTypes = std::tuple<Transform, RigidBody, Collider, Joint, Renderable, Camera, Light, UltrasoundProbe,
+                                  UltrasoundTissue>;
 
 // Triangle meshes shared by all envs; vertex normals per vertex.
 struct Mesh {

@@ -29,11 +29,15 @@ from cressim._core import (
     ShaderCompileError,
     TopologyError,
     Transform,
+    UltrasoundInclusion,
+    UltrasoundProbe,
+    UltrasoundTissue,
     VulkanError,
     World,
     list_devices,
 )
 from cressim.compute import load_compute_pass
+from cressim import sensors  # noqa: F401  (PNG export of sensor images)
 
 __all__ = [
     "BindingError",
@@ -55,6 +59,9 @@ __all__ = [
     "ShaderCompileError",
     "TopologyError",
     "Transform",
+    "UltrasoundInclusion",
+    "UltrasoundProbe",
+    "UltrasoundTissue",
     "VulkanError",
     "World",
     "list_devices",

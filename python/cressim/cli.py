@@ -52,7 +52,7 @@ def _train(args: argparse.Namespace) -> int:
 def _bench(args: argparse.Namespace) -> int:
     from cressim.learn.bench import run
 
-    run(args.task, [int(n) for n in args.envs.split(",")], mode=args.mode, out_dir=args.out, device=args.device,
+    run(args.task, [int(n) for n in args.envs.split(",")] if args.envs else None, mode=args.mode, out_dir=args.out, device=args.device,
         backend=args.backend, extend=args.extend, minibatch=args.minibatch)
     return 0
 
@@ -87,7 +87,8 @@ def main(argv: list[str] | None = None) -> int:
     p.set_defaults(run=_train)
     p = sub.add_parser("bench", help="stepping and PPO throughput (TASKS.md protocol)")
     p.add_argument("task", nargs="?", default="CartPole")
-    p.add_argument("--envs", default="1,8,16,32,64,128,256,512,1024,2048,4096,8192", help="comma-separated counts")
+    p.add_argument("--envs", help="comma-separated counts (default: TASKS.md's sweep for the task, "
+                                  "1,8,...,8192 for CartPole, 1,8,32,64 for UltrasoundScan)")
     p.add_argument("--mode", default="both", choices=("step", "ppo", "both"))
     p.add_argument("--out", default="benchmarks/results", help="folder for the JSON and PNG")
     p.add_argument("--device", help="torch device (default: what the env picks)")

@@ -2,9 +2,10 @@
 from __future__ import annotations
 
 from .cartpole import CartPole
+from .ultrasound_scan import UltrasoundScan
 from .vector_env import Space, VectorEnv
 
-REGISTRY = {"CartPole": CartPole}
+REGISTRY = {"CartPole": CartPole, "UltrasoundScan": UltrasoundScan}
 
 
 def make(name: str, num_envs: int, **kwargs) -> VectorEnv:
@@ -16,4 +17,4 @@ def make(name: str, num_envs: int, **kwargs) -> VectorEnv:
     return task(num_envs, **kwargs)
 
 
-__all__ = ["CartPole", "REGISTRY", "Space", "VectorEnv", "make"]
+__all__ = ["CartPole", "REGISTRY", "Space", "UltrasoundScan", "VectorEnv", "make"]

@@ -106,6 +106,9 @@ class VectorEnv:
         """Extra HLSL bindings (name -> buffer or key) beyond the common ones."""
         return {}
 
+    def sense(self) -> None:
+        """Sensor stages the observation reads, recorded before `observe` (none by default)."""
+
     # --- the batched API ---------------------------------------------------------------------
     def default_device(self) -> torch.device:
         probe = self.engine.buffer("env.health")
@@ -176,6 +179,7 @@ class VectorEnv:
             e.step_physics()
             e.execute_compute_pass(p["evaluate"])
         e.reset_flagged_envs()
+        self.sense()
         e.execute_compute_pass(p["observe"])
         e.end_frame()
 

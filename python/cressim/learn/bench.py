@@ -21,12 +21,18 @@ from .rollout import resolve_device, run_update, sync
 from .vec_env import CressimVecEnv
 
 PAPER_SWEEP = (1, 8, 16, 32, 64, 128, 256, 512, 1024, 2048, 4096, 8192)
+# TASKS.md's sweeps where they differ from CartPole's
+TASK_SWEEPS = {"UltrasoundScan": (1, 8, 32, 64)}
 # The paper's figures (TASKS.md, RTX 4090, Vulkan) and MJX on an H100 as the peer, env-steps/s.
 REFERENCE = {
     "CartPole": {
         "paper RTX 4090 step": {1: 627, 1024: 405_529, 4096: 1_249_689, 8192: 2_030_481},
         "paper RTX 4090 PPO": {1: 555, 1024: 236_791, 4096: 402_104, 8192: 451_904},
         "MJX H100 step": {1024: 505_730, 4096: 2_001_270, 8192: 2_823_936, 65536: 17_915_751},
+    },
+    "UltrasoundScan": {
+        "paper RTX 4090 step": {1: 71.6, 8: 305, 32: 420, 64: 386},
+        "paper RTX 4090 PPO": {32: 306},
     },
 }
 
@@ -64,6 +70,8 @@ def bench_step(task: str, num_envs: int, device=None, warmup: int = 64, steps: i
     dt = time.perf_counter() - t0
     out = {"step_sps": steps * num_envs / dt, "engine_bytes": engine_bytes(env), "setup_s": setup,
            "vulkan_device": env.engine.device["name"], "torch_device": str(env.device)}
+    if hasattr(env, "scatterers"):  # ultrasound tasks: the workload's size
+        out["scatterers"] = env.scatterers
     env.close()
     del env, zeros
     gc.collect()
@@ -100,13 +108,13 @@ def _num(x) -> str:
     return "-" if x is None else f"{x:,.0f}"
 
 
-def run(task: str = "CartPole", env_counts=PAPER_SWEEP, mode: str = "both", out_dir="benchmarks/results",
+def run(task: str = "CartPole", env_counts=None, mode: str = "both", out_dir="benchmarks/results",
         device=None, backend: str = "auto", extend: bool = False, protocol: dict | None = None,
         minibatch: int | None = None) -> dict:
     """Measures each env count; with `extend`, keeps doubling past the last count while step
     throughput still rises by 5 % or more. Prints a table; writes JSON and a PNG."""
     p = {"warmup_steps": 64, "steps": 256, "warmup_updates": 5, "updates": 10, "rollout": 128, **(protocol or {})}
-    rows, counts = [], list(env_counts)
+    rows, counts = [], list(env_counts or TASK_SWEEPS.get(task, PAPER_SWEEP))
     while counts:
         n = counts.pop(0)
         row = {"envs": n}
@@ -118,8 +126,8 @@ def run(task: str = "CartPole", env_counts=PAPER_SWEEP, mode: str = "both", out_
             row["ppo_minibatch"] = minibatch or ppo_config(task).minibatch
         row["engine_bytes_per_env"] = row["engine_bytes"] / n if row.get("engine_bytes") else None
         rows.append(row)
-        print(f"  {n} envs: " + ", ".join(f"{k} {_num(row[k])}" for k in ("step_sps", "ppo_sps") if k in row),
-              flush=True)
+        print(f"  {n} envs: " + ", ".join(f"{k} {_num(row[k])}" for k in ("step_sps", "ppo_sps") if k in row)
+              + (f", {row['scatterers'] // n:,} scatterers per env" if "scatterers" in row else ""), flush=True)
         if extend and not counts and mode != "ppo" and (len(rows) < 2 or row["step_sps"] >= 1.05 * rows[-2]["step_sps"]):
             counts.append(2 * n)
 

@@ -24,6 +24,7 @@ class PPOConfig:
     max_grad_norm: float = 0.5
     init_log_std: float = -0.5
     hidden: tuple = (128, 128)  # tanh MLP, actor and critic alike
+    network: str = "mlp"        # "cnn": conv32 k5 s2, conv64 k3 s2, conv64 k3 s2, ReLU, linear hidden[0]
 
     def num_mini_batches(self, num_envs: int) -> int:
         return max(1, round(num_envs * self.rollout / self.minibatch))
@@ -36,12 +37,13 @@ class PPOConfig:
         return asdict(self)
 
 
-# Per-task network width and minibatch (TASKS.md); only the MLP tasks have a learner here.
+# Per-task network and minibatch (TASKS.md); CNN tasks train with the built-in learner.
 TASKS = {
     "CartPole": PPOConfig(hidden=(128, 128), minibatch=2048),
     "SoftBodyPush": PPOConfig(hidden=(128, 128), minibatch=1024),
     "FluidPour": PPOConfig(hidden=(128, 128), minibatch=1024),
     "TissueRetract": PPOConfig(hidden=(256, 256), minibatch=1024),
+    "UltrasoundScan": PPOConfig(hidden=(256,), network="cnn", minibatch=256),
 }
 
 

@@ -45,9 +45,11 @@ def make_learner(venv: CressimVecEnv, cfg: PPOConfig, backend: str = "auto"):
     if backend not in BACKENDS:
         raise ValueError(f"backend must be one of {BACKENDS}")
     if backend == "auto":
-        backend = "rsl_rl" if rsl_rl_available() else "torch"
+        backend = "rsl_rl" if rsl_rl_available() and cfg.network == "mlp" else "torch"
+    if backend == "rsl_rl" and cfg.network != "mlp":
+        raise ValueError(f"the rsl_rl backend is set up for MLPs only; network {cfg.network!r} needs backend='torch'")
     if backend == "torch":
-        alg = TorchPPO(venv.num_obs, venv.num_actions, venv.num_envs, cfg, venv.device)
+        alg = TorchPPO(venv.num_obs, venv.num_actions, venv.num_envs, cfg, venv.device, venv.obs_shape)
     else:
         from rsl_rl.algorithms import PPO
 

@@ -6,6 +6,7 @@ normalisation, time-out bootstrapping, one shuffle reused by all epochs, gradien
 separately for actor and critic."""
 from __future__ import annotations
 
+import math
 from itertools import chain
 
 import torch
@@ -23,11 +24,31 @@ def mlp(inputs: int, hidden: tuple, outputs: int) -> nn.Sequential:
     return nn.Sequential(*layers, nn.Linear(width, outputs))
 
 
+def cnn(shape: tuple, hidden: int, outputs: int) -> nn.Sequential:
+    """TASKS.md's image network on flat observations of `shape` (channels, H, W)."""
+    convs = nn.Sequential(nn.Unflatten(1, tuple(shape)), nn.Conv2d(shape[0], 32, 5, 2), nn.ReLU(),
+                          nn.Conv2d(32, 64, 3, 2), nn.ReLU(), nn.Conv2d(64, 64, 3, 2), nn.ReLU(), nn.Flatten())
+    with torch.no_grad():
+        width = convs(torch.zeros(1, math.prod(shape))).shape[1]
+    return nn.Sequential(*convs, nn.Linear(width, hidden), nn.ReLU(), nn.Linear(hidden, outputs))
+
+
+def network(cfg: PPOConfig, num_obs: int, obs_shape: tuple | None, outputs: int) -> nn.Sequential:
+    if cfg.network == "mlp":
+        return mlp(num_obs, cfg.hidden, outputs)
+    if cfg.network == "cnn":
+        if obs_shape is None or len(obs_shape) != 3:
+            raise ValueError(f"network 'cnn' needs (channels, H, W) observations, got shape {obs_shape}")
+        return cnn(obs_shape, cfg.hidden[0], outputs)
+    raise ValueError(f"PPOConfig.network {cfg.network!r}: use 'mlp' or 'cnn'")
+
+
 class TorchPPO:
-    def __init__(self, num_obs: int, num_actions: int, num_envs: int, cfg: PPOConfig, device):
+    def __init__(self, num_obs: int, num_actions: int, num_envs: int, cfg: PPOConfig, device,
+                 obs_shape: tuple | None = None):
         self.cfg, self.device = cfg, torch.device(device)
-        self.actor = mlp(num_obs, cfg.hidden, num_actions).to(self.device)
-        self.critic = mlp(num_obs, cfg.hidden, 1).to(self.device)
+        self.actor = network(cfg, num_obs, obs_shape, num_actions).to(self.device)
+        self.critic = network(cfg, num_obs, obs_shape, 1).to(self.device)
         self.log_std = nn.Parameter(torch.full((num_actions,), cfg.init_log_std, device=self.device))
         self.actor_params = [*self.actor.parameters(), self.log_std]
         self.optimizer = torch.optim.Adam(chain(self.actor_params, self.critic.parameters()), lr=cfg.lr)

@@ -24,7 +24,8 @@ class CressimVecEnv(_Base):
     def __init__(self, env):
         self.env = env
         self.num_envs = env.num_envs
-        self.num_obs = math.prod(env.observation_space.shape)
+        self.obs_shape = tuple(env.observation_space.shape)
+        self.num_obs = math.prod(self.obs_shape)
         self.num_actions = math.prod(env.action_space.shape)
         self.max_episode_length = env.max_episode_steps
         self.device = env.device

@@ -1,0 +1,64 @@
+"""Ultrasound sensor throughput alone: the UltrasoundScan scene (paper's sizes: 130 x 160
+image, 96 scanlines 0.006 apart, 0.7 long, a 0.45 tissue cube with 1e6 scatterers per unit
+volume) for N envs, one step_simulation_sensors per frame, synchronised every frame; images/s,
+GPU ms per frame (engine timestamps) and the scatterer count. Writes JSON.
+Usage: PYTHONPATH=python python3 benchmarks/bench_ultrasound.py --envs 1,32,256,1024,4096"""
+from __future__ import annotations
+
+import argparse
+import gc
+import json
+import time
+from pathlib import Path
+
+import cressim
+from cressim.envs.ultrasound_scan import UltrasoundScan
+
+
+def build(envs: int) -> cressim.Engine:
+    engine = cressim.Engine(UltrasoundScan.scene(envs))
+    engine.prepare()
+    engine.upload_world()
+    return engine
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--envs", default="1,8,32,64,256,1024,4096")
+    ap.add_argument("--frames", type=int, default=100)
+    ap.add_argument("--json", default="benchmarks/results/ultrasound_sensor.json")
+    args = ap.parse_args()
+    rows = []
+    for envs in map(int, args.envs.split(",")):
+        t = time.perf_counter()
+        engine = build(envs)
+        setup = time.perf_counter() - t
+        for _ in range(10):
+            engine.step_simulation_sensors()
+            engine.end_frame()
+        t = time.perf_counter()
+        for _ in range(args.frames):
+            engine.step_simulation_sensors()
+            engine.end_frame()
+        dt = (time.perf_counter() - t) / args.frames
+        engine.profiling = True
+        engine.step_simulation_sensors()
+        engine.end_frame()
+        gpu_ms = sum(ms for _, ms in engine.last_timings)
+        scatterers = int(engine.ultrasound_probes["scatterers"])
+        mem = sum(engine.buffer(k).nbytes for k in engine.internal_keys if k.startswith("ultrasound")) / envs
+        rows.append({"envs": envs, "images_per_s": envs / dt, "frames_per_s": 1 / dt, "gpu_ms_per_frame": gpu_ms,
+                     "scatterers": scatterers, "scatterers_per_env": scatterers / envs,
+                     "sensor_bytes_per_env": mem, "setup_s": setup, "device": engine.device["name"]})
+        print(f"{envs:6d} envs: {envs / dt:12,.0f} images/s ({1 / dt:8.1f} frames/s, GPU {gpu_ms:7.3f} ms/frame), "
+              f"{scatterers / envs:,.0f} scatterers/env, {mem / 2**20:.2f} MiB/env, setup {setup:.1f} s", flush=True)
+        del engine
+        gc.collect()
+    out = Path(args.json)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps({"command": "bench_ultrasound.py", "frames": args.frames, "results": rows}, indent=1))
+    print(f"wrote {out}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,33 @@
+// The ultrasound sensor on the GPU, recorded into step_simulation_sensors: scatterers posed
+// by their parents and projected onto every probe's scanlines as IQ contributions, the pulse
+// envelope convolved along each line, then envelope, log compression and scan conversion into
+// one output layer per probe ("ultrasound0.image" (probes, H, W) float32 in [0, 1],
+// "ultrasound0.iq" (probes, lines, samples, 2) float32; with UltrasoundProbe.rf_output also
+// "ultrasound0.rf" (probes, lines, samples x radial_decimation) float32).
+#pragma once
+#include <map>
+#include <memory>
+#include <string>
+
+#include "compute/compute_pass.h"
+#include "sensors/ultrasound_model.h"
+
+namespace cressim::sensors {
+
+using BufferMap = std::map<std::string, std::shared_ptr<compute::TypedBuffer>>;
+
+class UltrasoundSensor {
+ public:
+  // internal: receives the sensor's buffers; scene: the engine's transform buffers
+  UltrasoundSensor(std::shared_ptr<gpu::Context> ctx, UltrasoundModel model, uint64_t generation, BufferMap& internal,
+                   const BufferMap& scene);
+  void record(VkCommandBuffer cmd) const;
+  const UltrasoundModel& model() const { return model_; }
+
+ private:
+  UltrasoundModel model_;
+  std::shared_ptr<compute::TypedBuffer> accumulator_;
+  std::shared_ptr<compute::ComputePass> project_, demodulate_, scan_convert_, modulate_;  // modulate_: RF, on request
+};
+
+}  // namespace cressim::sensors

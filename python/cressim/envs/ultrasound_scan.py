@@ -1,0 +1,113 @@
+"""UltrasoundScan: a linear probe is moved over tissue to centre a dark target in its
+ultrasound image (the paper's ultrasound task, ../shared/TASKS.md), z up.
+
+Workload, as published: a 0.45 cube of tissue with 1e6 scatterers per unit volume (about
+91,000 per env) and an anechoic sphere of radius 0.12 at its centre; a linear probe of 96
+scanlines 0.006 apart, 0.7 long, imaged into 130 x 160 (width x height); action (2): lateral
+and depth moves of 0.01 per unit, offsets clamped to +-0.22; observation: the image, 4 frames
+stacked; reward: progress toward centring the target - 0.01 per step, +1 on success
+(normalised distance <= 0.06, as TargetCenter); truncated at 160 steps.
+
+Not published, chosen here: the probe looks straight down with its face on the tissue's top
+and starts at a lateral offset drawn per env at build time (uniform +-0.15, seeded), to which
+each episode of that env returns; the depth move is along the beam. The target's distance is
+measured in the image, normalised by the image's half width and half depth. Pulse: 3.5 MHz,
+60 % bandwidth, 40 MHz sampling decimated by 8, lateral and elevational beam widths 0.015 and
+0.04, 50 dB shown, with one scene unit standing for 0.1 m (metres_per_unit = 0.1): the paper's
+scene is ten times life size for the probe, so the image is 7 cm deep. The tissue is a static
+body (its scatterers are rigid): deformation waits for the soft-body particles.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+import cressim
+
+from .vector_env import Space, VectorEnv
+
+CUBE = 0.225  # half extent
+TARGET_RADIUS = 0.12
+LINES, SPACING, LENGTH, WIDTH, HEIGHT = 96, 0.006, 0.7, 130, 160
+FRAMES = 4
+
+
+class UltrasoundScan(VectorEnv):
+    hlsl = Path(__file__).with_name("ultrasound_scan.hlsl")
+    observation_space = Space((FRAMES, HEIGHT, WIDTH), 0.0, 1.0)
+    action_space = Space((2,), -1.0, 1.0)
+    max_episode_steps = 160
+    step_size = 0.01
+    limit = 0.22
+    success = 0.06
+    start_range = 0.15
+    density = 1e6
+
+    def __init__(self, num_envs: int, **kwargs):
+        super().__init__(num_envs, **kwargs)
+        self.passes["observe"].set_threads((num_envs * HEIGHT * WIDTH, 1, 1))
+
+    @staticmethod
+    def probe() -> cressim.UltrasoundProbe:
+        return cressim.UltrasoundProbe(
+            kind="linear", scanlines=LINES, line_spacing=SPACING, line_length=LENGTH, width=WIDTH, height=HEIGHT,
+            center_frequency=3.5e6, fractional_bandwidth=0.6, sampling_frequency=40e6, radial_decimation=8,
+            lateral_beam_width=0.015, elevational_beam_width=0.04, metres_per_unit=0.1, dynamic_range=50.0,
+            gain=-20.0)
+
+    def build_world(self, num_envs: int) -> cressim.World:
+        return self.scene(num_envs)
+
+    @classmethod
+    def scene(cls, num_envs: int) -> cressim.World:
+        """The task's world without its passes (benchmarks/bench_ultrasound.py images it alone)."""
+        world = cressim.World(cressim.SceneLayout(num_envs))
+        starts = np.random.default_rng(12345).uniform(-cls.start_range, cls.start_range, num_envs)
+        cyst = cressim.UltrasoundInclusion((0, 0, 0), TARGET_RADIUS, amplitude_scale=0.0)
+        for env in range(num_envs):
+            tissue = world.create_entity(env=env, name="tissue")
+            tissue.add(cressim.Transform())
+            tissue.add(cressim.UltrasoundTissue(region="box", size=(CUBE, CUBE, CUBE), density=cls.density,
+                                                inclusions=[cyst]))
+            probe = world.create_entity(env=env, name="probe")
+            probe.add(cressim.Transform(position=(float(starts[env]), 0, CUBE), rotation=(1, 0, 0, 0)))  # looks down
+            probe.add(cressim.RigidBody(kinematic=True))
+            probe.add(cressim.Collider(cressim.Shape.box((0.3, 0.03, 0.02)), group=0, mask=0))
+            probe.add(cls.probe())
+        return world
+
+    def physics_settings(self) -> cressim.PhysicsSettings:
+        return cressim.PhysicsSettings(dt=1 / 60, substeps=1, iterations=1, max_contacts_per_env=0)
+
+    def sense(self):
+        self.engine.step_simulation_sensors()
+
+    def task_bindings(self) -> dict:
+        e, n = self.engine, self.num_envs
+        m, probes = e.mapping, e.ultrasound_probes
+        assert (probes["env"] == np.arange(n)).all() and (probes["layer"] == np.arange(n)).all()
+        rows = m["entity_row"]
+        body_entity = e.buffer("rigid.body_entity").read()
+        task_rows = np.zeros((n, 4), np.uint32)
+        task_rows[:, 0] = rows[probes["entity"]]
+        task_rows[:, 1] = task_rows[:, 0] - 1  # the tissue is created just before its probe
+        task_rows[m["env_index"][rows[body_entity]], 2] = np.arange(len(body_entity))
+        assert all(e.world.entity(int(m["entity_id"][r])).name == "tissue" for r in task_rows[:, 1])
+        buffers = {"task_rows": e.create_shared_buffer("task_rows", (n, 4), "uint32"),
+                   "probe_offset": e.create_shared_buffer("probe_offset", (n, 2), "float32"),
+                   "prev_distance": e.create_shared_buffer("prev_distance", n, "float32")}
+        buffers["task_rows"].write(task_rows)
+        return {**buffers, "positions": "transform.positions", "rotations": "transform.rotations",
+                "initial_positions": "transform.initial_positions", "image": "ultrasound0.image",
+                "body_targets": "control.body_target_positions"}
+
+    def task_constants(self, reset_all: bool) -> dict:
+        return {"envs": self.num_envs, "max_steps": self.max_episode_steps, "seed": self.seed,
+                "step": self.step_size, "limit": self.limit, "half_width": 0.5 * LINES * SPACING,
+                "line_length": LENGTH, "success": self.success, "pixels": HEIGHT * WIDTH, "frames": FRAMES,
+                "reset_all": int(reset_all)}
+
+    @property
+    def scatterers(self) -> int:
+        return int(self.engine.ultrasound_probes["scatterers"])

@@ -1,0 +1,39 @@
+// Layouts shared by the ultrasound sensor (engine/sensors) and shaders/sensors: COLE B-mode
+// synthesis (Storve & Torp 2017, after Gao et al. 2009). Lengths are scene units.
+#ifndef CRESSIM_ULTRASOUND_H
+#define CRESSIM_ULTRASOUND_H
+#include "cressim/types.h"
+
+CRESSIM_SHADER_BEGIN
+
+static const uint PROBE_LINEAR = 1;
+static const uint PROBE_SECTOR = 2;
+
+// IQ contributions are summed with integer atomics in this fixed point: sums are exact and
+// do not depend on the order threads run in (float atomics are optional in Vulkan).
+static const float ULTRASOUND_FIXED_POINT = 65536.0;
+
+// A probe looks along its entity's +z; scanlines are spread along x, y is the elevation.
+// Scanline l of a linear probe starts at x = geometry.w + l * geometry.x on the face; a sector
+// probe's lines leave an apex geometry.y behind the face at angles geometry.w + l * geometry.x.
+struct UltrasoundProbeData {
+  uint4 ids;        // x entity row, y env, z kind, w output layer
+  float4 geometry;  // x line step (units or rad), y apex radius, z line length, w first line (offset or angle)
+  float4 pulse;     // x sample spacing along a line, y axial sigma of the envelope, z two-way wavenumber (rad/unit), w kernel radius (samples)
+  float4 beam;      // x lateral sigma, y elevational sigma, z lateral reach, w elevational reach
+  float4 image;     // x left edge, y top edge, z pixel width, w pixel height
+  float4 display;   // x dynamic range (dB), y gain (dB)
+};
+
+struct UltrasoundConstants {
+  uint probe_count;
+  uint lines;     // scanlines per probe
+  uint samples;   // IQ samples per scanline
+  uint width;     // output image
+  uint height;
+  uint max_env_scatterers;
+  uint rf_factor;  // RF samples per IQ sample ("ultrasound0.rf"), 0: no RF
+};
+
+CRESSIM_SHADER_END
+#endif

@@ -1,0 +1,31 @@
+// RF on request: the same pulse convolution as ultrasound_iq, evaluated at the full sampling
+// rate and modulated back onto the carrier, rf(t) = Re{iq(t) exp(i 2 pi f0 t)} with t the
+// two-way time of the depth. RF sample j sits at depth (j + 0.5) dz / rf_factor.
+// Threads: (RF sample, scanline, probe).
+#include "cressim/layout.h"
+#include "cressim/ultrasound.h"
+
+[[vk::push_constant]] ConstantBuffer<UltrasoundConstants> pc;
+StructuredBuffer<UltrasoundProbeData> probes;
+StructuredBuffer<int> accumulator;  // (probes, lines, samples, 2) fixed point
+RWStructuredBuffer<float> rf;       // (probes, lines, samples * rf_factor)
+
+[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
+void main(uint3 id : SV_DispatchThreadID) {
+  const uint j = id.x, scanline = id.y, probe = id.z, count = pc.samples * pc.rf_factor;
+  if (j >= count || scanline >= pc.lines || probe >= pc.probe_count) return;
+  const UltrasoundProbeData p = probes[probe];
+  const float depth = (float(j) + 0.5) * p.pulse.x / float(pc.rf_factor);
+  const float v = depth / p.pulse.x - 0.5;  // in IQ samples
+  const float radius = p.pulse.w, step = p.pulse.x / p.pulse.y;
+  const int lo = max(int(ceil(v - radius)), 0), hi = min(int(floor(v + radius)), int(pc.samples) - 1);
+  const uint base = (probe * pc.lines + scanline) * pc.samples;
+  float2 sum = float2(0, 0);
+  for (int m = lo; m <= hi; ++m) {
+    const float t = (float(m) - v) * step;
+    const uint i = 2 * (base + uint(m));
+    sum += exp(-0.5 * t * t) * float2(float(accumulator[i]), float(accumulator[i + 1]));
+  }
+  const float phase = p.pulse.z * depth;
+  rf[(probe * pc.lines + scanline) * count + j] = (sum.x * cos(phase) - sum.y * sin(phase)) / ULTRASOUND_FIXED_POINT;
+}
