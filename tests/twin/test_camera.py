@@ -12,7 +12,7 @@ pytestmark = pytest.mark.ros
 W, H = 96, 72
 
 
-def _render(node, ticks=3):
+def _render(node, ticks=5):
     for _ in range(ticks):
         node._tick()
         if node._rendered:

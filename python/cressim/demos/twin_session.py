@@ -1,6 +1,6 @@
 """The main demo: the dVRK PSM twin, headless, driven by a dVRK-style client over ROS 2 (DDS on
-loopback), recording a short MCAP dataset (arm topics, tf, camera images) that is then read
-back with the mcap reader, summarised, and a few of its camera images saved as PNG.
+loopback), recording a short MCAP dataset (arm topics, tf, camera and ultrasound images) that is
+then read back with the mcap reader, summarised, and a few of its images saved as PNG.
 
 Needs the ROS 2 environment (`source ros_ws/env.sh`; `make demo` does it). The camera runs at
 320x240 and 10 Hz here, so that the demo keeps its 100 Hz on a CPU (lavapipe); the scene's
@@ -34,8 +34,9 @@ def run(out_dir: str = "out/demo", seconds: float = 2.0, bag_dir: str = "bags/de
     bag.parent.mkdir(parents=True, exist_ok=True)
     shutil.rmtree(bag, ignore_errors=True)
     domain = 1 + os.getpid() % 100
+    sensors = "[joints, cartesian, velocity, wrench, jacobian, tf, clock, color, depth, segmentation, ultrasound]"
     twin = Twin(domain, out / "twin.log", f"record:={bag}", "camera_width:=320", "camera_height:=240",
-                "camera_rate:=10.0")
+                "camera_rate:=10.0", "ultrasound_rate:=5.0", f"sensors:={sensors}")
     ral = None
     try:
         startup = twin.wait_ready()
@@ -82,8 +83,10 @@ def save_images(bag: Path, folder: Path, frames: int = 3) -> list[Path]:
 
     folder.mkdir(parents=True, exist_ok=True)
     per_product = {}
-    for product in ("color", "depth", "segmentation"):
-        msgs = [m for _, m in read_messages(bag, f"/camera/{product}/image_raw", decode=True)]
+    topics = {"color": "/camera/color/image_raw", "depth": "/camera/depth/image_raw",
+              "segmentation": "/camera/segmentation/image_raw", "ultrasound": "/ultrasound/image_raw"}
+    for product, topic in topics.items():
+        msgs = [m for _, m in read_messages(bag, topic, decode=True)]
         if msgs:
             picks = sorted({0, len(msgs) // 2, len(msgs) - 1})[:frames]
             per_product[product] = [(k, msgs[k]) for k in picks]
@@ -95,6 +98,8 @@ def save_images(bag: Path, folder: Path, frames: int = 3) -> list[Path]:
             data = np.asarray(m.data, dtype=np.uint8)
             if product == "color":
                 img = data.reshape(m.height, m.width, 3)
+            elif product == "ultrasound":
+                img = data.reshape(m.height, m.width)
             elif product == "depth":
                 d = data.view(np.float32).reshape(m.height, m.width)
                 valid = np.isfinite(d)

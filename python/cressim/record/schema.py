@@ -86,6 +86,8 @@ PSM_TOPICS: tuple[TopicSpec, ...] = (
     TopicSpec("/camera/segmentation/image_raw", _IMG, "state", "30 Hz", CAMERA_FRAME, "16UC1 label ids",
               "0 background; names on /camera/segmentation/labels"),
     TopicSpec("/camera/segmentation/camera_info", _INFO, "state", "30 Hz", CAMERA_FRAME, "K, P in pixels", "as color"),
+    TopicSpec("/ultrasound/image_raw", _IMG, "state", "10 Hz", "ultrasound_probe", "mono8 B-mode brightness",
+              "with the ultrasound sensor group; 50 dB dynamic range"),
     # published by the twin on change (QoS reliable, transient local, depth 100)
     TopicSpec("operating_state", "crtk_msgs/msg/OperatingState", "event", "on change", "", "-",
               "state DISABLED/ENABLED/PAUSED/FAULT, is_homed, is_busy"),

@@ -54,7 +54,7 @@ from pytorch_kinematics.transforms import matrix_to_quaternion
 import cressim
 from cressim.robots import PSM_DH, dh_forward_kinematics
 
-from .scenery import ArmVisuals, CameraSpec, Scenery
+from .scenery import ArmVisuals, CameraSpec, Scenery, UltrasoundSpec
 
 ARM_GROUP = 2  # collision group of arm links; they do not collide with each other (mask below)
 DYNAMICS = ("kinematic", "dynamic")
@@ -146,7 +146,8 @@ class ArmBodies:
 
     def __init__(self, urdf_path, num_envs: int, *, base_position, base_rotation, publish_rate: float,
                  physics_rate: float, initial_q: np.ndarray, initial_jaw: float, dof: int, device=None,
-                 dynamics: str = "kinematic", gravity=(0.0, 0.0, -9.81), camera: CameraSpec | None = None):
+                 dynamics: str = "kinematic", gravity=(0.0, 0.0, -9.81), camera: CameraSpec | None = None,
+                 ultrasound: UltrasoundSpec | None = None):
         if dynamics not in DYNAMICS:
             raise ValueError(f"dynamics {dynamics!r} is not one of {', '.join(DYNAMICS)}")
         self.num_envs, self.dof, self.dynamics = num_envs, dof, dynamics
@@ -201,7 +202,7 @@ class ArmBodies:
         world = cressim.World(layout)
         scenery = None
         if camera is not None:  # the arm's visuals, table, tissue, light and a camera per env
-            scenery = Scenery(world, ArmVisuals(urdf, Path(urdf_path).parent, bodies, poses), camera)
+            scenery = Scenery(world, ArmVisuals(urdf, Path(urdf_path).parent, bodies, poses), camera, ultrasound)
         self.scenery = scenery
         body_ids = np.zeros((num_envs, len(bodies)), dtype=np.int64)
         joint_ids = np.zeros((num_envs, len(joint_specs)), dtype=np.int64)
@@ -575,12 +576,14 @@ class ArmBodies:
             self._rates[envs] = 0
             self._last_coords[envs] = self._coords[envs]
 
-    def step(self, render: bool = False):
+    def step(self, render: bool = False, sense: bool = False):
         """One publish period of physics (the engine runs its substeps), then the cameras when
-        `render`, in one submit, waited for."""
+        `render` and the ultrasound when `sense`, in one submit, waited for."""
         self.engine.step_physics()
         if render:
             self.engine.step_visual_sensors()
+        if sense:
+            self.engine.step_simulation_sensors()
         self.engine.end_frame()
         if self.dynamic:
             self._gather_joints()

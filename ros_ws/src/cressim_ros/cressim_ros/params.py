@@ -35,6 +35,7 @@ SPECS = (
     Spec("publish_rate", float, "rate of the periodic topics and of /clock, Hz (the dVRK's is 100)", True),
     Spec("tf_rate", float, "rate of the base -> tip transforms on /tf, Hz", True),
     Spec("camera_rate", float, "rate of the camera topics (color, depth, segmentation), Hz", True),
+    Spec("ultrasound_rate", float, "rate of /ultrasound/image_raw, Hz (with the ultrasound sensor group)", True),
     Spec("camera_width", int, "camera image width, pixels (sizes the engine's render targets)", False),
     Spec("camera_height", int, "camera image height, pixels (sizes the engine's render targets)", False),
     Spec("sensors", list, f"sensor groups to publish: {', '.join(SENSORS)}", True),
@@ -47,7 +48,7 @@ MAX_RATE = 2000.0
 def defaults(scene: Scene) -> dict:
     return {"scene": scene.path, "robot": scene.robot, "dynamics": scene.dynamics, "arm": scene.arm, "num_envs": scene.num_envs,
             "physics_rate": scene.physics_rate, "publish_rate": scene.publish_rate, "tf_rate": scene.tf_rate,
-            "camera_rate": scene.camera_rate, "camera_width": scene.camera_width,
+            "camera_rate": scene.camera_rate, "ultrasound_rate": scene.ultrasound_rate, "camera_width": scene.camera_width,
             "camera_height": scene.camera_height, "sensors": list(scene.sensors), "record": scene.record}
 
 

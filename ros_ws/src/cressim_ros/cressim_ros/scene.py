@@ -18,7 +18,7 @@ SCENE_DIR_ENV = "CRESSIM_SCENE_DIR"  # overrides where scenes/ is (an install ou
 DEFAULT_SCENE = "psm_twin.yaml"
 ROBOTS = ("psm_lnd", "psm_suction")
 DYNAMICS = ("kinematic", "dynamic")  # arm.dynamics: the arm's links follow the twin, or are simulated
-SENSORS = ("joints", "cartesian", "velocity", "wrench", "jacobian", "tf", "clock", "color", "depth", "segmentation")
+SENSORS = ("joints", "cartesian", "velocity", "wrench", "jacobian", "tf", "clock", "color", "depth", "segmentation", "ultrasound")
 
 
 class SceneError(ValueError):
@@ -45,6 +45,7 @@ class Scene:
     publish_rate: float = 100.0
     tf_rate: float = 50.0
     camera_rate: float = 30.0
+    ultrasound_rate: float = 10.0
     camera_width: int = 640
     camera_height: int = 480
     camera_fov_y: float = 60.0  # degrees
@@ -131,8 +132,8 @@ def parse_scene(text: str, path: str = "<string>") -> Scene:
     if "num_envs" in top:
         scene.num_envs = p.integer(top["num_envs"], "num_envs", low=1, high=4096)
     if "rates" in top:
-        rates = p.mapping(top["rates"], "rates", {"physics", "publish", "tf", "camera"})
-        for key in ("physics", "publish", "tf", "camera"):
+        rates = p.mapping(top["rates"], "rates", {"physics", "publish", "tf", "camera", "ultrasound"})
+        for key in ("physics", "publish", "tf", "camera", "ultrasound"):
             if key in rates:
                 setattr(scene, f"{key}_rate", p.number(rates[key], f"rates.{key}", low=0.1, high=10000.0))
                 scene.lines[f"{key}_rate"] = p.where(rates[key])

@@ -1,10 +1,18 @@
 """What the twin's camera sees: the arm's URDF visuals, a table and a tissue block, a light, and
-one camera per env, authored into the engine's world next to the arm's bodies.
+one camera per env, authored into the engine's world next to the arm's bodies; optionally an
+ultrasound probe on the tissue with scatterers in the tissue under it.
 
 Visuals. Each arm body gets one Renderable: the URDF visual geometry of its links (box,
 cylinder, sphere, or a mesh file through trimesh) merged into one mesh in the body's frame,
 coloured by the first link's material. The meshes are shared by all envs (the world's mesh
 table). The scenery is visual only: it has no colliders, so it never changes the arm's motion.
+
+Ultrasound (`UltrasoundSpec`, when the twin starts with the `ultrasound` sensor group): a
+linear 7.5 MHz probe (laparoscopic-like, 64 lines over 19 mm, 2 cm deep) rests on the tissue
+beside the tool looking down; the tissue block carries scatterers in a slab under the probe (as
+thick as the elevational beam reaches) with an anechoic cyst, so the image shows speckle and a
+dark disc. The density is below fully developed speckle (about 3 per resolution cell) to keep a
+frame cheap on a CPU; docs/ultrasound.md says what the sensor models.
 
 Segmentation ids are the same in every env: arm body k is k + 1 (in `labels` order), then the
 tissue and the table; `labels` maps id -> name for the `segmentation/labels` topic.
@@ -23,6 +31,27 @@ TISSUE_HALF = (0.05, 0.04, 0.01)  # m: a block of tissue under the tool
 TISSUE_COLOR = (0.78, 0.38, 0.36, 1.0)
 TABLE_HALF = 0.4
 TABLE_COLOR = (0.35, 0.42, 0.35, 1.0)
+
+
+@dataclass(frozen=True)
+class UltrasoundSpec:
+    """The twin's probe: on the tissue's top face at `x` (m, world), looking down (its +z)."""
+    x: float = 0.025
+    scanlines: int = 64
+    line_spacing: float = 0.0003  # m
+    depth: float = 0.02  # m, imaged depth (the line length)
+    width: int = 96  # output pixels
+    height: int = 96
+    center_frequency: float = 7.5e6  # Hz
+    density: float = 2e10  # scatterers per m^3 (20 per mm^3)
+    cyst_radius: float = 0.003  # m, anechoic, centred under the probe at half the tissue depth
+    frame: str = "ultrasound_probe"
+
+    def probe(self) -> cressim.UltrasoundProbe:
+        return cressim.UltrasoundProbe(kind="linear", scanlines=self.scanlines, line_spacing=self.line_spacing,
+                                       line_length=self.depth, width=self.width, height=self.height,
+                                       center_frequency=self.center_frequency, lateral_beam_width=0.0005,
+                                       elevational_beam_width=0.0015, radial_decimation=4)
 
 
 @dataclass(frozen=True)
@@ -116,8 +145,8 @@ def engine_mesh(mesh: trimesh.Trimesh) -> cressim.Mesh:
 class Scenery:
     """Authors visuals, scenery, light and camera into a world (call `add_env` for each env)."""
 
-    def __init__(self, world, visuals: ArmVisuals, camera: CameraSpec):
-        self.camera = camera
+    def __init__(self, world, visuals: ArmVisuals, camera: CameraSpec, ultrasound: UltrasoundSpec | None = None):
+        self.camera, self.ultrasound = camera, ultrasound
         self.visuals = visuals
         self.body_meshes = [None if m is None else world.add_mesh(engine_mesh(m)) for m in visuals.meshes]
         self.tissue_mesh = world.add_mesh(cressim.Mesh.box(TISSUE_HALF))
@@ -148,6 +177,8 @@ class Scenery:
         tissue.add(cressim.Transform(position=(0.0, 0.0, c.table_z + TISSUE_HALF[2])))
         tissue.add(cressim.Renderable(self.tissue_mesh, color=TISSUE_COLOR, roughness=0.3,
                                       segmentation_id=self.tissue_id))
+        if self.ultrasound is not None:
+            self._add_ultrasound(world, env, tissue)
         light = world.create_entity(env=env, name="light")  # from above, slightly behind the camera
         light.add(cressim.Transform(rotation=look_at_rotation((0.2, -0.3, 1.0), (0.0, 0.0, 0.0))))
         light.add(cressim.Light(intensity=1.0, ambient=0.3))
@@ -157,5 +188,22 @@ class Scenery:
         camera.add(cressim.Camera(width=c.width, height=c.height, fx=fx, fy=fy, cx=cx, cy=cy, near=c.near, far=c.far))
         return camera
 
+    def probe_pose(self) -> tuple:
+        """(position, xyzw) of the probe in the env's world: on the tissue's top face, +z down."""
+        top = self.camera.table_z + 2 * TISSUE_HALF[2]
+        return (self.ultrasound.x, 0.0, top), (1.0, 0.0, 0.0, 0.0)
 
-__all__ = ["ArmVisuals", "CameraSpec", "Scenery", "engine_mesh", "look_at_rotation"]
+    def _add_ultrasound(self, world, env: int, tissue):
+        u = self.ultrasound
+        beam = 0.002  # m: half the slab's thickness, past 3 sigma of the 1.5 mm elevational beam
+        half_x = u.scanlines * u.line_spacing / 2 + 0.002
+        tissue.add(cressim.UltrasoundTissue(
+            region="box", center=(u.x, 0.0, 0.0), size=(half_x, beam, TISSUE_HALF[2]), density=u.density,
+            inclusions=[cressim.UltrasoundInclusion((u.x, 0.0, 0.0), u.cyst_radius)]))
+        probe = world.create_entity(env=env, name="ultrasound_probe")
+        position, rotation = self.probe_pose()
+        probe.add(cressim.Transform(position=position, rotation=rotation))
+        probe.add(u.probe())
+
+
+__all__ = ["ArmVisuals", "CameraSpec", "Scenery", "UltrasoundSpec", "engine_mesh", "look_at_rotation"]

@@ -70,7 +70,8 @@ from .command_checks import joint_values, limit_refusal, pose_matrix, ratio_valu
 from .kinematics import INTERFACE_DOF, ArmKinematics, body_jacobian, matrix_to_pose7
 from .recorder import RecordingUnavailable, open_recorder
 from .scene import DEFAULT_SCENE, SceneError, load_scene
-from .scenery import CameraSpec
+from .scenery import CameraSpec, UltrasoundSpec
+from .ultrasound_topics import UltrasoundTopics, ultrasound_frame
 from .trajectory import BatchedTrajectory
 from .topics import (CLOCK_QOS, CLOCK_TOPIC, COMMAND_QOS, CRTK_VERSION, EVENT_QOS, PERIODIC_QOS, SENSOR_TOPICS,
                      TF_STATIC_QOS, TF_STATIC_TOPIC, TF_TOPIC, env_frame_prefix, env_namespaces)
@@ -139,6 +140,9 @@ class TwinNode(Node):
     def _on_set_parameters(self, parameters):
         changes = {p.name: p.value for p in parameters}
         problem = P.check(changes, self.cfg, running=True)
+        if problem is None and "ultrasound" in changes.get("sensors", ()) and self.ultrasound is None:
+            problem = ("sensors: ultrasound was not on when the node started (its probe and scatterers are built "
+                       "then): restart the node with ultrasound in sensors")
         if problem is None and changes.get("record"):
             try:  # open it here so that a failure is the refusal's reason
                 new_recorder = open_recorder(changes["record"])
@@ -179,7 +183,9 @@ class TwinNode(Node):
                                 initial_jaw=scene.initial_jaw if self.psm.has_jaw else 0.0, dof=self.psm.dof,
                                 dynamics=cfg["dynamics"], camera=CameraSpec(
                                     width=cfg["camera_width"], height=cfg["camera_height"], fov_y=scene.camera_fov_y,
-                                    position=scene.camera_position, look_at=scene.camera_look_at))
+                                    position=scene.camera_position, look_at=scene.camera_look_at),
+                                # the probe and its scatterers exist when the node starts with the group
+                                ultrasound=UltrasoundSpec() if "ultrasound" in cfg["sensors"] else None)
         self.dynamic = self.bodies.dynamic
         self.step_hooks = []  # fn(node) run in each tick before the targets are written (module docstring)
         self.device = self.bodies.device
@@ -234,10 +240,14 @@ class TwinNode(Node):
         self.sim_ns = 0
         self.ticks = 0
         self.next_tf_ns = 0
-        self.next_camera_ns = 0
+        self.next_sensor_ns = {"camera": 0, "ultrasound": 0}  # 0: due at the next tick
+        self._sensed = False
         self._rendered = False
         self.camera = CameraTopics(self, self.bodies.engine, self.bodies.scenery.camera, self.bodies.scenery.labels, N)
         self._create_sensor_publishers()
+        self.ultrasound = None
+        if self.bodies.scenery.ultrasound is not None:
+            self.ultrasound = UltrasoundTopics(self, self.bodies.engine, self.bodies.scenery.ultrasound, N)
         self._tick_times = collections.deque(maxlen=500)
         self._create_event_publishers()
         self._create_subscriptions()
@@ -267,6 +277,10 @@ class TwinNode(Node):
                                          (*scene.base_position, *scene.base_rotation)))
             transforms.append(_transform(stamp, f"{prefix}world", camera_frame(env, N),
                                          (*spec.camera.position, *spec.camera_rotation)))
+            if spec.ultrasound is not None:
+                position, rotation = spec.probe_pose()
+                transforms.append(_transform(stamp, f"{prefix}world", ultrasound_frame(env, N, spec.ultrasound.frame),
+                                             (*position, *rotation)))
         self.static_tf = TFMessage(transforms=transforms)
         self.tf_static_pub.publish(self.static_tf)
         if self.recorder is not None:
@@ -720,17 +734,15 @@ class TwinNode(Node):
         self.setpoint_v = torch.where(moving[:, None], qd, (self.setpoint - self._last_sp) / dt)
         self.jaw_sp_v = torch.where(jmoving[:, None], jqd, (self.jaw_sp - self._last_jaw_sp) / dt)
         self._last_sp, self._last_jaw_sp = self.setpoint.clone(), self.jaw_sp.clone()
-        # cameras render in the same submit as the physics of the tick they are due in
-        render = any(p in self.cfg["sensors"] for p in PRODUCTS) and self.sim_ns >= self.next_camera_ns
-        if render:
-            self.next_camera_ns += int(round(1e9 / self.cfg["camera_rate"]))
-            self.next_camera_ns = max(self.next_camera_ns, self.sim_ns)  # after a rate change: no burst
-        self._rendered = render
+        # sensors run in the same submit as the physics of the tick they are due in
+        self._rendered = any(p in self.cfg["sensors"] for p in PRODUCTS) and self._due("camera")
+        self._sensed = self.ultrasound is not None and "ultrasound" in self.cfg["sensors"] and self._due("ultrasound")
+        render, sense = self._rendered, self._sensed
         if self.dynamic:
             # the engine's joint drives track the setpoint; kinematic links follow measured
             self.bodies.set_targets(self.setpoint, self.jaw_sp)
             self.bodies.write(self.measured, self.jaw_meas)
-            self.bodies.step(render)
+            self.bodies.step(render, sense)
             q_m, qd_m, jaw_m, jawd_m = self.bodies.read_joints()
             dof = self.psm.dof
             self.measured, self.measured_v = self.measured.clone(), self.measured_v.clone()
@@ -745,9 +757,20 @@ class TwinNode(Node):
             self.measured_v, self.jaw_meas_v = (new_meas - self.measured) / dt, (new_jaw - self.jaw_meas) / dt
             self.measured, self.jaw_meas = new_meas, new_jaw
             self.bodies.write(self.measured, self.jaw_meas)
-            self.bodies.step(render)
+            self.bodies.step(render, sense)
         faults = self._check_health()
         return finished, jfinished, faults
+
+    def _due(self, sensor: str) -> bool:
+        """Whether `sensor` runs this tick: on average at its rate (frames fall on ticks), never
+        faster, and without a burst after a slower rate or a pause."""
+        next_ns = self.next_sensor_ns[sensor]
+        if self.sim_ns < next_ns:
+            return False
+        period = int(round(1e9 / self.cfg[f"{sensor}_rate"]))
+        next_ns = (next_ns or self.sim_ns) + period
+        self.next_sensor_ns[sensor] = next_ns if next_ns > self.sim_ns else self.sim_ns + period
+        return True
 
     def _check_health(self):
         """Envs the engine flagged this frame: [(env, flags)]. Their measured state (NaN or
@@ -906,12 +929,14 @@ class TwinNode(Node):
             self.tf_pub.publish(tf)
             if self.recorder is not None:
                 self._record(TF_TOPIC, tf, stamp_ns)
+        record = None
+        if self.recorder is not None:
+            def record(topic, msg):
+                self._record(topic, msg, stamp_ns)
         if self._rendered:
-            record = None
-            if self.recorder is not None:
-                def record(topic, msg):
-                    self._record(topic, msg, stamp_ns)
             self.camera.publish(self.cfg["sensors"], stamp, record)
+        if self._sensed:
+            self.ultrasound.publish(stamp, record)
         if "clock" in groups:
             clock = ClockMsg()
             clock.clock = TimeMsg(sec=self.sim_ns // 1_000_000_000, nanosec=self.sim_ns % 1_000_000_000)
