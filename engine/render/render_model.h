@@ -1,6 +1,7 @@
-// prepare() for the rasterizer: meshes packed into one vertex/index buffer, renderables and
-// cameras of every env, cameras grouped by resolution into layered targets, and the draw
-// list (one instanced draw per mesh and group).
+// prepare() for the rasterizer: meshes packed into one vertex/index buffer, textures into one
+// texel buffer, renderables, cameras and lights of every env, cameras grouped by resolution
+// into layered targets, shadow maps grouped likewise, and the draw lists (one instanced draw
+// per mesh and group).
 #pragma once
 #include <cstdint>
 #include <vector>
@@ -26,16 +27,29 @@ struct CameraGroup {
   std::vector<DrawCall> draws;
 };
 
+// Shadow maps of consecutive envs with shadows, rendered as the layers of one depth target.
+struct ShadowGroup {
+  uint32_t first_map = 0, layers = 0;
+  std::vector<DrawCall> draws;  // into shadow_instances
+};
+
 struct RenderModel {
   std::vector<shader::float4> vertex_positions, vertex_normals;
+  std::vector<float> vertex_uvs;  // u v per vertex (0 where a mesh has none)
   std::vector<uint32_t> indices;
   std::vector<MeshRange> meshes;
+  std::vector<shader::TextureInfo> textures;
+  std::vector<uint32_t> texels;  // RGBA8 packed, every texture in turn
   std::vector<shader::RenderableData> renderables;
   std::vector<shader::CameraData> cameras;
   std::vector<uint32_t> camera_entity;
-  std::vector<shader::EnvLight> lights;  // per env
+  std::vector<shader::LightData> lights;  // max_lights_per_env slots per env
+  std::vector<shader::EnvLighting> env_lighting;  // per env
   std::vector<std::array<uint32_t, 2>> instances;  // (renderable, camera), by group then mesh
   std::vector<CameraGroup> groups;
+  uint32_t shadow_resolution = 0, shadow_maps = 0;
+  std::vector<std::array<uint32_t, 2>> shadow_instances;  // (renderable, layer), by group then mesh
+  std::vector<ShadowGroup> shadow_groups;
 
   bool empty() const { return cameras.empty(); }
 };

@@ -34,9 +34,10 @@ VkRenderingAttachmentInfo attachment(const gpu::Image& im, VkImageLayout layout,
   return a;
 }
 
-void copy_out(VkCommandBuffer cmd, const gpu::Image& im, const compute::TypedBuffer& out) {
+void copy_out(VkCommandBuffer cmd, const gpu::Image& im, const compute::TypedBuffer& out, VkDeviceSize offset = 0) {
   VkBufferImageCopy region{};
-  region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, im.layers};
+  region.bufferOffset = offset;
+  region.imageSubresource = {gpu::aspect_of(im.format), 0, 0, im.layers};
   region.imageExtent = {im.width, im.height, 1};
   vkCmdCopyImageToBuffer(cmd, im.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, out.storage->buffer.buffer, 1, &region);
 }
@@ -48,8 +49,13 @@ Renderer::Renderer(std::shared_ptr<gpu::Context> ctx, RenderModel model, uint64_
     : ctx_(std::move(ctx)), model_(std::move(model)) {
   const bool exportable = ctx_->external_memory_fd && !ctx_->unified_memory;
   auto n = [](const auto& v) { return int64_t(v.size()); };
-  std::vector<uint32_t> flat_instances;
+  std::vector<uint32_t> flat_instances, flat_shadow_instances;
   for (auto& i : model_.instances) flat_instances.insert(flat_instances.end(), i.begin(), i.end());
+  for (auto& i : model_.shadow_instances) flat_shadow_instances.insert(flat_shadow_instances.end(), i.begin(), i.end());
+  const int64_t S = model_.shadow_resolution;
+  shadow_maps_ = make(ctx_, internal, "render.shadow_maps", std::vector<float>{},
+                      {std::max<int64_t>(model_.shadow_maps, 1), std::max<int64_t>(S, 1), std::max<int64_t>(S, 1)},
+                      DType::FLOAT32, generation);
   const BufferMap bound{
       {"vertex_positions", make(ctx_, internal, "render.vertex_positions", model_.vertex_positions,
                                 {n(model_.vertex_positions), 4}, DType::FLOAT32, generation)},
@@ -61,8 +67,20 @@ Renderer::Renderer(std::shared_ptr<gpu::Context> ctx, RenderModel model, uint64_
                            {n(model_.renderables), int64_t(sizeof(shader::RenderableData) / 4)}, DType::UINT32, generation)},
       {"cameras", make(ctx_, internal, "render.cameras", model_.cameras,
                        {n(model_.cameras), int64_t(sizeof(shader::CameraData) / 4)}, DType::UINT32, generation)},
+      {"vertex_uvs", make(ctx_, internal, "render.vertex_uvs", model_.vertex_uvs, {n(model_.vertex_positions), 2},
+                          DType::FLOAT32, generation)},
+      {"shadow_instances", make(ctx_, internal, "render.shadow_instances", flat_shadow_instances,
+                                {std::max<int64_t>(n(model_.shadow_instances), 1), 2}, DType::UINT32, generation)},
       {"lights", make(ctx_, internal, "render.lights", model_.lights,
-                      {n(model_.lights), int64_t(sizeof(shader::EnvLight) / 4)}, DType::FLOAT32, generation)},
+                      {n(model_.lights), int64_t(sizeof(shader::LightData) / 4)}, DType::FLOAT32, generation)},
+      {"env_lighting", make(ctx_, internal, "render.env_lighting", model_.env_lighting,
+                            {n(model_.env_lighting), int64_t(sizeof(shader::EnvLighting) / 4)}, DType::FLOAT32,
+                            generation)},
+      {"texture_infos", make(ctx_, internal, "render.textures", model_.textures,
+                             {std::max<int64_t>(n(model_.textures), 1), 4}, DType::UINT32, generation)},
+      {"texels", make(ctx_, internal, "render.texels", model_.texels, {std::max<int64_t>(n(model_.texels), 1)},
+                      DType::UINT32, generation)},
+      {"shadow_maps", shadow_maps_},
       {"positions", scene.at("transform.positions")},
       {"rotations", scene.at("transform.rotations")},
       {"scales", scene.at("transform.scales")}};
@@ -79,6 +97,21 @@ Renderer::Renderer(std::shared_ptr<gpu::Context> ctx, RenderModel model, uint64_
   desc.depth_format = kZ;
   pipeline_ = gpu::create_graphics_pipeline(*ctx_, desc);
   for (const auto& b : pipeline_.reflection.bindings) gpu::bind_buffer(*ctx_, pipeline_, b.binding, bound.at(b.name)->storage->buffer.buffer);
+
+  if (!model_.shadow_groups.empty()) {
+    gpu::GraphicsPipelineDesc sd;
+    sd.name = "render/shadow";
+    sd.vertex = &gpu::embedded_shader("render/shadow.vert");
+    sd.fragment = &gpu::embedded_shader("render/shadow.frag");
+    sd.depth_format = kZ;
+    shadow_pipeline_ = gpu::create_graphics_pipeline(*ctx_, sd);
+    for (const auto& b : shadow_pipeline_.reflection.bindings)
+      gpu::bind_buffer(*ctx_, shadow_pipeline_, b.binding, bound.at(b.name)->storage->buffer.buffer);
+    for (const auto& g : model_.shadow_groups)
+      shadow_targets_.push_back(gpu::create_image(*ctx_, kZ, uint32_t(S), uint32_t(S), g.layers,
+                                                  VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT |
+                                                      VK_IMAGE_USAGE_TRANSFER_SRC_BIT));
+  }
 
   const VkImageUsageFlags target = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
   for (size_t g = 0; g < model_.groups.size(); ++g) {
@@ -101,10 +134,46 @@ Renderer::Renderer(std::shared_ptr<gpu::Context> ctx, RenderModel model, uint64_
 Renderer::~Renderer() {
   for (auto& t : targets_)
     for (gpu::Image* im : {&t.color, &t.depth, &t.segmentation, &t.z_buffer}) gpu::destroy_image(*ctx_, *im);
+  for (auto& im : shadow_targets_) gpu::destroy_image(*ctx_, im);
   gpu::destroy_compute_pipeline(*ctx_, pipeline_);
+  if (shadow_pipeline_.pipeline) gpu::destroy_compute_pipeline(*ctx_, shadow_pipeline_);
+}
+
+void Renderer::record_shadows(VkCommandBuffer cmd) const {
+  const uint32_t S = model_.shadow_resolution;
+  for (size_t g = 0; g < model_.shadow_groups.size(); ++g) {
+    const auto& grp = model_.shadow_groups[g];
+    const gpu::Image& target = shadow_targets_[g];
+    gpu::image_barrier(cmd, target, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
+    VkClearValue far_plane{};
+    far_plane.depthStencil.depth = 1.0f;
+    VkRenderingAttachmentInfo depth = attachment(target, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, far_plane);
+    VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+    ri.renderArea = {{0, 0}, {S, S}};
+    ri.layerCount = grp.layers;
+    ri.pDepthAttachment = &depth;
+    vkCmdBeginRendering(cmd, &ri);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, shadow_pipeline_.pipeline);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, shadow_pipeline_.layout, 0, 1, &shadow_pipeline_.set,
+                            0, nullptr);
+    vkCmdBindIndexBuffer(cmd, indices_->buffer.buffer, 0, VK_INDEX_TYPE_UINT32);
+    const VkViewport viewport{0, 0, float(S), float(S), 0, 1};
+    const VkRect2D scissor{{0, 0}, {S, S}};
+    vkCmdSetViewport(cmd, 0, 1, &viewport);
+    vkCmdSetScissor(cmd, 0, 1, &scissor);
+    for (const auto& d : grp.draws) {
+      const MeshRange& m = model_.meshes[d.mesh];
+      vkCmdDrawIndexed(cmd, m.index_count, d.instance_count, m.first_index, m.vertex_offset, d.first_instance);
+    }
+    vkCmdEndRendering(cmd);
+    gpu::image_barrier(cmd, target, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
+    copy_out(cmd, target, *shadow_maps_, VkDeviceSize(grp.first_map) * S * S * 4);
+  }
+  if (!model_.shadow_groups.empty()) gpu::compute_barrier(cmd);  // the camera passes read the maps
 }
 
 void Renderer::record(VkCommandBuffer cmd) const {
+  record_shadows(cmd);
   for (size_t g = 0; g < model_.groups.size(); ++g) {
     const auto& grp = model_.groups[g];
     const Targets& t = targets_[g];

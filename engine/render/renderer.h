@@ -1,6 +1,7 @@
-// The batched rasterizer: per camera group, one dynamic-rendering pass into layered targets
-// (colour, metric depth, segmentation), then copies into typed buffers that passes and torch
-// read ("camera{g}.rgb" (layers, H, W, 4) uint8, "camera{g}.depth" (layers, H, W) float32 in
+// The batched rasterizer: shadow maps first (per shadow group, one depth-only pass into
+// layered targets, copied into "render.shadow_maps"), then per camera group one
+// dynamic-rendering pass into layered targets (colour, metric depth, segmentation), then copies
+// into typed buffers that passes and torch read ("camera{g}.rgb" (layers, H, W, 4) uint8, "camera{g}.depth" (layers, H, W) float32 in
 // metres, 0 where nothing was hit, "camera{g}.segmentation" (layers, H, W) uint32, 0 background).
 #pragma once
 #include <map>
@@ -30,6 +31,7 @@ class Renderer {
   const RenderModel& model() const { return model_; }
 
  private:
+  void record_shadows(VkCommandBuffer cmd) const;
   struct Targets {
     gpu::Image color, depth, segmentation, z_buffer;
     std::shared_ptr<compute::TypedBuffer> rgb_out, depth_out, segmentation_out;
@@ -37,8 +39,11 @@ class Renderer {
   std::shared_ptr<gpu::Context> ctx_;
   RenderModel model_;
   gpu::ComputePipeline pipeline_;  // a graphics pipeline (same layout/descriptor struct)
+  gpu::ComputePipeline shadow_pipeline_;  // depth only; exists when some env has shadows
   std::unique_ptr<gpu::OwnedBuffer> indices_;
   std::vector<Targets> targets_;
+  std::vector<gpu::Image> shadow_targets_;  // per shadow group
+  std::shared_ptr<compute::TypedBuffer> shadow_maps_;
 };
 
 }  // namespace cressim::render

@@ -74,11 +74,14 @@ struct Joint {
 
 // Drawn by the cameras of its env: a mesh of the world's mesh table (world.add_mesh), scaled
 // by the entity's Transform.scale. segmentation_id 0: the entity id + 1 (0 is background).
+// Material: metallic/roughness (GGX); texture: a world.add_texture index (-1: none) whose
+// colour multiplies `color`, sampled at the mesh's uvs.
 struct Renderable {
   uint32_t mesh = 0;
   std::array<float, 4> color{0.8f, 0.8f, 0.8f, 1.0f};  // linear RGBA
   float metallic = 0, roughness = 0.5f;
   uint32_t segmentation_id = 0;
+  int32_t texture = -1;
 };
 
 // A pinhole camera looking along the entity's +z, x right, y down (optical frame).
@@ -90,21 +93,47 @@ struct Camera {
   float near = 0.01f, far = 100;
 };
 
-// A directional light travelling along the entity's +z; one per env (the env's first).
+enum class LightKind : uint32_t { DIRECTIONAL = 1, POINT = 2, SPOT = 3 };
+
+// A light at the entity's pose: directional lights travel along the entity's +z, spots point
+// along it, point and spot lights sit at its origin. Intensity: a white matte surface facing a
+// directional light of intensity 1 (or a point light of intensity 1 at 1 m) shows `color`.
+// The env's first light with `shadows` (directional) casts shadows over a square of half-size
+// shadow_extent around the light entity, at shadow_resolution texels a side.
 struct Light {
   Vec3 color{1, 1, 1};
   float intensity = 1;
-  float ambient = 0.2f;
+  float ambient = 0.2f;  // the env's uniform ambient (its first light's) without an EnvironmentLight
+  LightKind kind = LightKind::DIRECTIONAL;
+  float range = 0;  // point/spot: 0 unlimited, else falls smoothly to 0 there
+  float inner_angle = 20, outer_angle = 30;  // spot half-angles, degrees
+  bool shadows = false;
+  float shadow_extent = 2;
+  uint32_t shadow_resolution = 256;
 };
 
-using ComponentTypes = std::tuple<Transform, RigidBody, Collider, Joint, Renderable, Camera, Light>;
+// The env's ambient light: a hemisphere, `sky` from +z and `ground` from -z (per env).
+struct EnvironmentLight {
+  Vec3 sky{0.2f, 0.2f, 0.2f};
+  Vec3 ground{0.2f, 0.2f, 0.2f};
+  float intensity = 1;
+};
+
+using ComponentTypes = std::tuple<Transform, RigidBody, Collider, Joint, Renderable, Camera, Light, EnvironmentLight>;
 
 // Triangle meshes shared by all envs; vertex normals per vertex.
 struct Mesh {
   std::vector<float> positions;  // x y z per vertex
   std::vector<float> normals;    // x y z per vertex
   std::vector<uint32_t> indices;  // three per triangle
+  std::vector<float> uvs;        // u v per vertex (texture coordinates), or none
   uint32_t vertex_count() const { return uint32_t(positions.size() / 3); }
+};
+
+// An RGBA8 image for Renderable.texture (world.add_texture), rows top to bottom; it wraps.
+struct Texture {
+  uint32_t width = 0, height = 0;
+  std::vector<uint8_t> rgba;  // 4 bytes per texel
 };
 
 }  // namespace cressim::scene
