@@ -1,0 +1,47 @@
+"""`cressim render scene.yaml`: images of a scene file's cameras for a person to look at.
+
+For every camera of env 0 (or of every env): <env>_<camera>_rgb.png, _depth.png (colour-mapped,
+near red, far blue), _segmentation.png (one colour per id, background black) and _depth.npy (metric
+depth in metres, float32; 0 where nothing was hit)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+import cressim
+from cressim import io
+from cressim.scene_file import load_scene
+
+
+def render(scene: str | Path, out_dir: str | Path = "out/render", *, all_envs: bool = False, steps: int = 0,
+           device: str | None = None) -> list[Path]:
+    """Loads `scene`, runs `steps` physics steps, renders once and writes the images; returns
+    the paths written."""
+    world = load_scene(scene)
+    engine = cressim.Engine(world, device=device)
+    engine.prepare()
+    engine.upload_world()
+    for _ in range(steps):
+        engine.step_physics()
+        engine.end_frame()
+    engine.step_visual_sensors()
+    engine.end_frame()
+    cams = engine.cameras
+    if len(cams["entity"]) == 0:
+        raise ValueError(f"{scene}: the scene has no camera (an entity with a 'camera' field)")
+    out, written, images = Path(out_dir), [], {}
+    for entity, env, group, layer in zip(cams["entity"], cams["env"], cams["group"], cams["layer"]):
+        if env != 0 and not all_envs:
+            continue
+        if group not in images:
+            images[group] = [engine.buffer(f"camera{group}.{k}").read() for k in ("rgb", "depth", "segmentation")]
+        rgb, depth, seg = (a[layer] for a in images[group])
+        name = world.entity(int(entity)).name or f"entity{entity}"
+        stem = out / f"env{env}_{name}"
+        written.append(io.save_png(f"{stem}_rgb.png", rgb[..., :3]))
+        written.append(io.save_png(f"{stem}_depth.png", io.colour_depth(depth)))
+        written.append(io.save_png(f"{stem}_segmentation.png", io.colour_segmentation(seg)))
+        np.save(f"{stem}_depth.npy", depth)
+        written.append(Path(f"{stem}_depth.npy"))
+    return written
