@@ -1,10 +1,12 @@
-"""Batched RL tasks: `cressim.envs.make("CartPole", num_envs=4096, device="cuda")`."""
+"""Batched RL tasks: `cressim.envs.make("CartPole", num_envs=4096, device="cuda")`,
+`make("TargetCenter", 1024)` (64x64 RGB observations)."""
 from __future__ import annotations
 
 from .cartpole import CartPole
+from .target_center import TargetCenter
 from .vector_env import Space, VectorEnv
 
-REGISTRY = {"CartPole": CartPole}
+REGISTRY = {"CartPole": CartPole, "TargetCenter": TargetCenter}
 
 
 def make(name: str, num_envs: int, **kwargs) -> VectorEnv:
@@ -16,4 +18,4 @@ def make(name: str, num_envs: int, **kwargs) -> VectorEnv:
     return task(num_envs, **kwargs)
 
 
-__all__ = ["CartPole", "REGISTRY", "Space", "VectorEnv", "make"]
+__all__ = ["CartPole", "TargetCenter", "REGISTRY", "Space", "VectorEnv", "make"]

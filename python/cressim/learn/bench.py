@@ -28,6 +28,11 @@ REFERENCE = {
         "paper RTX 4090 PPO": {1: 555, 1024: 236_791, 4096: 402_104, 8192: 451_904},
         "MJX H100 step": {1024: 505_730, 4096: 2_001_270, 8192: 2_823_936, 65536: 17_915_751},
     },
+    "TargetCenter": {  # 64x64 RGB; Isaac Lab's Cartpole-RGB (about 50k at 1024 envs) as the brief gives it
+        "paper RTX 4090 step": {32: 35_064, 256: 21_816},
+        "paper RTX 4090 PPO": {32: 14_493},
+        "Isaac Lab Cartpole-RGB step": {1024: 50_000},
+    },
 }
 
 

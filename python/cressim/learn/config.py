@@ -24,6 +24,7 @@ class PPOConfig:
     max_grad_norm: float = 0.5
     init_log_std: float = -0.5
     hidden: tuple = (128, 128)  # tanh MLP, actor and critic alike
+    cnn: bool = False  # image observations: a small conv encoder before the MLP (built-in learner only)
 
     def num_mini_batches(self, num_envs: int) -> int:
         return max(1, round(num_envs * self.rollout / self.minibatch))
@@ -36,9 +37,10 @@ class PPOConfig:
         return asdict(self)
 
 
-# Per-task network width and minibatch (TASKS.md); only the MLP tasks have a learner here.
+# Per-task network width and minibatch (TASKS.md).
 TASKS = {
     "CartPole": PPOConfig(hidden=(128, 128), minibatch=2048),
+    "TargetCenter": PPOConfig(hidden=(256,), minibatch=256, cnn=True),
     "SoftBodyPush": PPOConfig(hidden=(128, 128), minibatch=1024),
     "FluidPour": PPOConfig(hidden=(128, 128), minibatch=1024),
     "TissueRetract": PPOConfig(hidden=(256, 256), minibatch=1024),

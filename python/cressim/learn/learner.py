@@ -44,10 +44,15 @@ def make_learner(venv: CressimVecEnv, cfg: PPOConfig, backend: str = "auto"):
     """Returns (learner, backend name): 'rsl_rl' or 'torch'."""
     if backend not in BACKENDS:
         raise ValueError(f"backend must be one of {BACKENDS}")
+    if cfg.cnn:  # image tasks: the built-in learner's conv encoder (rsl-rl's CNN model is not wired here)
+        if backend == "rsl_rl":
+            raise ValueError("image tasks train with the built-in learner (backend 'torch' or 'auto')")
+        backend = "torch"
     if backend == "auto":
         backend = "rsl_rl" if rsl_rl_available() else "torch"
     if backend == "torch":
-        alg = TorchPPO(venv.num_obs, venv.num_actions, venv.num_envs, cfg, venv.device)
+        alg = TorchPPO(venv.num_obs, venv.num_actions, venv.num_envs, cfg, venv.device,
+                       image_shape=venv.obs_shape if cfg.cnn else None)
     else:
         from rsl_rl.algorithms import PPO
 

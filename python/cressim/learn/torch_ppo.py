@@ -23,11 +23,37 @@ def mlp(inputs: int, hidden: tuple, outputs: int) -> nn.Sequential:
     return nn.Sequential(*layers, nn.Linear(width, outputs))
 
 
+class ImageEncoder(nn.Module):
+    """Flat (N, H*W*C) uint8 images -> features: two strided convolutions (the Atari-style
+    front end, sized for 64x64) on the RGB channels scaled to [0, 1]."""
+
+    def __init__(self, shape: tuple):
+        super().__init__()
+        self.shape = shape
+        h, w, _ = shape
+        self.net = nn.Sequential(nn.Conv2d(3, 16, 8, stride=4), nn.ReLU(), nn.Conv2d(16, 32, 4, stride=2), nn.ReLU(),
+                                 nn.Flatten())
+        with torch.no_grad():
+            self.features = self.net(torch.zeros(1, 3, h, w)).shape[1]
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        x = x.reshape(-1, *self.shape)[..., :3].permute(0, 3, 1, 2).float() / 255.0
+        return self.net(x)
+
+
+def network(num_obs: int, hidden: tuple, outputs: int, image_shape: tuple | None) -> nn.Module:
+    if image_shape is None:
+        return mlp(num_obs, hidden, outputs)
+    encoder = ImageEncoder(image_shape)
+    return nn.Sequential(encoder, mlp(encoder.features, hidden, outputs))
+
+
 class TorchPPO:
-    def __init__(self, num_obs: int, num_actions: int, num_envs: int, cfg: PPOConfig, device):
+    def __init__(self, num_obs: int, num_actions: int, num_envs: int, cfg: PPOConfig, device,
+                 image_shape: tuple | None = None):
         self.cfg, self.device = cfg, torch.device(device)
-        self.actor = mlp(num_obs, cfg.hidden, num_actions).to(self.device)
-        self.critic = mlp(num_obs, cfg.hidden, 1).to(self.device)
+        self.actor = network(num_obs, cfg.hidden, num_actions, image_shape).to(self.device)
+        self.critic = network(num_obs, cfg.hidden, 1, image_shape).to(self.device)
         self.log_std = nn.Parameter(torch.full((num_actions,), cfg.init_log_std, device=self.device))
         self.actor_params = [*self.actor.parameters(), self.log_std]
         self.optimizer = torch.optim.Adam(chain(self.actor_params, self.critic.parameters()), lr=cfg.lr)
@@ -35,7 +61,8 @@ class TorchPPO:
         self.num_mini_batches = cfg.num_mini_batches(num_envs)
         T, N = cfg.rollout, num_envs
         z = lambda *shape, dtype=torch.float32: torch.zeros(T, N, *shape, device=self.device, dtype=dtype)  # noqa: E731
-        self.obs, self.actions = z(num_obs), z(num_actions)
+        # images are stored as they come (uint8): a float rollout of 64x64 RGB would be 4x larger
+        self.obs, self.actions = z(num_obs, dtype=torch.uint8 if image_shape else torch.float32), z(num_actions)
         self.log_prob, self.values, self.rewards, self.returns = z(), z(), z(), z()
         self.dones = z(dtype=torch.bool)
         self.step = 0

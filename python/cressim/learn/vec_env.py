@@ -25,6 +25,7 @@ class CressimVecEnv(_Base):
         self.env = env
         self.num_envs = env.num_envs
         self.num_obs = math.prod(env.observation_space.shape)
+        self.obs_shape = tuple(env.observation_space.shape)
         self.num_actions = math.prod(env.action_space.shape)
         self.max_episode_length = env.max_episode_steps
         self.device = env.device
