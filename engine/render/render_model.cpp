@@ -125,6 +125,8 @@ RenderModel build_render_model(const scene::World& world, const scene::LayoutMap
     }
   }
   for (auto& l : m.env_lighting) l.shadow.z = float(m.shadow_resolution);
+  for (const auto& r : env_renderables)  // renderables are stored env by env
+    m.env_renderables.push_back({r.empty() ? 0 : r.front(), uint32_t(r.size())});
   m.shadow_maps = uint32_t(shadow_envs.size());
   // shadow maps of at most max_layers envs a group; instances by group, then mesh
   for (uint32_t first = 0; first < shadow_envs.size(); first += max_layers) {

@@ -1,5 +1,9 @@
 #include "render/renderer.h"
 
+#include <cstdlib>
+#include <cstring>
+#include <stdexcept>
+
 #include "gpu/commands.h"
 #include "gpu/context.h"
 #include "gpu/embedded_shaders.h"
@@ -44,9 +48,18 @@ void copy_out(VkCommandBuffer cmd, const gpu::Image& im, const compute::TypedBuf
 
 }  // namespace
 
+// CRESSIM_RASTER: "graphics" (default) or "compute"
+bool compute_raster() {
+  const char* v = std::getenv("CRESSIM_RASTER");
+  if (!v || !*v || std::strcmp(v, "graphics") == 0) return false;
+  if (std::strcmp(v, "compute") == 0) return true;
+  throw std::invalid_argument(std::string("CRESSIM_RASTER='") + v + "': use 'graphics' or 'compute'");
+}
+
 Renderer::Renderer(std::shared_ptr<gpu::Context> ctx, RenderModel model, uint64_t generation, BufferMap& internal,
                    const BufferMap& scene)
     : ctx_(std::move(ctx)), model_(std::move(model)) {
+  const bool use_compute = compute_raster();
   const bool exportable = ctx_->external_memory_fd && !ctx_->unified_memory;
   auto n = [](const auto& v) { return int64_t(v.size()); };
   std::vector<uint32_t> flat_instances, flat_shadow_instances;
@@ -113,20 +126,52 @@ Renderer::Renderer(std::shared_ptr<gpu::Context> ctx, RenderModel model, uint64_
                                                       VK_IMAGE_USAGE_TRANSFER_SRC_BIT));
   }
 
+  BufferMap compute_bound = bound;
+  if (use_compute) {
+    std::vector<std::array<uint32_t, 4>> ranges;
+    for (const auto& m : model_.meshes) ranges.push_back({m.first_index, m.index_count, uint32_t(m.vertex_offset), 0});
+    compute_bound["env_renderables"] = make(ctx_, internal, "render.env_renderables", model_.env_renderables,
+                                            {n(model_.env_renderables), 2}, DType::UINT32, generation);
+    compute_bound["mesh_ranges"] = make(ctx_, internal, "render.mesh_ranges", ranges, {n(ranges), 4}, DType::UINT32,
+                                        generation);
+    compute_bound["mesh_indices"] = make(ctx_, internal, "render.indices", model_.indices,
+                                         {std::max<int64_t>(n(model_.indices), 1)}, DType::UINT32, generation);
+  }
+
   const VkImageUsageFlags target = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
   for (size_t g = 0; g < model_.groups.size(); ++g) {
     const auto& grp = model_.groups[g];
     const int64_t L = grp.layers, H = grp.height, W = grp.width;
     Targets t;
-    t.color = gpu::create_image(*ctx_, kColor, grp.width, grp.height, grp.layers, target);
-    t.depth = gpu::create_image(*ctx_, kDepth, grp.width, grp.height, grp.layers, target);
-    t.segmentation = gpu::create_image(*ctx_, kSegmentation, grp.width, grp.height, grp.layers, target);
-    t.z_buffer = gpu::create_image(*ctx_, kZ, grp.width, grp.height, grp.layers, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT);
     const std::string prefix = "camera" + std::to_string(g) + ".";
     t.rgb_out = make(ctx_, internal, prefix + "rgb", std::vector<uint8_t>{}, {L, H, W, 4}, DType::UINT8, generation, exportable);
     t.depth_out = make(ctx_, internal, prefix + "depth", std::vector<float>{}, {L, H, W}, DType::FLOAT32, generation, exportable);
     t.segmentation_out = make(ctx_, internal, prefix + "segmentation", std::vector<uint32_t>{}, {L, H, W}, DType::UINT32,
                               generation, exportable);
+    if (use_compute) {
+      std::vector<uint32_t> by_layer(grp.layers);
+      for (uint32_t c = 0; c < model_.cameras.size(); ++c)
+        if (model_.cameras[c].ids.z == g) by_layer[model_.cameras[c].ids.w] = c;
+      BufferMap b = compute_bound;
+      b["group_cameras"] = make(ctx_, internal, "render.group" + std::to_string(g) + "_cameras", by_layer,
+                                {int64_t(by_layer.size())}, DType::UINT32, generation);
+      b["out_rgb"] = t.rgb_out;
+      b["out_depth"] = t.depth_out;
+      b["out_segmentation"] = t.segmentation_out;
+      auto pass = compute::create_builtin_pass(ctx_, "render/raster_compute", b);
+      const uint32_t tiles_x = (grp.width + 63) / 64, tiles_y = (grp.height + 31) / 32;
+      pass->set_constant_bits("width", &grp.width, 4);
+      pass->set_constant_bits("height", &grp.height, 4);
+      pass->set_constant_bits("tiles_x", &tiles_x, 4);
+      pass->set_groups({tiles_x * tiles_y, grp.layers, 1});
+      compute_passes_.push_back(pass);
+      targets_.push_back(std::move(t));
+      continue;
+    }
+    t.color = gpu::create_image(*ctx_, kColor, grp.width, grp.height, grp.layers, target);
+    t.depth = gpu::create_image(*ctx_, kDepth, grp.width, grp.height, grp.layers, target);
+    t.segmentation = gpu::create_image(*ctx_, kSegmentation, grp.width, grp.height, grp.layers, target);
+    t.z_buffer = gpu::create_image(*ctx_, kZ, grp.width, grp.height, grp.layers, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT);
     targets_.push_back(std::move(t));
   }
 }
@@ -174,7 +219,8 @@ void Renderer::record_shadows(VkCommandBuffer cmd) const {
 
 void Renderer::record(VkCommandBuffer cmd) const {
   record_shadows(cmd);
-  for (size_t g = 0; g < model_.groups.size(); ++g) {
+  for (const auto& pass : compute_passes_) pass->record(cmd);
+  for (size_t g = 0; g < model_.groups.size() && compute_passes_.empty(); ++g) {
     const auto& grp = model_.groups[g];
     const Targets& t = targets_[g];
     for (const gpu::Image* im : {&t.color, &t.depth, &t.segmentation})

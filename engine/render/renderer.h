@@ -1,4 +1,5 @@
-// The batched rasterizer: shadow maps first (per shadow group, one depth-only pass into
+// The batched rasterizer, graphics pipelines or (CRESSIM_RASTER=compute) compute passes that
+// write the same buffers (raster_compute.comp.hlsl says why). Shadow maps first (per shadow group, one depth-only pass into
 // layered targets, copied into "render.shadow_maps"), then per camera group one
 // dynamic-rendering pass into layered targets (colour, metric depth, segmentation), then copies
 // into typed buffers that passes and torch read ("camera{g}.rgb" (layers, H, W, 4) uint8, "camera{g}.depth" (layers, H, W) float32 in
@@ -9,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "compute/compute_pass.h"
 #include "compute/typed_buffer.h"
 #include "gpu/image.h"
 #include "gpu/pipeline.h"
@@ -29,6 +31,7 @@ class Renderer {
 
   void record(VkCommandBuffer cmd) const;
   const RenderModel& model() const { return model_; }
+  bool compute() const { return !compute_passes_.empty(); }
 
  private:
   void record_shadows(VkCommandBuffer cmd) const;
@@ -43,6 +46,7 @@ class Renderer {
   std::unique_ptr<gpu::OwnedBuffer> indices_;
   std::vector<Targets> targets_;
   std::vector<gpu::Image> shadow_targets_;  // per shadow group
+  std::vector<std::shared_ptr<compute::ComputePass>> compute_passes_;  // per camera group, compute mode
   std::shared_ptr<compute::TypedBuffer> shadow_maps_;
 };
 

@@ -4,8 +4,11 @@ directional light's shadow, and a checker texture sampled through uvs."""
 import math
 
 import numpy as np
+import pytest
 
 import cressim
+
+pytestmark = pytest.mark.usefixtures("raster")  # each test on both rasterizers
 from cressim.scene_file import _quat_look_at
 
 S = 64

@@ -8,6 +8,8 @@ import torch
 
 import cressim
 
+pytestmark = pytest.mark.usefixtures("raster")  # each test on both rasterizers
+
 W = H = 128
 FOV = 40.0
 F = 0.5 * H / math.tan(math.radians(FOV / 2))  # focal length in pixels
