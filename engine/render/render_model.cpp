@@ -1,5 +1,6 @@
 #include "render/render_model.h"
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <numbers>
@@ -20,7 +21,9 @@ RenderModel build_render_model(const scene::World& world, const scene::LayoutMap
   for (const auto& mesh : world.meshes()) {
     MeshRange r{uint32_t(m.indices.size()), uint32_t(mesh.indices.size()), int32_t(m.vertex_positions.size())};
     for (uint32_t v = 0; v < mesh.vertex_count(); ++v) {
-      m.vertex_positions.push_back({mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2], 1});
+      const float x = mesh.positions[3 * v], y = mesh.positions[3 * v + 1], z = mesh.positions[3 * v + 2];
+      r.radius = std::max(r.radius, std::sqrt(x * x + y * y + z * z));
+      m.vertex_positions.push_back({x, y, z, 1});
       m.vertex_normals.push_back({mesh.normals[3 * v], mesh.normals[3 * v + 1], mesh.normals[3 * v + 2], 0});
     }
     if (mesh.uvs.empty()) m.vertex_uvs.resize(m.vertex_uvs.size() + 2 * mesh.vertex_count(), 0.f);

@@ -15,6 +15,7 @@ namespace cressim::render {
 struct MeshRange {
   uint32_t first_index = 0, index_count = 0;
   int32_t vertex_offset = 0;
+  float radius = 0;  // of the bounding sphere about the mesh origin
 };
 
 struct DrawCall {

@@ -129,7 +129,11 @@ Renderer::Renderer(std::shared_ptr<gpu::Context> ctx, RenderModel model, uint64_
   BufferMap compute_bound = bound;
   if (use_compute) {
     std::vector<std::array<uint32_t, 4>> ranges;
-    for (const auto& m : model_.meshes) ranges.push_back({m.first_index, m.index_count, uint32_t(m.vertex_offset), 0});
+    for (const auto& m : model_.meshes) {
+      uint32_t radius;
+      std::memcpy(&radius, &m.radius, 4);
+      ranges.push_back({m.first_index, m.index_count, uint32_t(m.vertex_offset), radius});
+    }
     compute_bound["env_renderables"] = make(ctx_, internal, "render.env_renderables", model_.env_renderables,
                                             {n(model_.env_renderables), 2}, DType::UINT32, generation);
     compute_bound["mesh_ranges"] = make(ctx_, internal, "render.mesh_ranges", ranges, {n(ranges), 4}, DType::UINT32,

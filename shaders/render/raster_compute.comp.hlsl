@@ -15,7 +15,8 @@
 #include "shading.hlsli"
 
 [[vk::binding(15)]] StructuredBuffer<uint2> env_renderables;  // per env: first renderable, count
-[[vk::binding(16)]] StructuredBuffer<uint4> mesh_ranges;      // per mesh: first index, index count, vertex offset
+[[vk::binding(16)]] StructuredBuffer<uint4> mesh_ranges;      // per mesh: first index, index count, vertex offset,
+                                                              // bounding radius (float bits)
 [[vk::binding(17)]] StructuredBuffer<uint> mesh_indices;
 [[vk::binding(18)]] StructuredBuffer<uint> group_cameras;     // this group's camera per layer
 [[vk::binding(19)]] RWStructuredBuffer<uint> out_rgb;         // (layers, H, W) RGBA8
@@ -82,6 +83,23 @@ Screen setup(CameraData c, float3 v[3], int2 origin) {
   return s;
 }
 
+// false when the renderable's bounding sphere misses the tile's frustum (then none of its
+// triangles can cover a pixel of the tile)
+bool may_cover(RenderableData r, uint4 m, CameraData c, float4 eye_q, float3 eye_p, int2 origin) {
+  const float3 s = scales[r.ids.x].xyz;
+  const float radius = asfloat(m.w) * max(abs(s.x), max(abs(s.y), abs(s.z)));
+  const float3 centre = quat_unrotate(eye_q, positions[r.ids.x].xyz - eye_p);
+  if (centre.z + radius < c.clip.x || centre.z - radius > c.clip.y) return false;
+  // side planes through the eye and the tile's edges: u = x0 is fx x - (x0 - cx) z = 0
+  const float2 lo = float2(origin) - c.intrinsics.zw;
+  const float2 hi = float2(min(origin + int2(TILE_W, TILE_H), int2(pc.width, pc.height))) - c.intrinsics.zw;
+  const float3 planes[4] = {float3(c.intrinsics.x, 0, -lo.x), float3(-c.intrinsics.x, 0, hi.x),
+                            float3(0, c.intrinsics.y, -lo.y), float3(0, -c.intrinsics.y, hi.y)};
+  for (uint i = 0; i < 4; ++i)
+    if (dot(planes[i], centre) < -radius * length(planes[i])) return false;
+  return true;
+}
+
 float edge(float2 a, float2 b, float2 p) { return (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x); }
 
 // one pixel against the (fan of the) polygon; mode 0: depth, 1: id
@@ -129,6 +147,7 @@ void main(uint3 group : SV_GroupID, uint tid : SV_GroupIndex) {
     for (uint k = 0; k < list.y; ++k) {
       const RenderableData r = renderables[list.x + k];
       const uint4 m = mesh_ranges[r.ids.y];
+      if (!may_cover(r, m, c, eye_q, eye_p, origin)) continue;
       for (uint t = tid; t < m.y / 3; t += THREADS) {
         float3 v[3];
         for (uint j = 0; j < 3; ++j) v[j] = vertex_local(r, mesh_indices[m.x + 3 * t + j] + m.z, eye_q, eye_p);
