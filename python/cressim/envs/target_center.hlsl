@@ -1,8 +1,8 @@
 // TargetCenter task logic. `act`: one thread per env: the action turns the camera (yaw, pitch),
 // the reward comes from the target's projected offset from the image centre, finished episodes
 // start again at once (new target and aim), and the kinematic bodies get their targets (the
-// physics step puts them there exactly). `observe`: one thread per output word: RGB bytes of
-// each env's camera layer into observations (envs, H, W, 3) uint8.
+// physics step puts them there exactly). `observe` (one pass per camera group): one thread per
+// output word: RGB bytes of each env's camera layer into observations (envs, H, W, 3) uint8.
 #include "cressim/layout.h"
 #include "cressim/quat.h"
 
@@ -20,7 +20,8 @@ struct Params {
   float area_y1;
   float target_z;
   uint words_per_env;    // observe: output words per env (H W 3 / 4)
-  uint layers;           // observe: camera layers per group (envs e: group e / layers)
+  uint first_env;        // observe: the group's first env (layer 0)
+  uint group_envs;       // observe: its envs (layers)
   uint pixels;           // observe: H W
 };
 [[vk::push_constant]] ConstantBuffer<Params> pc;
@@ -37,10 +38,7 @@ RWStructuredBuffer<uint> terminated;
 RWStructuredBuffer<uint> truncated;
 RWStructuredBuffer<uint> episode_length;
 RWStructuredBuffer<float> finished_length;
-StructuredBuffer<uint> rgb0;  // camera{g}.rgb as RGBA8 words
-StructuredBuffer<uint> rgb1;
-StructuredBuffer<uint> rgb2;
-StructuredBuffer<uint> rgb3;
+StructuredBuffer<uint> rgb;  // observe: camera{g}.rgb as RGBA8 words
 RWStructuredBuffer<uint> observations;       // (envs, H, W, 3) uint8 as words
 
 uint pcg_hash(uint v) {
@@ -111,20 +109,15 @@ void act(uint3 id : SV_DispatchThreadID) {
   target_positions[target_body] = float4(target, 0);
 }
 
-uint rgb_word(uint env, uint pixel) {
-  const uint group = env / pc.layers, index = (env % pc.layers) * pc.pixels + pixel;
-  return group == 0 ? rgb0[index] : group == 1 ? rgb1[index] : group == 2 ? rgb2[index] : rgb3[index];
-}
-
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
 void observe(uint3 id : SV_DispatchThreadID) {
   const uint w = id.x;
-  if (w >= pc.envs * pc.words_per_env) return;
-  const uint env = w / pc.words_per_env, first = 4 * (w % pc.words_per_env);
+  if (w >= pc.group_envs * pc.words_per_env) return;
+  const uint layer = w / pc.words_per_env, first = 4 * (w % pc.words_per_env);
   uint word = 0;
   for (uint k = 0; k < 4; ++k) {
     const uint byte = first + k;
-    word |= ((rgb_word(env, byte / 3) >> (8 * (byte % 3))) & 0xffu) << (8 * k);
+    word |= ((rgb[layer * pc.pixels + byte / 3] >> (8 * (byte % 3))) & 0xffu) << (8 * k);
   }
-  observations[w] = word;
+  observations[pc.first_env * pc.words_per_env + w] = word;
 }

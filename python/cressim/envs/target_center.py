@@ -84,17 +84,15 @@ class TargetCenter(VectorEnv):
         layers = int((cams["group"] == 0).sum())
         envs = np.arange(n)
         if not (np.array_equal(cams["env"], envs) and np.array_equal(cams["group"], envs // layers)
-                and np.array_equal(cams["layer"], envs % layers) and cams["group"].max() < 4):
-            raise RuntimeError("TargetCenter: cameras are not laid out one per env in at most 4 groups")
-        groups = int(cams["group"].max()) + 1
+                and np.array_equal(cams["layer"], envs % layers)):
+            raise RuntimeError("TargetCenter: cameras are not laid out one per env, envs in layer order")
+        # camera groups (maxImageArrayLayers envs each): (first env, envs)
+        self._groups = [(g * layers, int((cams["group"] == g).sum())) for g in range(int(cams["group"].max()) + 1)]
         out = {"task_bodies": bodies, "body_positions": "rigid.positions",
                "target_positions": "control.body_target_positions",
                "target_rotations": "control.body_target_rotations",
                "task_state": e.create_shared_buffer("task_state", (n, 4), "float32"),
                "task_target": e.create_shared_buffer("task_target", (n, 4), "float32")}
-        for g in range(4):
-            out[f"rgb{g}"] = f"camera{min(g, groups - 1)}.rgb"
-        self._layers = layers
         return out
 
     def task_constants(self, reset_all: bool) -> dict:
@@ -103,31 +101,33 @@ class TargetCenter(VectorEnv):
                 "reset_all": int(reset_all), "action_scale": self.action_scale,
                 "tan_half_fov": math.tan(math.radians(self.fov_y / 2)), "success": self.success,
                 "start_offset": self.start_offset, "area_x": 0.4, "area_y0": 0.0, "area_y1": 0.6, "target_z": CUBE,
-                "words_per_env": s * s * 3 // 4, "layers": self._layers, "pixels": s * s}
+                "words_per_env": s * s * 3 // 4, "first_env": 0, "group_envs": self.num_envs, "pixels": s * s}
 
     def _create_passes(self) -> dict:
         b = self.buffers
         bindings = {"actions": b.actions, "rewards": b.rewards, "terminated": b.terminated, "truncated": b.truncated,
-                    "episode_length": b.episode_length, "finished_length": b.finished_length,
-                    "observations": b.observations, **self._task_buffers()}
+                    "episode_length": b.episode_length, "finished_length": b.finished_length, **self._task_buffers()}
         source = self.hlsl.read_text()
-        act = [k for k in bindings if not k.startswith("rgb") and k != "observations"]
-        seen = {"observations", "rgb0", "rgb1", "rgb2", "rgb3"}
+        words = self.image_size ** 2 * 3 // 4
 
-        def make(entry, keys, threads, reset_all=False):
-            return self.engine.create_compute_pass(
-                source, name=f"TargetCenter.{entry}", entry=entry, threads=threads,
-                bindings={k: bindings[k] for k in keys}, constants=self.task_constants(reset_all))
+        def act(reset_all):
+            return self.engine.create_compute_pass(source, name="TargetCenter.act", entry="act", threads=self.num_envs,
+                                                   bindings=bindings, constants=self.task_constants(reset_all))
 
-        return {"act": make("act", act, self.num_envs), "act_reset_all": make("act", act, self.num_envs, True),
-                "observe": make("observe", seen, self.num_envs * self.image_size ** 2 * 3 // 4)}
+        observe = [self.engine.create_compute_pass(
+            source, name=f"TargetCenter.observe{g}", entry="observe", threads=count * words,
+            bindings={"observations": b.observations, "rgb": f"camera{g}.rgb"},
+            constants={**self.task_constants(False), "first_env": first, "group_envs": count})
+            for g, (first, count) in enumerate(self._groups)]
+        return {"act": act(False), "act_reset_all": act(True), "observe": observe}
 
     def _frame(self, reset_all: bool):
         e, p = self.engine, self.passes
         e.execute_compute_pass(p["act_reset_all" if reset_all else "act"])
         e.step_physics()
         e.step_visual_sensors()
-        e.execute_compute_pass(p["observe"])
+        for observe in p["observe"]:
+            e.execute_compute_pass(observe)
         e.end_frame()
 
     def reset(self, *, seed: int | None = None):
