@@ -174,7 +174,8 @@ void bind_render_components(py::module_& m) {
   py::class_<scene::Mesh>(m, "Mesh", "A triangle mesh for Renderable.mesh (add it with world.add_mesh).")
       .def(py::init([](py::array_t<float, py::array::c_style | py::array::forcecast> positions,
                        py::array_t<uint32_t, py::array::c_style | py::array::forcecast> triangles,
-                       py::array_t<float, py::array::c_style | py::array::forcecast> normals, py::object uvs) {
+                       py::array_t<float, py::array::c_style | py::array::forcecast> normals, py::object uvs,
+                       std::string positions_key) {
              scene::Mesh mesh;
              mesh.positions.assign(positions.data(), positions.data() + positions.size());
              mesh.indices.assign(triangles.data(), triangles.data() + triangles.size());
@@ -183,11 +184,15 @@ void bind_render_components(py::module_& m) {
                auto a = uvs.cast<py::array_t<float, py::array::c_style | py::array::forcecast>>();
                mesh.uvs.assign(a.data(), a.data() + a.size());
              }
+             mesh.positions_key = std::move(positions_key);
              return mesh;
            }),
            py::arg("positions"), py::arg("triangles"), py::arg("normals"), py::arg("uvs") = py::none(),
+           py::kw_only(), py::arg("positions_key") = "",
            "positions (V, 3), triangles (T, 3) vertex indices, normals (V, 3), optional uvs (V, 2) texture "
-           "coordinates (v down the image); cressim.io.load_mesh reads .obj/.stl/.glb files.")
+           "coordinates (v down the image); cressim.io.load_mesh reads .obj/.stl/.glb files. positions_key: an "
+           "engine buffer of float4 rows (one per vertex) that the positions are copied from on the GPU every "
+           "frame, e.g. a particle surface (normals then come from the triangles).")
       .def_static("box", &render::box_mesh, py::arg("half_extents"))
       .def_static("sphere", &render::sphere_mesh, py::arg("radius"), py::arg("rings") = 24, py::arg("segments") = 48)
       .def_static("capsule", &render::capsule_mesh, py::arg("radius"), py::arg("half_height"), py::arg("rings") = 12,
@@ -195,6 +200,7 @@ void bind_render_components(py::module_& m) {
       .def_static("plane", &render::plane_mesh, py::arg("half_size"))
       .def_property_readonly("vertex_count", &scene::Mesh::vertex_count)
       .def_property_readonly("has_uvs", [](const scene::Mesh& m) { return !m.uvs.empty(); })
+      .def_readonly("positions_key", &scene::Mesh::positions_key)
       .def_property_readonly("triangle_count", [](const scene::Mesh& m) { return m.indices.size() / 3; });
 
   py::class_<scene::Texture>(m, "Texture", "An RGBA8 image for Renderable.texture (add it with world.add_texture).")

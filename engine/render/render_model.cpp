@@ -19,7 +19,8 @@ namespace {
 RenderModel build_render_model(const scene::World& world, const scene::LayoutMapping& mapping, uint32_t max_layers) {
   RenderModel m;
   for (const auto& mesh : world.meshes()) {
-    MeshRange r{uint32_t(m.indices.size()), uint32_t(mesh.indices.size()), int32_t(m.vertex_positions.size())};
+    MeshRange r{uint32_t(m.indices.size()), uint32_t(mesh.indices.size()), int32_t(m.vertex_positions.size()), 0,
+                mesh.vertex_count(), mesh.positions_key};
     for (uint32_t v = 0; v < mesh.vertex_count(); ++v) {
       const float x = mesh.positions[3 * v], y = mesh.positions[3 * v + 1], z = mesh.positions[3 * v + 2];
       r.radius = std::max(r.radius, std::sqrt(x * x + y * y + z * z));
@@ -71,7 +72,7 @@ RenderModel build_render_model(const scene::World& world, const scene::LayoutMap
         m.renderables.push_back({{row, r.mesh, r.segmentation_id ? r.segmentation_id : e + 1, env},
                                  {r.color[0], r.color[1], r.color[2], r.color[3]},
                                  {r.metallic, r.roughness, 0, 0},
-                                 {uint32_t(r.texture + 1), 0, 0, 0}});
+                                 {uint32_t(r.texture + 1), m.meshes[r.mesh].positions_key.empty() ? 0u : 1u, 0, 0}});
         if (env_renderables[env].size() > layout.max_renderables_per_env)
           fail(world, e, "env " + std::to_string(env) + " has more renderables than SceneLayout.max_renderables_per_env = " +
                              std::to_string(layout.max_renderables_per_env));

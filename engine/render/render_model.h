@@ -4,6 +4,7 @@
 // per mesh and group).
 #pragma once
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "cressim/render.h"
@@ -16,6 +17,8 @@ struct MeshRange {
   uint32_t first_index = 0, index_count = 0;
   int32_t vertex_offset = 0;
   float radius = 0;  // of the bounding sphere about the mesh origin
+  uint32_t vertex_count = 0;
+  std::string positions_key;  // positions copied from this buffer every frame (scene::Mesh)
 };
 
 struct DrawCall {

@@ -97,6 +97,21 @@ Renderer::Renderer(std::shared_ptr<gpu::Context> ctx, RenderModel model, uint64_
       {"positions", scene.at("transform.positions")},
       {"rotations", scene.at("transform.rotations")},
       {"scales", scene.at("transform.scales")}};
+  vertex_positions_ = bound.at("vertex_positions")->storage->buffer.buffer;
+  for (size_t k = 0; k < model_.meshes.size(); ++k) {
+    const MeshRange& m = model_.meshes[k];
+    if (m.positions_key.empty()) continue;
+    auto it = scene.find(m.positions_key);
+    if (it == scene.end())
+      throw std::invalid_argument("mesh " + std::to_string(k) + ": positions_key '" + m.positions_key +
+                                  "' is not an engine buffer (internal keys exist after upload_world())");
+    const VkDeviceSize bytes = VkDeviceSize(m.vertex_count) * 16;
+    if (it->second->bytes() < bytes)
+      throw std::invalid_argument("mesh " + std::to_string(k) + ": positions_key '" + m.positions_key + "' holds " +
+                                  std::to_string(it->second->bytes()) + " bytes; " + std::to_string(m.vertex_count) +
+                                  " vertices need " + std::to_string(bytes) + " (float4 rows)");
+    vertex_sources_.push_back({it->second, {0, VkDeviceSize(m.vertex_offset) * 16, bytes}});
+  }
   indices_ = std::make_unique<gpu::OwnedBuffer>(
       ctx_, std::max<size_t>(model_.indices.size(), 1) * 4,
       gpu::BufferOptions{gpu::Memory::DEVICE, VK_BUFFER_USAGE_INDEX_BUFFER_BIT, false});
@@ -222,6 +237,9 @@ void Renderer::record_shadows(VkCommandBuffer cmd) const {
 }
 
 void Renderer::record(VkCommandBuffer cmd) const {
+  for (const auto& v : vertex_sources_)
+    vkCmdCopyBuffer(cmd, v.from->storage->buffer.buffer, vertex_positions_, 1, &v.region);
+  if (!vertex_sources_.empty()) gpu::compute_barrier(cmd);
   record_shadows(cmd);
   for (const auto& pass : compute_passes_) pass->record(cmd);
   for (size_t g = 0; g < model_.groups.size() && compute_passes_.empty(); ++g) {

@@ -47,6 +47,12 @@ class Renderer {
   std::vector<Targets> targets_;
   std::vector<gpu::Image> shadow_targets_;  // per shadow group
   std::vector<std::shared_ptr<compute::ComputePass>> compute_passes_;  // per camera group, compute mode
+  struct VertexSource {  // a mesh whose positions are copied from an engine buffer every frame
+    std::shared_ptr<compute::TypedBuffer> from;
+    VkBufferCopy region;
+  };
+  std::vector<VertexSource> vertex_sources_;
+  VkBuffer vertex_positions_ = VK_NULL_HANDLE;
   std::shared_ptr<compute::TypedBuffer> shadow_maps_;
 };
 

@@ -4,6 +4,7 @@
 #include <array>
 #include <cstdint>
 #include <limits>
+#include <string>
 #include <tuple>
 #include <vector>
 
@@ -127,6 +128,10 @@ struct Mesh {
   std::vector<float> normals;    // x y z per vertex
   std::vector<uint32_t> indices;  // three per triangle
   std::vector<float> uvs;        // u v per vertex (texture coordinates), or none
+  // when set: the vertex positions are copied every frame on the GPU from this engine buffer
+  // (float4 rows, one per vertex, e.g. a particle system's surface), and normals come from the
+  // triangles; `positions` then only give the vertex count and the bounds
+  std::string positions_key;
   uint32_t vertex_count() const { return uint32_t(positions.size() / 3); }
 };
 

@@ -12,7 +12,7 @@ struct RenderableData {
   uint4 ids;       // x entity row, y mesh, z segmentation id, w env
   float4 color;    // base colour, linear RGBA
   float4 material; // x metallic, y roughness
-  uint4 maps;      // x texture index + 1 (0: none)
+  uint4 maps;      // x texture index + 1 (0: none), y 1: flat normals (from the triangle)
 };
 
 // Cameras look along their entity's +z with x right and y down (the optical frame of ROS and

@@ -14,8 +14,10 @@ struct PSOut {
 
 PSOut main(Varyings i) {
   const RenderableData r = renderables[i.renderable];
+  // meshes whose vertices come from a buffer have no normals: the triangle's, from derivatives
+  const float3 n = r.maps.y != 0 ? cross(ddy(i.world), ddx(i.world)) : i.normal;
   PSOut o;
-  o.color = encode_color(shade(r, i.world, i.normal, i.uv, positions[cameras[i.camera].ids.x].xyz));
+  o.color = encode_color(shade(r, i.world, n, i.uv, positions[cameras[i.camera].ids.x].xyz));
   o.depth = i.depth;
   o.segmentation = r.ids.z;
   return o;

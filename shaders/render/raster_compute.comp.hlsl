@@ -223,8 +223,9 @@ void main(uint3 group : SV_GroupID, uint tid : SV_GroupIndex) {
     const float b0 = 1 - b1 - b2;
     const uint row = r.ids.x;
     const float3 world = eye_p + quat_rotate(eye_q, d * depth);
-    const float3 n = quat_rotate(rotations[row], (b0 * vertex_normals[vi[0]].xyz + b1 * vertex_normals[vi[1]].xyz +
-                                                  b2 * vertex_normals[vi[2]].xyz) / scales[row].xyz);
+    const float3 n = r.maps.y != 0 ? quat_rotate(eye_q, cross(e1, e2))  // flat: the triangle's
+                                   : quat_rotate(rotations[row], (b0 * vertex_normals[vi[0]].xyz + b1 * vertex_normals[vi[1]].xyz +
+                                                                  b2 * vertex_normals[vi[2]].xyz) / scales[row].xyz);
     const float2 uv = b0 * vertex_uvs[vi[0]] + b1 * vertex_uvs[vi[1]] + b2 * vertex_uvs[vi[2]];
     const float4 rgba = encode_color(shade(r, world, n, uv, eye_p));
     const uint4 bytes = uint4(round(saturate(rgba) * 255));
