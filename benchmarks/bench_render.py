@@ -3,8 +3,8 @@ frames rendered per second (one step_visual_sensors per frame, synchronised ever
 several resolutions. Usage: python benchmarks/bench_render.py --envs 256,1024,4096 --sizes 64,128,256
 A/B switches: --sphere-rings (tessellation: the first part's numbers used 24 rings x 48
 segments = 2,304 triangles; 6 gives 144), --shadows (a 256^2 shadow map per env from the sun),
---point-lights N (extra point lights per env), --raster graphics|compute|both (CRESSIM_RASTER:
-graphics pipelines or the compute rasterizer)."""
+--point-lights N (extra point lights per env), --products rgb (what cameras write),
+--raster graphics|compute|both (CRESSIM_RASTER: graphics pipelines or the compute rasterizer)."""
 from __future__ import annotations
 
 import argparse
@@ -16,7 +16,8 @@ import time
 import cressim
 
 
-def build(envs: int, size: int, rings: int = 24, shadows: bool = False, point_lights: int = 0) -> cressim.Engine:
+def build(envs: int, size: int, rings: int = 24, shadows: bool = False, point_lights: int = 0,
+          products=("rgb", "depth", "segmentation")) -> cressim.Engine:
     world = cressim.World(cressim.SceneLayout(envs, max_lights_per_env=1 + point_lights))
     cube, ball, plane = (world.add_mesh(cressim.Mesh.box((0.1, 0.1, 0.1))),
                          world.add_mesh(cressim.Mesh.sphere(0.08, rings, 2 * rings)), world.add_mesh(cressim.Mesh.plane(2.0)))
@@ -36,7 +37,7 @@ def build(envs: int, size: int, rings: int = 24, shadows: bool = False, point_li
         cam = world.create_entity(env=env, name="camera")
         # looking along +y, tilted 30 deg down (optical z forward, y down)
         cam.add(cressim.Transform(position=(0, -1.0, 0.5), rotation=(-math.sin(math.pi / 3), 0, 0, math.cos(math.pi / 3))))
-        cam.add(cressim.Camera(width=size, height=size, fov_y=50))
+        cam.add(cressim.Camera(width=size, height=size, fov_y=50, products=list(products)))
     engine = cressim.Engine(world)
     engine.prepare()
     engine.upload_world()
@@ -45,7 +46,7 @@ def build(envs: int, size: int, rings: int = 24, shadows: bool = False, point_li
 
 def measure(raster: str, size: int, envs: int, args) -> dict:
     os.environ["CRESSIM_RASTER"] = raster  # read when the renderer is built (upload_world)
-    engine = build(envs, size, args.sphere_rings, args.shadows, args.point_lights)
+    engine = build(envs, size, args.sphere_rings, args.shadows, args.point_lights, args.products.split(","))
     for _ in range(10):
         engine.step_visual_sensors()
         engine.end_frame()
@@ -61,7 +62,8 @@ def measure(raster: str, size: int, envs: int, args) -> dict:
           f"GPU {gpu_ms:6.2f} ms/frame, outputs {mem / 1024:.1f} KiB/camera)", flush=True)
     return {"raster": raster, "size": size, "envs": envs, "frames_per_s": 1 / dt, "camera_images_per_s": envs / dt,
             "gpu_ms_per_frame": gpu_ms, "output_bytes_per_camera": mem, "device": engine.device["name"],
-            "sphere_rings": args.sphere_rings, "shadows": args.shadows, "point_lights": args.point_lights}
+            "sphere_rings": args.sphere_rings, "shadows": args.shadows, "point_lights": args.point_lights,
+            "products": args.products}
 
 
 def main() -> None:
@@ -73,6 +75,7 @@ def main() -> None:
     ap.add_argument("--shadows", action="store_true", help="the sun casts shadows (a shadow map per env)")
     ap.add_argument("--point-lights", type=int, default=0, help="point lights per env besides the sun")
     ap.add_argument("--raster", default="both", choices=("graphics", "compute", "both"))
+    ap.add_argument("--products", default="rgb,depth,segmentation", help="what each camera writes, e.g. rgb")
     ap.add_argument("--json")
     args = ap.parse_args()
     rasters = ("graphics", "compute") if args.raster == "both" else (args.raster,)

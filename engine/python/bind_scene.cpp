@@ -236,16 +236,31 @@ void bind_render_components(py::module_& m) {
       .def_readwrite("segmentation_id", &scene::Renderable::segmentation_id);
 
   py::class_<scene::Camera>(m, "Camera")
-      .def(py::init([](uint32_t w, uint32_t h, float fov_y, float fx, float fy, float cx, float cy, float near, float far) {
-             return scene::Camera{w, h, fov_y, fx, fy, cx, cy, near, far};
+      .def(py::init([](uint32_t w, uint32_t h, float fov_y, float fx, float fy, float cx, float cy, float near, float far,
+                       std::vector<std::string> products) {
+             scene::Camera c{w, h, fov_y, fx, fy, cx, cy, near, far, 0};
+             for (const auto& p : products)
+               c.products |= parse_enum<uint32_t>(p, {{"rgb", scene::PRODUCT_RGB}, {"depth", scene::PRODUCT_DEPTH},
+                                                      {"segmentation", scene::PRODUCT_SEGMENTATION}}, "Camera product");
+             if (!c.products) throw py::value_error("Camera: products needs at least one of rgb, depth, segmentation");
+             return c;
            }),
            py::kw_only(), py::arg("width") = 64u, py::arg("height") = 64u, py::arg("fov_y") = 50.f, py::arg("fx") = 0.f,
            py::arg("fy") = 0.f, py::arg("cx") = -1.f, py::arg("cy") = -1.f, py::arg("near") = 0.01f,
            py::arg("far") = 100.f,
+           py::arg("products") = std::vector<std::string>{"rgb", "depth", "segmentation"},
            "A pinhole camera looking along the entity's +z (x right, y down). fx/fy 0: from fov_y in degrees; "
-           "cx/cy < 0: the image centre.")
+           "cx/cy < 0: the image centre. products: the buffers it writes (camera{g}.rgb, .depth, .segmentation); "
+           "fewer is less memory and bandwidth.")
       .def_readonly("width", &scene::Camera::width)
-      .def_readonly("height", &scene::Camera::height);
+      .def_readonly("height", &scene::Camera::height)
+      .def_property_readonly("products", [](const scene::Camera& c) {
+        std::vector<std::string> out;
+        if (c.products & scene::PRODUCT_RGB) out.push_back("rgb");
+        if (c.products & scene::PRODUCT_DEPTH) out.push_back("depth");
+        if (c.products & scene::PRODUCT_SEGMENTATION) out.push_back("segmentation");
+        return out;
+      });
 
   py::class_<scene::Light>(m, "Light")
       .def(py::init([](Vec3 color, float intensity, float ambient, const std::string& kind, float range, float inner,

@@ -44,7 +44,7 @@ RenderModel build_render_model(const scene::World& world, const scene::LayoutMap
   m.env_lighting.assign(mapping.num_envs, shader::EnvLighting{});
   std::vector<std::vector<uint32_t>> env_renderables(mapping.num_envs), env_cameras(mapping.num_envs);
   std::vector<uint32_t> shadow_envs;
-  std::map<std::pair<uint32_t, uint32_t>, std::vector<uint32_t>> by_resolution;
+  std::map<std::array<uint32_t, 3>, std::vector<uint32_t>> by_config;  // (width, height, products)
   for (uint32_t env = 0; env < mapping.num_envs; ++env) {
     uint32_t lights = 0;
     float ambient = 0.2f;
@@ -81,13 +81,15 @@ RenderModel build_render_model(const scene::World& world, const scene::LayoutMap
         const auto& c = world.get<scene::Camera>(e);
         if (c.width == 0 || c.height == 0 || !(c.near > 0) || !(c.far > c.near))
           fail(world, e, "Camera needs width, height > 0 and 0 < near < far");
+        if (c.products == 0 || (c.products & ~uint32_t(scene::PRODUCT_ALL)))
+          fail(world, e, "Camera.products needs some of rgb, depth, segmentation");
         const float f = c.fx > 0 ? c.fx : 0.5f * float(c.height) / std::tan(0.5f * c.fov_y * std::numbers::pi_v<float> / 180);
         shader::CameraData d{{f, c.fy > 0 ? c.fy : f, c.cx >= 0 ? c.cx : 0.5f * float(c.width),
                               c.cy >= 0 ? c.cy : 0.5f * float(c.height)},
                              {c.near, c.far, float(c.width), float(c.height)},
                              {row, env, 0, 0}};
         env_cameras[env].push_back(uint32_t(m.cameras.size()));
-        by_resolution[{c.width, c.height}].push_back(uint32_t(m.cameras.size()));
+        by_config[{c.width, c.height, c.products}].push_back(uint32_t(m.cameras.size()));
         m.cameras.push_back(d);
         m.camera_entity.push_back(e);
         if (env_cameras[env].size() > layout.max_cameras_per_env)
@@ -145,10 +147,10 @@ RenderModel build_render_model(const scene::World& world, const scene::LayoutMap
     }
     m.shadow_groups.push_back(std::move(g));
   }
-  // groups: cameras of one resolution, at most max_layers each; instances by group, then mesh
-  for (auto& [resolution, cams] : by_resolution) {
+  // groups: cameras of one resolution and products, at most max_layers each; instances by group, then mesh
+  for (auto& [config, cams] : by_config) {
     for (size_t first = 0; first < cams.size(); first += max_layers) {
-      CameraGroup g{resolution.first, resolution.second, uint32_t(std::min<size_t>(max_layers, cams.size() - first)), {}};
+      CameraGroup g{config[0], config[1], uint32_t(std::min<size_t>(max_layers, cams.size() - first)), config[2], {}};
       const uint32_t group = uint32_t(m.groups.size());
       std::vector<std::vector<std::array<uint32_t, 2>>> per_mesh(m.meshes.size());
       for (uint32_t layer = 0; layer < g.layers; ++layer) {

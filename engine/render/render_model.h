@@ -1,6 +1,6 @@
 // prepare() for the rasterizer: meshes packed into one vertex/index buffer, textures into one
 // texel buffer, renderables, cameras and lights of every env, cameras grouped by resolution
-// into layered targets, shadow maps grouped likewise, and the draw lists (one instanced draw
+// and products into layered targets, shadow maps grouped likewise, and the draw lists (one instanced draw
 // per mesh and group).
 #pragma once
 #include <cstdint>
@@ -28,6 +28,7 @@ struct DrawCall {
 
 struct CameraGroup {
   uint32_t width = 0, height = 0, layers = 0;
+  uint32_t products = scene::PRODUCT_ALL;  // scene::CameraProduct bits
   std::vector<DrawCall> draws;
 };
 

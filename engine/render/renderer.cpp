@@ -117,14 +117,18 @@ Renderer::Renderer(std::shared_ptr<gpu::Context> ctx, RenderModel model, uint64_
       gpu::BufferOptions{gpu::Memory::DEVICE, VK_BUFFER_USAGE_INDEX_BUFFER_BIT, false});
   gpu::upload(*ctx_, indices_->buffer, model_.indices.data(), model_.indices.size() * 4);
 
-  gpu::GraphicsPipelineDesc desc;
-  desc.name = "render/raster";
-  desc.vertex = &gpu::embedded_shader("render/raster.vert");
-  desc.fragment = &gpu::embedded_shader("render/raster.frag");
-  desc.color_formats = {kColor, kDepth, kSegmentation};
-  desc.depth_format = kZ;
-  pipeline_ = gpu::create_graphics_pipeline(*ctx_, desc);
-  for (const auto& b : pipeline_.reflection.bindings) gpu::bind_buffer(*ctx_, pipeline_, b.binding, bound.at(b.name)->storage->buffer.buffer);
+  if (!use_compute) {
+    // a camera's unwanted products are attachments without an image view: their writes are dropped
+    gpu::GraphicsPipelineDesc desc;
+    desc.name = "render/raster";
+    desc.vertex = &gpu::embedded_shader("render/raster.vert");
+    desc.fragment = &gpu::embedded_shader("render/raster.frag");
+    desc.color_formats = {kColor, kDepth, kSegmentation};
+    desc.depth_format = kZ;
+    pipeline_ = gpu::create_graphics_pipeline(*ctx_, desc);
+    for (const auto& b : pipeline_.reflection.bindings)
+      gpu::bind_buffer(*ctx_, pipeline_, b.binding, bound.at(b.name)->storage->buffer.buffer);
+  }
 
   if (!model_.shadow_groups.empty()) {
     gpu::GraphicsPipelineDesc sd;
@@ -155,6 +159,9 @@ Renderer::Renderer(std::shared_ptr<gpu::Context> ctx, RenderModel model, uint64_
                                         generation);
     compute_bound["mesh_indices"] = make(ctx_, internal, "render.indices", model_.indices,
                                          {std::max<int64_t>(n(model_.indices), 1)}, DType::UINT32, generation);
+    // bound where a group does not write a product (its writes are skipped)
+    compute_bound["unused_output"] = make(ctx_, internal, "render.unused_output", std::vector<uint32_t>{}, {1},
+                                          DType::UINT32, generation);
   }
 
   const VkImageUsageFlags target = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
@@ -163,10 +170,17 @@ Renderer::Renderer(std::shared_ptr<gpu::Context> ctx, RenderModel model, uint64_
     const int64_t L = grp.layers, H = grp.height, W = grp.width;
     Targets t;
     const std::string prefix = "camera" + std::to_string(g) + ".";
-    t.rgb_out = make(ctx_, internal, prefix + "rgb", std::vector<uint8_t>{}, {L, H, W, 4}, DType::UINT8, generation, exportable);
-    t.depth_out = make(ctx_, internal, prefix + "depth", std::vector<float>{}, {L, H, W}, DType::FLOAT32, generation, exportable);
-    t.segmentation_out = make(ctx_, internal, prefix + "segmentation", std::vector<uint32_t>{}, {L, H, W}, DType::UINT32,
-                              generation, exportable);
+    const bool rgb = grp.products & scene::PRODUCT_RGB, dep = grp.products & scene::PRODUCT_DEPTH,
+               seg = grp.products & scene::PRODUCT_SEGMENTATION;
+    if (rgb)
+      t.rgb_out = make(ctx_, internal, prefix + "rgb", std::vector<uint8_t>{}, {L, H, W, 4}, DType::UINT8, generation,
+                       exportable);
+    if (dep)
+      t.depth_out = make(ctx_, internal, prefix + "depth", std::vector<float>{}, {L, H, W}, DType::FLOAT32, generation,
+                         exportable);
+    if (seg)
+      t.segmentation_out = make(ctx_, internal, prefix + "segmentation", std::vector<uint32_t>{}, {L, H, W},
+                                DType::UINT32, generation, exportable);
     if (use_compute) {
       std::vector<uint32_t> by_layer(grp.layers);
       for (uint32_t c = 0; c < model_.cameras.size(); ++c)
@@ -174,22 +188,23 @@ Renderer::Renderer(std::shared_ptr<gpu::Context> ctx, RenderModel model, uint64_
       BufferMap b = compute_bound;
       b["group_cameras"] = make(ctx_, internal, "render.group" + std::to_string(g) + "_cameras", by_layer,
                                 {int64_t(by_layer.size())}, DType::UINT32, generation);
-      b["out_rgb"] = t.rgb_out;
-      b["out_depth"] = t.depth_out;
-      b["out_segmentation"] = t.segmentation_out;
+      b["out_rgb"] = rgb ? t.rgb_out : compute_bound.at("unused_output");
+      b["out_depth"] = dep ? t.depth_out : compute_bound.at("unused_output");
+      b["out_segmentation"] = seg ? t.segmentation_out : compute_bound.at("unused_output");
       auto pass = compute::create_builtin_pass(ctx_, "render/raster_compute", b);
       const uint32_t tiles_x = (grp.width + 63) / 64, tiles_y = (grp.height + 31) / 32;
       pass->set_constant_bits("width", &grp.width, 4);
       pass->set_constant_bits("height", &grp.height, 4);
       pass->set_constant_bits("tiles_x", &tiles_x, 4);
+      pass->set_constant_bits("products", &grp.products, 4);
       pass->set_groups({tiles_x * tiles_y, grp.layers, 1});
       compute_passes_.push_back(pass);
       targets_.push_back(std::move(t));
       continue;
     }
-    t.color = gpu::create_image(*ctx_, kColor, grp.width, grp.height, grp.layers, target);
-    t.depth = gpu::create_image(*ctx_, kDepth, grp.width, grp.height, grp.layers, target);
-    t.segmentation = gpu::create_image(*ctx_, kSegmentation, grp.width, grp.height, grp.layers, target);
+    if (rgb) t.color = gpu::create_image(*ctx_, kColor, grp.width, grp.height, grp.layers, target);
+    if (dep) t.depth = gpu::create_image(*ctx_, kDepth, grp.width, grp.height, grp.layers, target);
+    if (seg) t.segmentation = gpu::create_image(*ctx_, kSegmentation, grp.width, grp.height, grp.layers, target);
     t.z_buffer = gpu::create_image(*ctx_, kZ, grp.width, grp.height, grp.layers, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT);
     targets_.push_back(std::move(t));
   }
@@ -199,7 +214,7 @@ Renderer::~Renderer() {
   for (auto& t : targets_)
     for (gpu::Image* im : {&t.color, &t.depth, &t.segmentation, &t.z_buffer}) gpu::destroy_image(*ctx_, *im);
   for (auto& im : shadow_targets_) gpu::destroy_image(*ctx_, im);
-  gpu::destroy_compute_pipeline(*ctx_, pipeline_);
+  if (pipeline_.pipeline) gpu::destroy_compute_pipeline(*ctx_, pipeline_);
   if (shadow_pipeline_.pipeline) gpu::destroy_compute_pipeline(*ctx_, shadow_pipeline_);
 }
 
@@ -246,7 +261,7 @@ void Renderer::record(VkCommandBuffer cmd) const {
     const auto& grp = model_.groups[g];
     const Targets& t = targets_[g];
     for (const gpu::Image* im : {&t.color, &t.depth, &t.segmentation})
-      gpu::image_barrier(cmd, *im, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
+      if (im->image) gpu::image_barrier(cmd, *im, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
     gpu::image_barrier(cmd, t.z_buffer, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
     VkClearValue background{}, black{}, far_plane{};
     black.color.float32[3] = 1.0f;  // opaque
@@ -277,10 +292,10 @@ void Renderer::record(VkCommandBuffer cmd) const {
     }
     vkCmdEndRendering(cmd);
     for (const gpu::Image* im : {&t.color, &t.depth, &t.segmentation})
-      gpu::image_barrier(cmd, *im, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
-    copy_out(cmd, t.color, *t.rgb_out);
-    copy_out(cmd, t.depth, *t.depth_out);
-    copy_out(cmd, t.segmentation, *t.segmentation_out);
+      if (im->image) gpu::image_barrier(cmd, *im, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
+    if (t.rgb_out) copy_out(cmd, t.color, *t.rgb_out);
+    if (t.depth_out) copy_out(cmd, t.depth, *t.depth_out);
+    if (t.segmentation_out) copy_out(cmd, t.segmentation, *t.segmentation_out);
   }
 }
 

@@ -3,7 +3,8 @@
 // layered targets, copied into "render.shadow_maps"), then per camera group one
 // dynamic-rendering pass into layered targets (colour, metric depth, segmentation), then copies
 // into typed buffers that passes and torch read ("camera{g}.rgb" (layers, H, W, 4) uint8, "camera{g}.depth" (layers, H, W) float32 in
-// metres, 0 where nothing was hit, "camera{g}.segmentation" (layers, H, W) uint32, 0 background).
+// metres, 0 where nothing was hit, "camera{g}.segmentation" (layers, H, W) uint32, 0 background),
+// those of the group's Camera.products.
 #pragma once
 #include <map>
 #include <memory>

@@ -85,6 +85,9 @@ struct Renderable {
   int32_t texture = -1;
 };
 
+// What a camera writes (bits of Camera.products): fewer outputs, less memory and bandwidth.
+enum CameraProduct : uint32_t { PRODUCT_RGB = 1, PRODUCT_DEPTH = 2, PRODUCT_SEGMENTATION = 4, PRODUCT_ALL = 7 };
+
 // A pinhole camera looking along the entity's +z, x right, y down (optical frame).
 // fx, fy 0: from fov_y (degrees); cx, cy < 0: the image centre.
 struct Camera {
@@ -92,6 +95,7 @@ struct Camera {
   float fov_y = 50;
   float fx = 0, fy = 0, cx = -1, cy = -1;
   float near = 0.01f, far = 100;
+  uint32_t products = PRODUCT_ALL;
 };
 
 enum class LightKind : uint32_t { DIRECTIONAL = 1, POINT = 2, SPOT = 3 };

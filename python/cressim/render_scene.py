@@ -34,14 +34,19 @@ def render(scene: str | Path, out_dir: str | Path = "out/render", *, all_envs: b
     for entity, env, group, layer in zip(cams["entity"], cams["env"], cams["group"], cams["layer"]):
         if env != 0 and not all_envs:
             continue
-        if group not in images:
-            images[group] = [engine.buffer(f"camera{group}.{k}").read() for k in ("rgb", "depth", "segmentation")]
-        rgb, depth, seg = (a[layer] for a in images[group])
+        if group not in images:  # the products the camera writes
+            keys = set(engine.internal_keys)
+            images[group] = {k: engine.buffer(f"camera{group}.{k}").read() for k in ("rgb", "depth", "segmentation")
+                             if f"camera{group}.{k}" in keys}
+        img = {k: a[layer] for k, a in images[group].items()}
         name = world.entity(int(entity)).name or f"entity{entity}"
         stem = out / f"env{env}_{name}"
-        written.append(io.save_png(f"{stem}_rgb.png", rgb[..., :3]))
-        written.append(io.save_png(f"{stem}_depth.png", io.colour_depth(depth)))
-        written.append(io.save_png(f"{stem}_segmentation.png", io.colour_segmentation(seg)))
-        np.save(f"{stem}_depth.npy", depth)
-        written.append(Path(f"{stem}_depth.npy"))
+        if "rgb" in img:
+            written.append(io.save_png(f"{stem}_rgb.png", img["rgb"][..., :3]))
+        if "depth" in img:
+            written.append(io.save_png(f"{stem}_depth.png", io.colour_depth(img["depth"])))
+            np.save(f"{stem}_depth.npy", img["depth"])
+            written.append(Path(f"{stem}_depth.npy"))
+        if "segmentation" in img:
+            written.append(io.save_png(f"{stem}_segmentation.png", io.colour_segmentation(img["segmentation"])))
     return written

@@ -22,7 +22,7 @@ line and the field. The format (every key optional unless said)::
         rigid_body: {mass: 1.0}
       - name: camera
         transform: {position: [1, -1, 1], look_at: [0, 0, 0]}   # look_at: +z towards the point
-        camera: {width: 128, height: 96, fov_y: 50}
+        camera: {width: 128, height: 96, fov_y: 50}   # products: [rgb, depth, segmentation] (default)
       - name: sun
         transform: {position: [0, 0, 2], look_at: [0.2, 0.3, 0]}
         light: {kind: directional, intensity: 2.5, shadows: true, shadow_extent: 1.5}
@@ -335,8 +335,10 @@ class _Loader:
         return cressim.Renderable(mesh, **opts)
 
     def camera(self, f: Field) -> cressim.Camera:
-        c = f.keys(("width", "height", "fov_y", "fx", "fy", "cx", "cy", "near", "far"))
-        return cressim.Camera(**{k: (v.int(1) if k in ("width", "height") else v.float()) for k, v in c.items()})
+        c = f.keys(("width", "height", "fov_y", "fx", "fy", "cx", "cy", "near", "far", "products"))
+        return cressim.Camera(**{k: (v.int(1) if k in ("width", "height") else
+                                     [x.str() for x in v.list()] if k == "products" else v.float())
+                                 for k, v in c.items()})
 
     def light(self, f: Field) -> cressim.Light:
         c = f.keys(("kind", "color", "intensity", "ambient", "range", "inner_angle", "outer_angle", "shadows",

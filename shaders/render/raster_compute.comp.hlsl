@@ -27,7 +27,7 @@ struct Params {
   uint width;
   uint height;
   uint tiles_x;
-  uint unused;
+  uint products;  // CameraProduct bits: the outputs this group writes (others are bound to a stand-in)
 };
 [[vk::push_constant]] ConstantBuffer<Params> pc;
 
@@ -195,9 +195,9 @@ void main(uint3 group : SV_GroupID, uint tid : SV_GroupIndex) {
     const uint at = (layer * pc.height + uint(px.y)) * pc.width + uint(px.x);
     const uint id = idbuf[i];
     if (id == NONE) {
-      out_rgb[at] = 0xff000000u;  // opaque black
-      out_depth[at] = 0;
-      out_segmentation[at] = 0;
+      if (pc.products & 1) out_rgb[at] = 0xff000000u;  // opaque black
+      if (pc.products & 2) out_depth[at] = 0;
+      if (pc.products & 4) out_segmentation[at] = 0;
       continue;
     }
     const uint k = id >> 20, t = id & 0xfffffu;
@@ -227,10 +227,11 @@ void main(uint3 group : SV_GroupID, uint tid : SV_GroupIndex) {
                                    : quat_rotate(rotations[row], (b0 * vertex_normals[vi[0]].xyz + b1 * vertex_normals[vi[1]].xyz +
                                                                   b2 * vertex_normals[vi[2]].xyz) / scales[row].xyz);
     const float2 uv = b0 * vertex_uvs[vi[0]] + b1 * vertex_uvs[vi[1]] + b2 * vertex_uvs[vi[2]];
-    const float4 rgba = encode_color(shade(r, world, n, uv, eye_p));
-    const uint4 bytes = uint4(round(saturate(rgba) * 255));
-    out_rgb[at] = bytes.x | (bytes.y << 8) | (bytes.z << 16) | (bytes.w << 24);
-    out_depth[at] = depth;
-    out_segmentation[at] = r.ids.z;
+    if (pc.products & 1) {
+      const uint4 bytes = uint4(round(saturate(encode_color(shade(r, world, n, uv, eye_p))) * 255));
+      out_rgb[at] = bytes.x | (bytes.y << 8) | (bytes.z << 16) | (bytes.w << 24);
+    }
+    if (pc.products & 2) out_depth[at] = depth;
+    if (pc.products & 4) out_segmentation[at] = r.ids.z;
   }
 }

@@ -61,7 +61,7 @@ class TargetCenter(VectorEnv):
             camera.add(cressim.Transform(position=EYE, rotation=(-math.sqrt(0.5), 0, 0, math.sqrt(0.5))))
             camera.add(cressim.RigidBody(mass=1.0, kinematic=True))
             camera.add(cressim.Collider(cressim.Shape.sphere(0.01), **no_contacts))
-            camera.add(cressim.Camera(width=self.image_size, height=self.image_size, fov_y=self.fov_y))
+            camera.add(cressim.Camera(width=self.image_size, height=self.image_size, fov_y=self.fov_y, products=["rgb"]))
             sun = world.create_entity(env=env, name="sun")
             sun.add(cressim.Transform(rotation=(0.2, 0.1, 0.0, 0.97)))  # mostly downwards
             sun.add(cressim.Light(intensity=1.0, ambient=0.3))
