@@ -4,6 +4,7 @@
 #include <cmath>
 #include <map>
 #include <numbers>
+#include <cstdlib>
 #include <cstring>
 #include <stdexcept>
 
@@ -17,6 +18,9 @@ namespace {
 }  // namespace
 
 RenderModel build_render_model(const scene::World& world, const scene::LayoutMapping& mapping, uint32_t max_layers) {
+  // CRESSIM_MAX_LAYERS lowers the layers per target (tests split small batches into groups)
+  if (const char* v = std::getenv("CRESSIM_MAX_LAYERS"); v && std::atoi(v) > 0)
+    max_layers = std::min(max_layers, uint32_t(std::atoi(v)));
   RenderModel m;
   for (const auto& mesh : world.meshes()) {
     MeshRange r{uint32_t(m.indices.size()), uint32_t(mesh.indices.size()), int32_t(m.vertex_positions.size()), 0,

@@ -53,3 +53,14 @@ def test_ppo_smoke(tmp_path):
     assert result["backend"] == "torch"
     for rec in result["history"]:
         assert all(math.isfinite(rec[k]) for k in ("value", "surrogate", "entropy")), rec
+
+
+def test_envs_split_over_camera_groups(monkeypatch):
+    # 5 envs in targets of 2 layers: 3 camera groups, one observe pass each; same images as one group
+    env = cressim.envs.make("TargetCenter", num_envs=5, seed=4, validation=True)
+    whole = env.reset()[0].clone()
+    monkeypatch.setenv("CRESSIM_MAX_LAYERS", "2")
+    split = cressim.envs.make("TargetCenter", num_envs=5, seed=4, validation=True)
+    assert list(split.engine.cameras["group"]) == [0, 0, 1, 1, 2]
+    assert torch.equal(split.reset()[0], whole)
+    assert split.engine.validation_messages == []

@@ -129,3 +129,37 @@ def test_checker_texture_through_uvs(make_engine):
     # white squares: 0.97 of the light; black ones keep the specular 0.01 (srgb 32)
     white, black = srgb(0.97), srgb(0.01)
     assert np.all(np.abs(values[0::2] - white) <= 4) and np.all(np.abs(values[1::2] - black) <= 4), values
+
+
+def test_shadow_and_camera_groups_split_without_changing_images(make_engine, monkeypatch):
+    # three envs with shadows and cameras, in targets of one layer each or all in one
+    def images():
+        world = cressim.World(cressim.SceneLayout(3))
+        plane, box = world.add_mesh(cressim.Mesh.plane(2.0)), world.add_mesh(cressim.Mesh.box((0.15, 0.15, 0.15)))
+        for env in range(3):
+            world.create_entity(env=env).add(cressim.EnvironmentLight(sky=(0, 0, 0), ground=(0, 0, 0)))
+            f = world.create_entity(env=env)
+            f.add(cressim.Transform())
+            f.add(cressim.Renderable(plane))
+            b = world.create_entity(env=env)
+            b.add(cressim.Transform(position=(0.1 * env, 0, 0.5)))
+            b.add(cressim.Renderable(box))
+            s = world.create_entity(env=env)
+            s.add(cressim.Transform(position=(0, 0, 1), rotation=_quat_look_at((0, 0, 1), (1, 0, 0))))
+            s.add(cressim.Light(shadows=True, shadow_extent=1.5, shadow_resolution=64))
+            c = world.create_entity(env=env)
+            c.add(cressim.Transform(position=(0, 0, 2), rotation=DOWN))
+            c.add(cressim.Camera(width=32, height=32, fov_y=60))
+        engine = make_engine(world)
+        engine.prepare()
+        engine.upload_world()
+        engine.step_visual_sensors()
+        engine.end_frame()
+        groups = engine.cameras["group"]
+        return len(set(groups)), np.concatenate([engine.buffer(f"camera{g}.rgb").read() for g in sorted(set(groups))])
+
+    n1, whole = images()
+    monkeypatch.setenv("CRESSIM_MAX_LAYERS", "1")
+    n3, split = images()
+    assert (n1, n3) == (1, 3) and np.array_equal(whole, split)
+    assert (whole[:, :, :, 0] == 0).any() and not np.array_equal(whole[0], whole[2])  # shadows, per env
