@@ -1,34 +1,69 @@
 """Rendering throughput: N envs, each a ground plane, a lit cube and a sphere seen by one camera;
 frames rendered per second (one step_visual_sensors per frame, synchronised every frame) at
-several resolutions. Usage: python benchmarks/bench_render.py --envs 256,1024,4096 --sizes 64,128,256"""
+several resolutions. Usage: python benchmarks/bench_render.py --envs 256,1024,4096 --sizes 64,128,256
+A/B switches: --sphere-rings (tessellation: the first part's numbers used 24 rings x 48
+segments = 2,304 triangles; 6 gives 144), --shadows (a 256^2 shadow map per env from the sun),
+--point-lights N (extra point lights per env), --products rgb (what cameras write),
+--raster graphics|compute|both (CRESSIM_RASTER: graphics pipelines or the compute rasterizer)."""
 from __future__ import annotations
 
 import argparse
 import json
 import math
+import os
 import time
 
 import cressim
 
 
-def build(envs: int, size: int) -> cressim.Engine:
-    world = cressim.World(cressim.SceneLayout(envs))
-    cube, ball, plane = (world.add_mesh(cressim.Mesh.box((0.1, 0.1, 0.1))), world.add_mesh(cressim.Mesh.sphere(0.08)),
-                         world.add_mesh(cressim.Mesh.plane(2.0)))
+def build(envs: int, size: int, rings: int = 24, shadows: bool = False, point_lights: int = 0,
+          products=("rgb", "depth", "segmentation")) -> cressim.Engine:
+    world = cressim.World(cressim.SceneLayout(envs, max_lights_per_env=1 + point_lights))
+    cube, ball, plane = (world.add_mesh(cressim.Mesh.box((0.1, 0.1, 0.1))),
+                         world.add_mesh(cressim.Mesh.sphere(0.08, rings, 2 * rings)), world.add_mesh(cressim.Mesh.plane(2.0)))
     for env in range(envs):
         for mesh, pos, color in ((plane, (0, 0, 0), (0.5, 0.5, 0.5, 1)), (cube, (0.2 * math.sin(env), 0, 0.1), (0.9, 0.2, 0.1, 1)),
                                  (ball, (-0.2, 0.1, 0.08), (0.1, 0.3, 0.9, 1))):
             e = world.create_entity(env=env)
             e.add(cressim.Transform(position=pos))
             e.add(cressim.Renderable(mesh, color=color))
+        sun = world.create_entity(env=env, name="sun")
+        sun.add(cressim.Transform(position=(0, 0, 1), rotation=(0.2, 0.1, 0.0, 0.97)))
+        sun.add(cressim.Light(shadows=shadows, shadow_extent=1.0))
+        for k in range(point_lights):
+            lamp = world.create_entity(env=env, name=f"lamp{k}")
+            lamp.add(cressim.Transform(position=(0.3 * k - 0.3, -0.4, 0.5)))
+            lamp.add(cressim.Light(kind="point", intensity=0.2))
         cam = world.create_entity(env=env, name="camera")
         # looking along +y, tilted 30 deg down (optical z forward, y down)
         cam.add(cressim.Transform(position=(0, -1.0, 0.5), rotation=(-math.sin(math.pi / 3), 0, 0, math.cos(math.pi / 3))))
-        cam.add(cressim.Camera(width=size, height=size, fov_y=50))
+        cam.add(cressim.Camera(width=size, height=size, fov_y=50, products=list(products)))
     engine = cressim.Engine(world)
     engine.prepare()
     engine.upload_world()
     return engine
+
+
+def measure(raster: str, size: int, envs: int, args) -> dict:
+    os.environ["CRESSIM_RASTER"] = raster  # read when the renderer is built (upload_world)
+    engine = build(envs, size, args.sphere_rings, args.shadows, args.point_lights, args.products.split(","))
+    for _ in range(10):
+        engine.step_visual_sensors()
+        engine.end_frame()
+    engine.profiling = True
+    t = time.perf_counter()
+    for _ in range(args.frames):
+        engine.step_visual_sensors()
+        engine.end_frame()
+    dt = (time.perf_counter() - t) / args.frames
+    gpu_ms = sum(ms for _, ms in engine.last_timings)
+    mem = sum(engine.buffer(k).nbytes for k in engine.internal_keys if k.startswith("camera")) / envs
+    print(f"{raster:8s} {size:4d}x{size:<4d} {envs:6d} envs: {envs / dt:12,.0f} images/s ({1 / dt:7.1f} frames/s, "
+          f"GPU {gpu_ms:6.2f} ms/frame, outputs {mem / 1024:.1f} KiB/camera)", flush=True)
+    return {"raster": raster, "size": size, "envs": envs, "frames_per_s": 1 / dt, "camera_images_per_s": envs / dt,
+            "gpu_ms_per_frame": gpu_ms, "output_bytes_per_camera": mem, "device": engine.device["name"],
+            "sphere_rings": args.sphere_rings, "shadows": args.shadows, "point_lights": args.point_lights,
+            "products": args.products}
 
 
 def main() -> None:
@@ -36,29 +71,16 @@ def main() -> None:
     ap.add_argument("--envs", default="64,256,1024,4096")
     ap.add_argument("--sizes", default="64,128,256")
     ap.add_argument("--frames", type=int, default=100)
+    ap.add_argument("--sphere-rings", type=int, default=24, help="sphere tessellation (rings; segments = 2x)")
+    ap.add_argument("--shadows", action="store_true", help="the sun casts shadows (a shadow map per env)")
+    ap.add_argument("--point-lights", type=int, default=0, help="point lights per env besides the sun")
+    ap.add_argument("--raster", default="both", choices=("graphics", "compute", "both"))
+    ap.add_argument("--products", default="rgb,depth,segmentation", help="what each camera writes, e.g. rgb")
     ap.add_argument("--json")
     args = ap.parse_args()
-    rows = []
-    for size in map(int, args.sizes.split(",")):
-        for envs in map(int, args.envs.split(",")):
-            engine = build(envs, size)
-            for _ in range(10):
-                engine.step_visual_sensors()
-                engine.end_frame()
-            engine.profiling = True
-            t = time.perf_counter()
-            for _ in range(args.frames):
-                engine.step_visual_sensors()
-                engine.end_frame()
-            dt = (time.perf_counter() - t) / args.frames
-            gpu_ms = sum(ms for _, ms in engine.last_timings)
-            mem = sum(engine.buffer(k).nbytes for k in engine.internal_keys if k.startswith("camera")) / envs
-            rows.append({"size": size, "envs": envs, "frames_per_s": 1 / dt, "camera_images_per_s": envs / dt,
-                         "gpu_ms_per_frame": gpu_ms, "output_bytes_per_camera": mem,
-                         "device": engine.device["name"]})
-            print(f"{size:4d}x{size:<4d} {envs:6d} envs: {envs / dt:12,.0f} images/s ({1 / dt:7.1f} frames/s, "
-                  f"GPU {gpu_ms:6.2f} ms/frame, outputs {mem / 1024:.1f} KiB/camera)", flush=True)
-            del engine
+    rasters = ("graphics", "compute") if args.raster == "both" else (args.raster,)
+    rows = [measure(raster, size, envs, args) for raster in rasters for size in map(int, args.sizes.split(","))
+            for envs in map(int, args.envs.split(","))]
     if args.json:
         with open(args.json, "w") as f:
             json.dump(rows, f, indent=2)

@@ -174,50 +174,130 @@ void bind_render_components(py::module_& m) {
   py::class_<scene::Mesh>(m, "Mesh", "A triangle mesh for Renderable.mesh (add it with world.add_mesh).")
       .def(py::init([](py::array_t<float, py::array::c_style | py::array::forcecast> positions,
                        py::array_t<uint32_t, py::array::c_style | py::array::forcecast> triangles,
-                       py::array_t<float, py::array::c_style | py::array::forcecast> normals) {
+                       py::array_t<float, py::array::c_style | py::array::forcecast> normals, py::object uvs,
+                       std::string positions_key) {
              scene::Mesh mesh;
              mesh.positions.assign(positions.data(), positions.data() + positions.size());
              mesh.indices.assign(triangles.data(), triangles.data() + triangles.size());
              mesh.normals.assign(normals.data(), normals.data() + normals.size());
+             if (!uvs.is_none()) {
+               auto a = uvs.cast<py::array_t<float, py::array::c_style | py::array::forcecast>>();
+               mesh.uvs.assign(a.data(), a.data() + a.size());
+             }
+             mesh.positions_key = std::move(positions_key);
              return mesh;
            }),
-           py::arg("positions"), py::arg("triangles"), py::arg("normals"),
-           "positions (V, 3), triangles (T, 3) vertex indices, normals (V, 3), e.g. from trimesh.")
+           py::arg("positions"), py::arg("triangles"), py::arg("normals"), py::arg("uvs") = py::none(),
+           py::kw_only(), py::arg("positions_key") = "",
+           "positions (V, 3), triangles (T, 3) vertex indices, normals (V, 3), optional uvs (V, 2) texture "
+           "coordinates (v down the image); cressim.io.load_mesh reads .obj/.stl/.glb files. positions_key: an "
+           "engine buffer of float4 rows (one per vertex) that the positions are copied from on the GPU every "
+           "frame, e.g. a particle surface (normals then come from the triangles).")
       .def_static("box", &render::box_mesh, py::arg("half_extents"))
       .def_static("sphere", &render::sphere_mesh, py::arg("radius"), py::arg("rings") = 24, py::arg("segments") = 48)
       .def_static("capsule", &render::capsule_mesh, py::arg("radius"), py::arg("half_height"), py::arg("rings") = 12,
                   py::arg("segments") = 32)
       .def_static("plane", &render::plane_mesh, py::arg("half_size"))
       .def_property_readonly("vertex_count", &scene::Mesh::vertex_count)
+      .def_property_readonly("has_uvs", [](const scene::Mesh& m) { return !m.uvs.empty(); })
+      .def_readonly("positions_key", &scene::Mesh::positions_key)
       .def_property_readonly("triangle_count", [](const scene::Mesh& m) { return m.indices.size() / 3; });
 
+  py::class_<scene::Texture>(m, "Texture", "An RGBA8 image for Renderable.texture (add it with world.add_texture).")
+      .def(py::init([](py::array_t<uint8_t, py::array::c_style | py::array::forcecast> image) {
+             if (image.ndim() != 3 || (image.shape(2) != 3 && image.shape(2) != 4))
+               throw py::value_error("Texture: the image must be (height, width, 3 or 4) uint8");
+             scene::Texture t{uint32_t(image.shape(1)), uint32_t(image.shape(0)), {}};
+             const size_t texels = size_t(t.width) * t.height, channels = size_t(image.shape(2));
+             t.rgba.resize(texels * 4, 255);
+             for (size_t i = 0; i < texels; ++i)
+               for (size_t k = 0; k < channels; ++k) t.rgba[4 * i + k] = image.data()[channels * i + k];
+             return t;
+           }),
+           py::arg("image"), "image: (height, width, 3 or 4) uint8, sRGB, rows top to bottom; it wraps.")
+      .def_readonly("width", &scene::Texture::width)
+      .def_readonly("height", &scene::Texture::height);
+
   py::class_<scene::Renderable>(m, "Renderable")
-      .def(py::init([](uint32_t mesh, std::array<float, 4> color, float metallic, float roughness, uint32_t seg) {
-             return scene::Renderable{mesh, color, metallic, roughness, seg};
+      .def(py::init([](uint32_t mesh, std::array<float, 4> color, float metallic, float roughness, uint32_t seg,
+                       int32_t texture) {
+             return scene::Renderable{mesh, color, metallic, roughness, seg, texture};
            }),
            py::arg("mesh"), py::kw_only(), py::arg("color") = std::array<float, 4>{0.8f, 0.8f, 0.8f, 1.0f},
            py::arg("metallic") = 0.f, py::arg("roughness") = 0.5f, py::arg("segmentation_id") = 0u,
-           "Drawn by its env's cameras; segmentation_id 0: entity id + 1 (0 is the background).")
+           py::arg("texture") = -1,
+           "Drawn by its env's cameras; segmentation_id 0: entity id + 1 (0 is the background). color: linear "
+           "base colour; metallic/roughness: GGX material; texture: a world.add_texture index (-1: none).")
       .def_readwrite("mesh", &scene::Renderable::mesh)
       .def_readwrite("color", &scene::Renderable::color)
+      .def_readwrite("metallic", &scene::Renderable::metallic)
+      .def_readwrite("roughness", &scene::Renderable::roughness)
+      .def_readwrite("texture", &scene::Renderable::texture)
       .def_readwrite("segmentation_id", &scene::Renderable::segmentation_id);
 
   py::class_<scene::Camera>(m, "Camera")
-      .def(py::init([](uint32_t w, uint32_t h, float fov_y, float fx, float fy, float cx, float cy, float near, float far) {
-             return scene::Camera{w, h, fov_y, fx, fy, cx, cy, near, far};
+      .def(py::init([](uint32_t w, uint32_t h, float fov_y, float fx, float fy, float cx, float cy, float near, float far,
+                       std::vector<std::string> products) {
+             scene::Camera c{w, h, fov_y, fx, fy, cx, cy, near, far, 0};
+             for (const auto& p : products)
+               c.products |= parse_enum<uint32_t>(p, {{"rgb", scene::PRODUCT_RGB}, {"depth", scene::PRODUCT_DEPTH},
+                                                      {"segmentation", scene::PRODUCT_SEGMENTATION}}, "Camera product");
+             if (!c.products) throw py::value_error("Camera: products needs at least one of rgb, depth, segmentation");
+             return c;
            }),
            py::kw_only(), py::arg("width") = 64u, py::arg("height") = 64u, py::arg("fov_y") = 50.f, py::arg("fx") = 0.f,
            py::arg("fy") = 0.f, py::arg("cx") = -1.f, py::arg("cy") = -1.f, py::arg("near") = 0.01f,
            py::arg("far") = 100.f,
+           py::arg("products") = std::vector<std::string>{"rgb", "depth", "segmentation"},
            "A pinhole camera looking along the entity's +z (x right, y down). fx/fy 0: from fov_y in degrees; "
-           "cx/cy < 0: the image centre.")
+           "cx/cy < 0: the image centre. products: the buffers it writes (camera{g}.rgb, .depth, .segmentation); "
+           "fewer is less memory and bandwidth.")
       .def_readonly("width", &scene::Camera::width)
-      .def_readonly("height", &scene::Camera::height);
+      .def_readonly("height", &scene::Camera::height)
+      .def_property_readonly("products", [](const scene::Camera& c) {
+        std::vector<std::string> out;
+        if (c.products & scene::PRODUCT_RGB) out.push_back("rgb");
+        if (c.products & scene::PRODUCT_DEPTH) out.push_back("depth");
+        if (c.products & scene::PRODUCT_SEGMENTATION) out.push_back("segmentation");
+        return out;
+      });
 
   py::class_<scene::Light>(m, "Light")
-      .def(py::init([](Vec3 color, float intensity, float ambient) { return scene::Light{color, intensity, ambient}; }),
+      .def(py::init([](Vec3 color, float intensity, float ambient, const std::string& kind, float range, float inner,
+                       float outer, bool shadows, float shadow_extent, uint32_t shadow_resolution) {
+             using scene::LightKind;
+             scene::Light l{color, intensity, ambient};
+             l.kind = parse_enum<LightKind>(kind, {{"directional", LightKind::DIRECTIONAL}, {"point", LightKind::POINT},
+                                                  {"spot", LightKind::SPOT}}, "Light kind");
+             l.range = range, l.inner_angle = inner, l.outer_angle = outer;
+             l.shadows = shadows, l.shadow_extent = shadow_extent, l.shadow_resolution = shadow_resolution;
+             return l;
+           }),
            py::kw_only(), py::arg("color") = Vec3{1, 1, 1}, py::arg("intensity") = 1.f, py::arg("ambient") = 0.2f,
-           "A directional light travelling along the entity's +z (the env's first light is shaded).");
+           py::arg("kind") = "directional", py::arg("range") = 0.f, py::arg("inner_angle") = 20.f,
+           py::arg("outer_angle") = 30.f, py::arg("shadows") = false, py::arg("shadow_extent") = 2.f,
+           py::arg("shadow_resolution") = 256u,
+           "A light at the entity's pose: 'directional' travels along the entity's +z, 'spot' points along it, "
+           "'point' and 'spot' sit at its origin (radiance falls as 1/d^2, to 0 at `range` when > 0; spot cone "
+           "half-angles in degrees). A white matte surface facing a light of intensity 1 (at 1 m) shows `color`. "
+           "The env's first directional light with shadows=True casts shadows over a square of half-size "
+           "shadow_extent (m) around the light entity. ambient: the env's uniform ambient (its first light's) "
+           "when it has no EnvironmentLight.")
+      .def_property_readonly("kind", [](const scene::Light& l) {
+        return l.kind == scene::LightKind::POINT ? "point" : l.kind == scene::LightKind::SPOT ? "spot" : "directional";
+      })
+      .def_readonly("color", &scene::Light::color)
+      .def_readonly("intensity", &scene::Light::intensity)
+      .def_readonly("shadows", &scene::Light::shadows);
+
+  py::class_<scene::EnvironmentLight>(m, "EnvironmentLight")
+      .def(py::init([](Vec3 sky, Vec3 ground, float intensity) { return scene::EnvironmentLight{sky, ground, intensity}; }),
+           py::kw_only(), py::arg("sky") = Vec3{0.2f, 0.2f, 0.2f}, py::arg("ground") = Vec3{0.2f, 0.2f, 0.2f},
+           py::arg("intensity") = 1.f,
+           "The env's ambient light (one per env): a hemisphere, `sky` from +z and `ground` from -z.")
+      .def_readonly("sky", &scene::EnvironmentLight::sky)
+      .def_readonly("ground", &scene::EnvironmentLight::ground)
+      .def_readonly("intensity", &scene::EnvironmentLight::intensity);
 }
 
 // keyword-only construction of a component with many fields: each keyword sets the field of
@@ -368,6 +448,7 @@ void bind_scene(py::module_& m) {
       .def("add", &add<scene::Light>, py::arg("component"))
       .def("add", &add<scene::UltrasoundProbe>, py::arg("component"))
       .def("add", &add<scene::UltrasoundTissue>, py::arg("component"))
+      .def("add", &add<scene::EnvironmentLight>, py::arg("component"))
       .def("has", [](const Entity& e, py::object type) {
         if (type.is(py::type::of<scene::Transform>())) return e.world->has<scene::Transform>(e.id);
         if (type.is(py::type::of<scene::RigidBody>())) return e.world->has<scene::RigidBody>(e.id);
@@ -378,6 +459,7 @@ void bind_scene(py::module_& m) {
         if (type.is(py::type::of<scene::Light>())) return e.world->has<scene::Light>(e.id);
         if (type.is(py::type::of<scene::UltrasoundProbe>())) return e.world->has<scene::UltrasoundProbe>(e.id);
         if (type.is(py::type::of<scene::UltrasoundTissue>())) return e.world->has<scene::UltrasoundTissue>(e.id);
+        if (type.is(py::type::of<scene::EnvironmentLight>())) return e.world->has<scene::EnvironmentLight>(e.id);
         throw py::type_error("unknown component type");
       })
       .def_property(
@@ -403,6 +485,8 @@ void bind_scene(py::module_& m) {
         return Entity{w, id};
       })
       .def("add_mesh", &scene::World::add_mesh, py::arg("mesh"), "Adds a shared mesh; returns its index.")
+      .def("add_texture", &scene::World::add_texture, py::arg("texture"),
+           "Adds a shared texture (cressim.Texture); returns its index for Renderable.texture.")
       .def_property_readonly("entity_count", &scene::World::entity_count)
       .def_property_readonly("topology_version", &scene::World::topology_version);
 }

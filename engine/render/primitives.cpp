@@ -6,12 +6,13 @@
 namespace cressim::render {
 namespace {
 
-void vertex(scene::Mesh& m, float x, float y, float z, float nx, float ny, float nz) {
+void vertex(scene::Mesh& m, float x, float y, float z, float nx, float ny, float nz, float u, float v) {
   m.positions.insert(m.positions.end(), {x, y, z});
   m.normals.insert(m.normals.end(), {nx, ny, nz});
+  m.uvs.insert(m.uvs.end(), {u, v});
 }
 
-// a latitude-longitude sphere whose two hemispheres sit `half_height` above and below z = 0;
+// a latitude-longitude sphere (u around z, v from the top) whose two hemispheres sit `half_height` above and below z = 0;
 // the band between the equator ring and the next is then the capsule's cylinder
 scene::Mesh rounded(float r, float half_height, uint32_t rings, uint32_t segments) {
   scene::Mesh m;
@@ -23,7 +24,7 @@ scene::Mesh rounded(float r, float half_height, uint32_t rings, uint32_t segment
     for (uint32_t j = 0; j <= segments; ++j) {
       const float phi = 2 * pi * float(j) / float(segments);
       const float nx = std::sin(theta) * std::cos(phi), ny = std::sin(theta) * std::sin(phi), nz = std::cos(theta);
-      vertex(m, r * nx, r * ny, r * nz + offset, nx, ny, nz);
+      vertex(m, r * nx, r * ny, r * nz + offset, nx, ny, nz, float(j) / float(segments), float(i) / float(rings));
     }
   }
   for (uint32_t i = 0; i < rings; ++i)
@@ -49,7 +50,7 @@ scene::Mesh box_mesh(std::array<float, 3> h) {
         p[u] = ((k == 1 || k == 2) ? 1.f : -1.f) * h[u];
         p[v] = (k >= 2 ? 1.f : -1.f) * h[v];
         n[axis] = float(sign);
-        vertex(m, p[0], p[1], p[2], n[0], n[1], n[2]);
+        vertex(m, p[0], p[1], p[2], n[0], n[1], n[2], (k == 1 || k == 2) ? 1.f : 0.f, k >= 2 ? 0.f : 1.f);
       }
       m.indices.insert(m.indices.end(), {base, base + 1, base + 2, base, base + 2, base + 3});
     }
@@ -64,10 +65,11 @@ scene::Mesh capsule_mesh(float radius, float half_height, uint32_t rings, uint32
 
 scene::Mesh plane_mesh(float s) {
   scene::Mesh m;
-  vertex(m, -s, -s, 0, 0, 0, 1);
-  vertex(m, s, -s, 0, 0, 0, 1);
-  vertex(m, s, s, 0, 0, 0, 1);
-  vertex(m, -s, s, 0, 0, 0, 1);
+  // one texture repeat per metre
+  vertex(m, -s, -s, 0, 0, 0, 1, 0, 2 * s);
+  vertex(m, s, -s, 0, 0, 0, 1, 2 * s, 2 * s);
+  vertex(m, s, s, 0, 0, 0, 1, 2 * s, 0);
+  vertex(m, -s, s, 0, 0, 0, 1, 0, 0);
   m.indices = {0, 1, 2, 0, 2, 3};
   return m;
 }

@@ -1,8 +1,11 @@
 #include "render/render_model.h"
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <numbers>
+#include <cstdlib>
+#include <cstring>
 #include <stdexcept>
 
 namespace cressim::render {
@@ -12,42 +15,68 @@ namespace {
   throw std::invalid_argument(w.describe(e) + ": " + what);
 }
 
-shader::float4 rotate_z(const scene::Quat& q) {  // the entity's +z in world
-  const float x = q[0], y = q[1], z = q[2], w = q[3];
-  return {2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y), 0};
-}
-
 }  // namespace
 
 RenderModel build_render_model(const scene::World& world, const scene::LayoutMapping& mapping, uint32_t max_layers) {
+  // CRESSIM_MAX_LAYERS lowers the layers per target (tests split small batches into groups)
+  if (const char* v = std::getenv("CRESSIM_MAX_LAYERS"); v && std::atoi(v) > 0)
+    max_layers = std::min(max_layers, uint32_t(std::atoi(v)));
   RenderModel m;
   for (const auto& mesh : world.meshes()) {
-    MeshRange r{uint32_t(m.indices.size()), uint32_t(mesh.indices.size()), int32_t(m.vertex_positions.size())};
+    MeshRange r{uint32_t(m.indices.size()), uint32_t(mesh.indices.size()), int32_t(m.vertex_positions.size()), 0,
+                mesh.vertex_count(), mesh.positions_key};
     for (uint32_t v = 0; v < mesh.vertex_count(); ++v) {
-      m.vertex_positions.push_back({mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2], 1});
+      const float x = mesh.positions[3 * v], y = mesh.positions[3 * v + 1], z = mesh.positions[3 * v + 2];
+      r.radius = std::max(r.radius, std::sqrt(x * x + y * y + z * z));
+      m.vertex_positions.push_back({x, y, z, 1});
       m.vertex_normals.push_back({mesh.normals[3 * v], mesh.normals[3 * v + 1], mesh.normals[3 * v + 2], 0});
     }
+    if (mesh.uvs.empty()) m.vertex_uvs.resize(m.vertex_uvs.size() + 2 * mesh.vertex_count(), 0.f);
+    else m.vertex_uvs.insert(m.vertex_uvs.end(), mesh.uvs.begin(), mesh.uvs.end());
     m.indices.insert(m.indices.end(), mesh.indices.begin(), mesh.indices.end());
     m.meshes.push_back(r);
   }
+  for (const auto& t : world.textures()) {
+    m.textures.push_back({{uint32_t(m.texels.size()), t.width, t.height, 0}});
+    const size_t first = m.texels.size();
+    m.texels.resize(first + size_t(t.width) * t.height);
+    std::memcpy(m.texels.data() + first, t.rgba.data(), t.rgba.size());  // little-endian RGBA8 words
+  }
   const auto& layout = world.layout();
-  m.lights.assign(mapping.num_envs, {{0.3f, 0.2f, -1.0f, 0.2f}, {1, 1, 1, 0}});  // default: from above
+  const uint32_t slots = layout.max_lights_per_env;
+  m.lights.assign(size_t(mapping.num_envs) * slots, shader::LightData{});
+  m.env_lighting.assign(mapping.num_envs, shader::EnvLighting{});
   std::vector<std::vector<uint32_t>> env_renderables(mapping.num_envs), env_cameras(mapping.num_envs);
-  std::map<std::pair<uint32_t, uint32_t>, std::vector<uint32_t>> by_resolution;
+  std::vector<uint32_t> shadow_envs;
+  std::map<std::array<uint32_t, 3>, std::vector<uint32_t>> by_config;  // (width, height, products)
   for (uint32_t env = 0; env < mapping.num_envs; ++env) {
-    bool lit = false;
     uint32_t lights = 0;
+    float ambient = 0.2f;
+    bool environment = false;
+    shader::EnvLighting& lighting = m.env_lighting[env];
+    lighting.ids = {env * slots, slots, 0, shader::RENDER_NO_ROW};
     for (uint32_t row = mapping.env_offset[env]; row < mapping.env_offset[env] + mapping.env_count[env]; ++row) {
       const scene::EntityId e = mapping.row_entity[row];
+      if (world.has<scene::EnvironmentLight>(e)) {
+        if (environment) fail(world, e, "env " + std::to_string(env) + " has a second EnvironmentLight");
+        const auto& a = world.get<scene::EnvironmentLight>(e);
+        lighting.sky = {a.sky[0] * a.intensity, a.sky[1] * a.intensity, a.sky[2] * a.intensity, 0};
+        lighting.ground = {a.ground[0] * a.intensity, a.ground[1] * a.intensity, a.ground[2] * a.intensity, 0};
+        environment = true;
+      }
       if (world.has<scene::Renderable>(e)) {
         const auto& r = world.get<scene::Renderable>(e);
         if (r.mesh >= m.meshes.size())
           fail(world, e, "Renderable.mesh " + std::to_string(r.mesh) + " is not a mesh of the world (" +
                              std::to_string(m.meshes.size()) + " meshes; world.add_mesh returns the index)");
         env_renderables[env].push_back(uint32_t(m.renderables.size()));
+        if (r.texture >= int32_t(world.textures().size()) || r.texture < -1)
+          fail(world, e, "Renderable.texture " + std::to_string(r.texture) + " is not a texture of the world (" +
+                             std::to_string(world.textures().size()) + " textures; world.add_texture returns the index)");
         m.renderables.push_back({{row, r.mesh, r.segmentation_id ? r.segmentation_id : e + 1, env},
                                  {r.color[0], r.color[1], r.color[2], r.color[3]},
-                                 {r.metallic, r.roughness, 0, 0}});
+                                 {r.metallic, r.roughness, 0, 0},
+                                 {uint32_t(r.texture + 1), m.meshes[r.mesh].positions_key.empty() ? 0u : 1u, 0, 0}});
         if (env_renderables[env].size() > layout.max_renderables_per_env)
           fail(world, e, "env " + std::to_string(env) + " has more renderables than SceneLayout.max_renderables_per_env = " +
                              std::to_string(layout.max_renderables_per_env));
@@ -56,13 +85,15 @@ RenderModel build_render_model(const scene::World& world, const scene::LayoutMap
         const auto& c = world.get<scene::Camera>(e);
         if (c.width == 0 || c.height == 0 || !(c.near > 0) || !(c.far > c.near))
           fail(world, e, "Camera needs width, height > 0 and 0 < near < far");
+        if (c.products == 0 || (c.products & ~uint32_t(scene::PRODUCT_ALL)))
+          fail(world, e, "Camera.products needs some of rgb, depth, segmentation");
         const float f = c.fx > 0 ? c.fx : 0.5f * float(c.height) / std::tan(0.5f * c.fov_y * std::numbers::pi_v<float> / 180);
         shader::CameraData d{{f, c.fy > 0 ? c.fy : f, c.cx >= 0 ? c.cx : 0.5f * float(c.width),
                               c.cy >= 0 ? c.cy : 0.5f * float(c.height)},
                              {c.near, c.far, float(c.width), float(c.height)},
                              {row, env, 0, 0}};
         env_cameras[env].push_back(uint32_t(m.cameras.size()));
-        by_resolution[{c.width, c.height}].push_back(uint32_t(m.cameras.size()));
+        by_config[{c.width, c.height, c.products}].push_back(uint32_t(m.cameras.size()));
         m.cameras.push_back(d);
         m.camera_entity.push_back(e);
         if (env_cameras[env].size() > layout.max_cameras_per_env)
@@ -70,23 +101,60 @@ RenderModel build_render_model(const scene::World& world, const scene::LayoutMap
                              std::to_string(layout.max_cameras_per_env));
       }
       if (world.has<scene::Light>(e)) {
-        if (++lights > layout.max_lights_per_env)
+        if (++lights > slots)
           fail(world, e, "env " + std::to_string(env) + " has more lights than SceneLayout.max_lights_per_env = " +
-                             std::to_string(layout.max_lights_per_env));
-        if (lit) continue;  // one directional light per env is shaded
+                             std::to_string(slots));
         const auto& l = world.get<scene::Light>(e);
-        const auto& q = world.has<scene::Transform>(e) ? world.get<scene::Transform>(e).rotation : scene::Quat{0, 0, 0, 1};
-        shader::float4 d = rotate_z(q);
-        d.w = l.ambient;
-        m.lights[env] = {d, {l.color[0] * l.intensity, l.color[1] * l.intensity, l.color[2] * l.intensity, 0}};
-        lit = true;
+        if (lights == 1) ambient = l.ambient;
+        if (!(l.intensity >= 0) || !(l.range >= 0) || !(l.inner_angle >= 0) || !(l.outer_angle > l.inner_angle) ||
+            !(l.outer_angle < 90))
+          fail(world, e, "Light needs intensity >= 0, range >= 0 and 0 <= inner_angle < outer_angle < 90");
+        const float deg = std::numbers::pi_v<float> / 180;
+        m.lights[size_t(env) * slots + lights - 1] = {
+            {row, uint32_t(l.kind), 0, 0},
+            {l.color[0] * l.intensity, l.color[1] * l.intensity, l.color[2] * l.intensity, l.range},
+            {std::cos(l.inner_angle * deg), std::cos(l.outer_angle * deg), 0, 0},
+            {0, 0, 1, 0}};
+        if (l.shadows && l.kind == scene::LightKind::DIRECTIONAL && lighting.ids.z == 0) {
+          if (!(l.shadow_extent > 0) || l.shadow_resolution == 0 || l.shadow_resolution > 4096)
+            fail(world, e, "Light needs shadow_extent > 0 and 0 < shadow_resolution <= 4096");
+          lighting.ids.z = uint32_t(shadow_envs.size()) + 1;
+          lighting.ids.w = row;
+          lighting.shadow = {l.shadow_extent, 4 * l.shadow_extent + 10, 0, 0};
+          m.shadow_resolution = std::max(m.shadow_resolution, l.shadow_resolution);
+          shadow_envs.push_back(env);
+        }
       }
     }
+    if (lights == 0)  // a default light from above
+      m.lights[size_t(env) * slots] = {{shader::RENDER_NO_ROW, shader::LIGHT_DIRECTIONAL, 0, 0},
+                                       {1, 1, 1, 0}, {1, 0, 0, 0}, {0.3f, 0.2f, -1.0f, 0}};
+    if (!environment) {
+      lighting.sky = {ambient, ambient, ambient, 0};
+      lighting.ground = lighting.sky;
+    }
   }
-  // groups: cameras of one resolution, at most max_layers each; instances by group, then mesh
-  for (auto& [resolution, cams] : by_resolution) {
+  for (auto& l : m.env_lighting) l.shadow.z = float(m.shadow_resolution);
+  for (const auto& r : env_renderables)  // renderables are stored env by env
+    m.env_renderables.push_back({r.empty() ? 0 : r.front(), uint32_t(r.size())});
+  m.shadow_maps = uint32_t(shadow_envs.size());
+  // shadow maps of at most max_layers envs a group; instances by group, then mesh
+  for (uint32_t first = 0; first < shadow_envs.size(); first += max_layers) {
+    ShadowGroup g{first, std::min<uint32_t>(max_layers, uint32_t(shadow_envs.size()) - first), {}};
+    std::vector<std::vector<std::array<uint32_t, 2>>> per_mesh(m.meshes.size());
+    for (uint32_t layer = 0; layer < g.layers; ++layer)
+      for (uint32_t r : env_renderables[shadow_envs[first + layer]]) per_mesh[m.renderables[r].ids.y].push_back({r, layer});
+    for (uint32_t mesh = 0; mesh < per_mesh.size(); ++mesh) {
+      if (per_mesh[mesh].empty()) continue;
+      g.draws.push_back({mesh, uint32_t(m.shadow_instances.size()), uint32_t(per_mesh[mesh].size())});
+      m.shadow_instances.insert(m.shadow_instances.end(), per_mesh[mesh].begin(), per_mesh[mesh].end());
+    }
+    m.shadow_groups.push_back(std::move(g));
+  }
+  // groups: cameras of one resolution and products, at most max_layers each; instances by group, then mesh
+  for (auto& [config, cams] : by_config) {
     for (size_t first = 0; first < cams.size(); first += max_layers) {
-      CameraGroup g{resolution.first, resolution.second, uint32_t(std::min<size_t>(max_layers, cams.size() - first)), {}};
+      CameraGroup g{config[0], config[1], uint32_t(std::min<size_t>(max_layers, cams.size() - first)), config[2], {}};
       const uint32_t group = uint32_t(m.groups.size());
       std::vector<std::vector<std::array<uint32_t, 2>>> per_mesh(m.meshes.size());
       for (uint32_t layer = 0; layer < g.layers; ++layer) {

@@ -1,8 +1,10 @@
-// prepare() for the rasterizer: meshes packed into one vertex/index buffer, renderables and
-// cameras of every env, cameras grouped by resolution into layered targets, and the draw
-// list (one instanced draw per mesh and group).
+// prepare() for the rasterizer: meshes packed into one vertex/index buffer, textures into one
+// texel buffer, renderables, cameras and lights of every env, cameras grouped by resolution
+// and products into layered targets, shadow maps grouped likewise, and the draw lists (one instanced draw
+// per mesh and group).
 #pragma once
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "cressim/render.h"
@@ -14,6 +16,9 @@ namespace cressim::render {
 struct MeshRange {
   uint32_t first_index = 0, index_count = 0;
   int32_t vertex_offset = 0;
+  float radius = 0;  // of the bounding sphere about the mesh origin
+  uint32_t vertex_count = 0;
+  std::string positions_key;  // positions copied from this buffer every frame (scene::Mesh)
 };
 
 struct DrawCall {
@@ -23,19 +28,34 @@ struct DrawCall {
 
 struct CameraGroup {
   uint32_t width = 0, height = 0, layers = 0;
+  uint32_t products = scene::PRODUCT_ALL;  // scene::CameraProduct bits
   std::vector<DrawCall> draws;
+};
+
+// Shadow maps of consecutive envs with shadows, rendered as the layers of one depth target.
+struct ShadowGroup {
+  uint32_t first_map = 0, layers = 0;
+  std::vector<DrawCall> draws;  // into shadow_instances
 };
 
 struct RenderModel {
   std::vector<shader::float4> vertex_positions, vertex_normals;
+  std::vector<float> vertex_uvs;  // u v per vertex (0 where a mesh has none)
   std::vector<uint32_t> indices;
   std::vector<MeshRange> meshes;
+  std::vector<shader::TextureInfo> textures;
+  std::vector<uint32_t> texels;  // RGBA8 packed, every texture in turn
   std::vector<shader::RenderableData> renderables;
   std::vector<shader::CameraData> cameras;
   std::vector<uint32_t> camera_entity;
-  std::vector<shader::EnvLight> lights;  // per env
+  std::vector<shader::LightData> lights;  // max_lights_per_env slots per env
+  std::vector<shader::EnvLighting> env_lighting;  // per env
+  std::vector<std::array<uint32_t, 2>> env_renderables;  // per env: first renderable, count
   std::vector<std::array<uint32_t, 2>> instances;  // (renderable, camera), by group then mesh
   std::vector<CameraGroup> groups;
+  uint32_t shadow_resolution = 0, shadow_maps = 0;
+  std::vector<std::array<uint32_t, 2>> shadow_instances;  // (renderable, layer), by group then mesh
+  std::vector<ShadowGroup> shadow_groups;
 
   bool empty() const { return cameras.empty(); }
 };

@@ -4,6 +4,7 @@
 #include <array>
 #include <cstdint>
 #include <limits>
+#include <string>
 #include <tuple>
 #include <vector>
 
@@ -74,12 +75,18 @@ struct Joint {
 
 // Drawn by the cameras of its env: a mesh of the world's mesh table (world.add_mesh), scaled
 // by the entity's Transform.scale. segmentation_id 0: the entity id + 1 (0 is background).
+// Material: metallic/roughness (GGX); texture: a world.add_texture index (-1: none) whose
+// colour multiplies `color`, sampled at the mesh's uvs.
 struct Renderable {
   uint32_t mesh = 0;
   std::array<float, 4> color{0.8f, 0.8f, 0.8f, 1.0f};  // linear RGBA
   float metallic = 0, roughness = 0.5f;
   uint32_t segmentation_id = 0;
+  int32_t texture = -1;
 };
+
+// What a camera writes (bits of Camera.products): fewer outputs, less memory and bandwidth.
+enum CameraProduct : uint32_t { PRODUCT_RGB = 1, PRODUCT_DEPTH = 2, PRODUCT_SEGMENTATION = 4, PRODUCT_ALL = 7 };
 
 // A pinhole camera looking along the entity's +z, x right, y down (optical frame).
 // fx, fy 0: from fov_y (degrees); cx, cy < 0: the image centre.
@@ -88,14 +95,35 @@ struct Camera {
   float fov_y = 50;
   float fx = 0, fy = 0, cx = -1, cy = -1;
   float near = 0.01f, far = 100;
+  uint32_t products = PRODUCT_ALL;
 };
 
-// A directional light travelling along the entity's +z; one per env (the env's first).
+enum class LightKind : uint32_t { DIRECTIONAL = 1, POINT = 2, SPOT = 3 };
+
+// A light at the entity's pose: directional lights travel along the entity's +z, spots point
+// along it, point and spot lights sit at its origin. Intensity: a white matte surface facing a
+// directional light of intensity 1 (or a point light of intensity 1 at 1 m) shows `color`.
+// The env's first light with `shadows` (directional) casts shadows over a square of half-size
+// shadow_extent around the light entity, at shadow_resolution texels a side.
 struct Light {
   Vec3 color{1, 1, 1};
   float intensity = 1;
-  float ambient = 0.2f;
+  float ambient = 0.2f;  // the env's uniform ambient (its first light's) without an EnvironmentLight
+  LightKind kind = LightKind::DIRECTIONAL;
+  float range = 0;  // point/spot: 0 unlimited, else falls smoothly to 0 there
+  float inner_angle = 20, outer_angle = 30;  // spot half-angles, degrees
+  bool shadows = false;
+  float shadow_extent = 2;
+  uint32_t shadow_resolution = 256;
 };
+
+// The env's ambient light: a hemisphere, `sky` from +z and `ground` from -z (per env).
+struct EnvironmentLight {
+  Vec3 sky{0.2f, 0.2f, 0.2f};
+  Vec3 ground{0.2f, 0.2f, 0.2f};
+  float intensity = 1;
+};
+
 
 enum class ProbeKind : uint32_t { NONE = 0, LINEAR = 1, SECTOR = 2 };
 
@@ -149,15 +177,26 @@ struct UltrasoundTissue {
   uint32_t seed = 0;     // with the entity id: envs get different speckle
 };
 
-using ComponentTypes = std::tuple<Transform, RigidBody, Collider, Joint, Renderable, Camera, Light, UltrasoundProbe,
-                                  UltrasoundTissue>;
+using ComponentTypes = std::tuple<Transform, RigidBody, Collider, Joint, Renderable, Camera, Light, EnvironmentLight,
+                                  UltrasoundProbe, UltrasoundTissue>;
 
 // Triangle meshes shared by all envs; vertex normals per vertex.
 struct Mesh {
   std::vector<float> positions;  // x y z per vertex
   std::vector<float> normals;    // x y z per vertex
   std::vector<uint32_t> indices;  // three per triangle
+  std::vector<float> uvs;        // u v per vertex (texture coordinates), or none
+  // when set: the vertex positions are copied every frame on the GPU from this engine buffer
+  // (float4 rows, one per vertex, e.g. a particle system's surface), and normals come from the
+  // triangles; `positions` then only give the vertex count and the bounds
+  std::string positions_key;
   uint32_t vertex_count() const { return uint32_t(positions.size() / 3); }
+};
+
+// An RGBA8 image for Renderable.texture (world.add_texture), rows top to bottom; it wraps.
+struct Texture {
+  uint32_t width = 0, height = 0;
+  std::vector<uint8_t> rgba;  // 4 bytes per texel
 };
 
 }  // namespace cressim::scene

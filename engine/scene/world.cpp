@@ -24,9 +24,22 @@ uint32_t World::add_mesh(Mesh mesh) {
     if (i >= mesh.vertex_count())
       throw std::invalid_argument("add_mesh: index " + std::to_string(i) + " beyond the " +
                                   std::to_string(mesh.vertex_count()) + " vertices");
+  if (!mesh.uvs.empty() && mesh.uvs.size() != 2 * size_t(mesh.vertex_count()))
+    throw std::invalid_argument("add_mesh: uvs need 2 numbers per vertex (" + std::to_string(mesh.vertex_count()) +
+                                " vertices, " + std::to_string(mesh.uvs.size()) + " numbers)");
   meshes_.push_back(std::move(mesh));
   bump_topology("added mesh " + std::to_string(meshes_.size() - 1));
   return uint32_t(meshes_.size() - 1);
+}
+
+uint32_t World::add_texture(Texture texture) {
+  if (texture.width == 0 || texture.height == 0 || texture.rgba.size() != size_t(texture.width) * texture.height * 4)
+    throw std::invalid_argument("add_texture: needs width, height > 0 and 4 bytes per texel (" +
+                                std::to_string(texture.width) + "x" + std::to_string(texture.height) + ", " +
+                                std::to_string(texture.rgba.size()) + " bytes)");
+  textures_.push_back(std::move(texture));
+  bump_topology("added texture " + std::to_string(textures_.size() - 1));
+  return uint32_t(textures_.size() - 1);
 }
 
 std::string World::describe(EntityId e) const {

@@ -74,6 +74,9 @@ class World {
   // shared meshes: the index goes into Renderable.mesh
   uint32_t add_mesh(Mesh mesh);
   const std::vector<Mesh>& meshes() const { return meshes_; }
+  // shared textures: the index goes into Renderable.texture
+  uint32_t add_texture(Texture texture);
+  const std::vector<Texture>& textures() const { return textures_; }
 
   uint64_t topology_version() const { return topology_version_; }
   const std::string& last_topology_change() const { return last_change_; }
@@ -92,6 +95,7 @@ class World {
   std::string last_change_;
   std::vector<EntityId> dirty_;
   std::vector<Mesh> meshes_;
+  std::vector<Texture> textures_;
 };
 
 }  // namespace cressim::scene

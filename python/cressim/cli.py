@@ -1,4 +1,4 @@
-"""The `cressim` command line: `cressim info`, `cressim demo`, `cressim train`, `cressim bench`."""
+"""The `cressim` command line: `cressim info`, `cressim demo`, `cressim render`, `cressim train`, `cressim bench`."""
 from __future__ import annotations
 
 import argparse
@@ -34,6 +34,20 @@ def _demo(args: argparse.Namespace) -> int:
     from cressim.demos.batched_scene import run
 
     return run(num_envs=args.envs, frames=args.frames, out_dir=args.out)
+
+
+def _render(args: argparse.Namespace) -> int:
+    from cressim.render_scene import render
+    from cressim.scene_file import SceneFileError
+
+    try:
+        paths = render(args.scene, args.out, all_envs=args.all_envs, steps=args.steps, device=args.device)
+    except (SceneFileError, FileNotFoundError) as e:
+        print(f"cressim render: {e}", file=sys.stderr)
+        return 2
+    for p in paths:
+        print(p)
+    return 0
 
 
 def _train(args: argparse.Namespace) -> int:
@@ -73,6 +87,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--frames", type=int, default=120, help="batched: frames")
     p.add_argument("--out", default="out/demo", help="folder for the demo's outputs")
     p.set_defaults(run=_demo)
+    p = sub.add_parser("render", help="PNG images of a scene file's cameras (RGB, depth, segmentation)")
+    p.add_argument("scene", help="a scene YAML file (cressim/scene_file.py describes the format; scenes/ has examples)")
+    p.add_argument("--out", default="out/render", help="folder for the images")
+    p.add_argument("--all-envs", action="store_true", help="every env's cameras (default: env 0's)")
+    p.add_argument("--steps", type=int, default=0, help="physics steps before the picture")
+    p.add_argument("--device", help="Vulkan device index or name substring")
+    p.set_defaults(run=_render)
     p = sub.add_parser("train", help="PPO on a batched task (rsl-rl-lib when installed, else built-in)")
     p.add_argument("task", nargs="?", default="CartPole")
     p.add_argument("--envs", type=int, default=4096)

@@ -5,10 +5,14 @@
 
 CRESSIM_SHADER_BEGIN
 
+static const uint RENDER_NO_ROW = 0xffffffffu;  // a light without an entity (the default light)
+static const uint LIGHT_DIRECTIONAL = 1, LIGHT_POINT = 2, LIGHT_SPOT = 3;  // LightData.ids.y; 0: none
+
 struct RenderableData {
   uint4 ids;       // x entity row, y mesh, z segmentation id, w env
   float4 color;    // base colour, linear RGBA
   float4 material; // x metallic, y roughness
+  uint4 maps;      // x texture index + 1 (0: none), y 1: flat normals (from the triangle)
 };
 
 // Cameras look along their entity's +z with x right and y down (the optical frame of ROS and
@@ -19,9 +23,25 @@ struct CameraData {
   uint4 ids;          // x entity row, y env, z group, w layer
 };
 
-struct EnvLight {
-  float4 direction;  // xyz: direction the light travels (world), w: ambient
-  float4 color;      // rgb radiance, w unused
+// One light slot (max_lights_per_env per env). Directional lights travel along the entity's
+// +z, spots point along it; the pose is read from the transform rows every frame.
+struct LightData {
+  uint4 ids;         // x entity row (RENDER_NO_ROW: `direction` below), y kind (0: empty slot)
+  float4 color;      // rgb: colour x intensity; w: range (0: unlimited)
+  float4 cone;       // x cos(inner), y cos(outer) half-angles
+  float4 direction;  // travel direction of a light without an entity
+};
+
+// Per env: ambient hemisphere and the shadow map of its first shadowed directional light.
+struct EnvLighting {
+  float4 sky;     // rgb from +z
+  float4 ground;  // rgb from -z
+  uint4 ids;      // x first light slot, y light slots, z shadow map index + 1 (0: none), w shadow light row
+  float4 shadow;  // x half-size (m), y half depth range (m), z resolution (texels), w unused
+};
+
+struct TextureInfo {
+  uint4 extent;  // x first texel in render.texels, y width, z height
 };
 
 CRESSIM_SHADER_END

@@ -11,9 +11,7 @@ Varyings main(uint vertex : SV_VertexID, uint instance : SV_InstanceID, out uint
   const RenderableData r = renderables[pair.x];
   const CameraData c = cameras[pair.y];
   const uint row = r.ids.x, eye = c.ids.x;
-  const float3 s = scales[row].xyz;
-  const float4 q = rotations[row];
-  const float3 world = positions[row].xyz + quat_rotate(q, s * vertex_positions[vertex].xyz);
+  const float3 world = world_position(r, vertex);
   const float3 local = quat_unrotate(rotations[eye], world - positions[eye].xyz);
   const float near = c.clip.x, far = c.clip.y;
   Varyings o;
@@ -21,7 +19,8 @@ Varyings main(uint vertex : SV_VertexID, uint instance : SV_InstanceID, out uint
   const float2 pixel = c.intrinsics.xy * local.xy + c.intrinsics.zw * local.z;  // (u, v) * z
   o.position = float4(2.0 * pixel / c.clip.zw - local.z, far * (local.z - near) / (far - near), local.z);
   o.world = world;
-  o.normal = quat_rotate(q, vertex_normals[vertex].xyz / s);
+  o.normal = quat_rotate(rotations[row], vertex_normals[vertex].xyz / scales[row].xyz);
+  o.uv = vertex_uvs[vertex];
   o.depth = local.z;
   o.renderable = pair.x;
   o.camera = pair.y;

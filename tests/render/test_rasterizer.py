@@ -8,6 +8,8 @@ import torch
 
 import cressim
 
+pytestmark = pytest.mark.usefixtures("raster")  # each test on both rasterizers
+
 W = H = 128
 FOV = 40.0
 F = 0.5 * H / math.tan(math.radians(FOV / 2))  # focal length in pixels
@@ -122,3 +124,28 @@ def test_capacity_errors_name_the_env(make_engine):
     world2.create_entity(env=0, name="thing").add(cressim.Renderable(3))
     with pytest.raises(ValueError, match="'thing' in env 0: Renderable.mesh 3 is not a mesh"):
         make_engine(world2).prepare()
+
+
+def test_camera_products_select_the_buffers(make_engine):
+    # an RGB-only and a depth-only camera beside a full one see the same ball: same pixels, fewer buffers
+    world = cressim.World(cressim.SceneLayout(1, max_cameras_per_env=3))
+    sphere = world.add_mesh(cressim.Mesh.sphere(1.0, 32, 64))
+    ball(world, 0, sphere, (0, 0, 1.0), 0.1)
+    for name, products in (("full", ["rgb", "depth", "segmentation"]), ("rgb", ["rgb"]), ("depth", ["depth"])):
+        cam = world.create_entity(env=0, name=name)
+        cam.add(cressim.Transform())
+        cam.add(cressim.Camera(width=32, height=32, fov_y=FOV, products=products))
+    engine = make_engine(world)
+    engine.prepare()
+    engine.upload_world()
+    engine.step_visual_sensors()
+    engine.end_frame()
+    groups = dict(zip([world.entity(int(e)).name for e in engine.cameras["entity"]], engine.cameras["group"]))
+    keys = set(engine.internal_keys)
+    has = {name: {k for k in ("rgb", "depth", "segmentation") if f"camera{g}.{k}" in keys} for name, g in groups.items()}
+    assert has == {"full": {"rgb", "depth", "segmentation"}, "rgb": {"rgb"}, "depth": {"depth"}}
+    full, rgb, depth = (f"camera{groups[n]}." for n in ("full", "rgb", "depth"))
+    assert np.array_equal(engine.buffer(full + "rgb").read(), engine.buffer(rgb + "rgb").read())
+    assert np.array_equal(engine.buffer(full + "depth").read(), engine.buffer(depth + "depth").read())
+    with pytest.raises(ValueError, match="Camera product 'normals' is not one of: rgb, depth, segmentation"):
+        cressim.Camera(products=["normals"])

@@ -74,41 +74,28 @@ def run(out_dir: str = "out/demo", seconds: float = 2.0, bag_dir: str = "bags/de
     return 0 if code == 0 and images else 1
 
 
-def save_images(bag: Path, folder: Path, frames: int = 3) -> list[Path]:
-    """PNGs of the first, middle and last recorded camera frames: colour, depth (near = bright,
-    no return = black) and segmentation (one colour per label), decoded from the MCAP."""
-    from PIL import Image
-
+def save_images(bag: Path, folder: Path) -> list[Path]:
+    """PNGs of the first, middle and last recorded frames of each image topic: colour, depth
+    (colour-mapped, no return black), segmentation (a colour per label) and ultrasound, decoded
+    from the MCAP."""
+    from cressim.io import colour_depth, colour_segmentation, save_png
     from cressim.record.reader import read_messages
 
-    folder.mkdir(parents=True, exist_ok=True)
-    per_product = {}
     topics = {"color": "/camera/color/image_raw", "depth": "/camera/depth/image_raw",
               "segmentation": "/camera/segmentation/image_raw", "ultrasound": "/ultrasound/image_raw"}
+    written = []
     for product, topic in topics.items():
         msgs = [m for _, m in read_messages(bag, topic, decode=True)]
-        if msgs:
-            picks = sorted({0, len(msgs) // 2, len(msgs) - 1})[:frames]
-            per_product[product] = [(k, msgs[k]) for k in picks]
-    palette = np.random.default_rng(7).integers(40, 255, size=(65536, 3), dtype=np.uint8)
-    palette[0] = 0
-    written = []
-    for product, picks in per_product.items():
-        for k, m in picks:
+        for k in sorted({0, len(msgs) // 2, len(msgs) - 1}) if msgs else ():
+            m = msgs[k]
             data = np.asarray(m.data, dtype=np.uint8)
             if product == "color":
                 img = data.reshape(m.height, m.width, 3)
             elif product == "ultrasound":
                 img = data.reshape(m.height, m.width)
             elif product == "depth":
-                d = data.view(np.float32).reshape(m.height, m.width)
-                valid = np.isfinite(d)
-                near, far = (np.percentile(d[valid], [1, 99]) if valid.any() else (0.0, 1.0))
-                img = np.where(valid, 255 * (1 - np.clip((d - near) / max(far - near, 1e-6), 0, 1)), 0)
-                img = img.astype(np.uint8)
+                img = colour_depth(np.nan_to_num(data.view(np.float32).reshape(m.height, m.width)))
             else:
-                img = palette[data.view(np.uint16).reshape(m.height, m.width)]
-            path = folder / f"{product}_{k:03d}.png"
-            Image.fromarray(img).save(path)
-            written.append(path)
+                img = colour_segmentation(data.view(np.uint16).reshape(m.height, m.width))
+            written.append(save_png(folder / f"{product}_{k:03d}.png", img))
     return written

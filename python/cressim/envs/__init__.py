@@ -1,11 +1,13 @@
-"""Batched RL tasks: `cressim.envs.make("CartPole", num_envs=4096, device="cuda")`."""
+"""Batched RL tasks: `cressim.envs.make("CartPole", num_envs=4096, device="cuda")`,
+`make("TargetCenter", 1024)` (64x64 RGB observations), `make("UltrasoundScan", 32)` (B-mode images)."""
 from __future__ import annotations
 
 from .cartpole import CartPole
+from .target_center import TargetCenter
 from .ultrasound_scan import UltrasoundScan
 from .vector_env import Space, VectorEnv
 
-REGISTRY = {"CartPole": CartPole, "UltrasoundScan": UltrasoundScan}
+REGISTRY = {"CartPole": CartPole, "TargetCenter": TargetCenter, "UltrasoundScan": UltrasoundScan}
 
 
 def make(name: str, num_envs: int, **kwargs) -> VectorEnv:
@@ -17,4 +19,4 @@ def make(name: str, num_envs: int, **kwargs) -> VectorEnv:
     return task(num_envs, **kwargs)
 
 
-__all__ = ["CartPole", "REGISTRY", "Space", "UltrasoundScan", "VectorEnv", "make"]
+__all__ = ["CartPole", "REGISTRY", "Space", "TargetCenter", "UltrasoundScan", "VectorEnv", "make"]

@@ -144,7 +144,8 @@ class VectorEnv:
         n, e = self.num_envs, self.engine
         return TaskBuffers(
             actions=e.create_shared_buffer("actions", (n, *self.action_space.shape), "float32"),
-            observations=e.create_shared_buffer("observations", (n, *self.observation_space.shape), "float32"),
+            observations=e.create_shared_buffer("observations", (n, *self.observation_space.shape),
+                                                str(self.observation_space.dtype).removeprefix("torch.")),
             rewards=e.create_shared_buffer("rewards", n, "float32"),
             terminated=e.create_shared_buffer("terminated", n, "int32"),
             truncated=e.create_shared_buffer("truncated", n, "int32"),

@@ -34,6 +34,11 @@ REFERENCE = {
         "paper RTX 4090 step": {1: 71.6, 8: 305, 32: 420, 64: 386},
         "paper RTX 4090 PPO": {32: 306},
     },
+    "TargetCenter": {  # 64x64 RGB; Isaac Lab's Cartpole-RGB (about 50k at 1024 envs) as the brief gives it
+        "paper RTX 4090 step": {32: 35_064, 256: 21_816},
+        "paper RTX 4090 PPO": {32: 14_493},
+        "Isaac Lab Cartpole-RGB step": {1024: 50_000},
+    },
 }
 
 

@@ -40,6 +40,7 @@ class PPOConfig:
 # Per-task network and minibatch (TASKS.md); CNN tasks train with the built-in learner.
 TASKS = {
     "CartPole": PPOConfig(hidden=(128, 128), minibatch=2048),
+    "TargetCenter": PPOConfig(hidden=(256,), network="cnn", minibatch=256),
     "SoftBodyPush": PPOConfig(hidden=(128, 128), minibatch=1024),
     "FluidPour": PPOConfig(hidden=(128, 128), minibatch=1024),
     "TissueRetract": PPOConfig(hidden=(256, 256), minibatch=1024),

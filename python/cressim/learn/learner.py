@@ -49,7 +49,8 @@ def make_learner(venv: CressimVecEnv, cfg: PPOConfig, backend: str = "auto"):
     if backend == "rsl_rl" and cfg.network != "mlp":
         raise ValueError(f"the rsl_rl backend is set up for MLPs only; network {cfg.network!r} needs backend='torch'")
     if backend == "torch":
-        alg = TorchPPO(venv.num_obs, venv.num_actions, venv.num_envs, cfg, venv.device, venv.obs_shape)
+        alg = TorchPPO(venv.num_obs, venv.num_actions, venv.num_envs, cfg, venv.device, venv.obs_shape,
+                       venv.obs_dtype)
     else:
         from rsl_rl.algorithms import PPO
 

@@ -24,28 +24,45 @@ def mlp(inputs: int, hidden: tuple, outputs: int) -> nn.Sequential:
     return nn.Sequential(*layers, nn.Linear(width, outputs))
 
 
-def cnn(shape: tuple, hidden: int, outputs: int) -> nn.Sequential:
-    """TASKS.md's image network on flat observations of `shape` (channels, H, W)."""
-    convs = nn.Sequential(nn.Unflatten(1, tuple(shape)), nn.Conv2d(shape[0], 32, 5, 2), nn.ReLU(),
-                          nn.Conv2d(32, 64, 3, 2), nn.ReLU(), nn.Conv2d(64, 64, 3, 2), nn.ReLU(), nn.Flatten())
-    with torch.no_grad():
-        width = convs(torch.zeros(1, math.prod(shape))).shape[1]
-    return nn.Sequential(*convs, nn.Linear(width, hidden), nn.ReLU(), nn.Linear(hidden, outputs))
+class ImageCNN(nn.Module):
+    """TASKS.md's image network (conv32 k5 s2, conv64 k3 s2, conv64 k3 s2, ReLU, linear `hidden`)
+    on flat observations of `shape`: (channels, H, W) stacks such as UltrasoundScan's, or
+    (H, W, channels) camera images such as TargetCenter's; uint8 values are scaled to [0, 1]."""
+
+    def __init__(self, shape: tuple, hidden: int, outputs: int):
+        super().__init__()
+        self.shape = tuple(shape)
+        self.channels_last = shape[-1] <= 4 < shape[0]
+        channels = shape[-1] if self.channels_last else shape[0]
+        self.convs = nn.Sequential(nn.Conv2d(channels, 32, 5, 2), nn.ReLU(), nn.Conv2d(32, 64, 3, 2), nn.ReLU(),
+                                   nn.Conv2d(64, 64, 3, 2), nn.ReLU(), nn.Flatten())
+        with torch.no_grad():
+            width = self.convs(self._images(torch.zeros(1, math.prod(shape)))).shape[1]
+        self.head = nn.Sequential(nn.Linear(width, hidden), nn.ReLU(), nn.Linear(hidden, outputs))
+
+    def _images(self, x: torch.Tensor) -> torch.Tensor:
+        x = x.reshape(-1, *self.shape)
+        if self.channels_last:
+            x = x.permute(0, 3, 1, 2)
+        return x.float() / 255.0 if x.dtype == torch.uint8 else x
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.head(self.convs(self._images(x)))
 
 
-def network(cfg: PPOConfig, num_obs: int, obs_shape: tuple | None, outputs: int) -> nn.Sequential:
+def network(cfg: PPOConfig, num_obs: int, obs_shape: tuple | None, outputs: int) -> nn.Module:
     if cfg.network == "mlp":
         return mlp(num_obs, cfg.hidden, outputs)
     if cfg.network == "cnn":
         if obs_shape is None or len(obs_shape) != 3:
-            raise ValueError(f"network 'cnn' needs (channels, H, W) observations, got shape {obs_shape}")
-        return cnn(obs_shape, cfg.hidden[0], outputs)
+            raise ValueError(f"network 'cnn' needs image observations (C, H, W) or (H, W, C), got shape {obs_shape}")
+        return ImageCNN(obs_shape, cfg.hidden[0], outputs)
     raise ValueError(f"PPOConfig.network {cfg.network!r}: use 'mlp' or 'cnn'")
 
 
 class TorchPPO:
     def __init__(self, num_obs: int, num_actions: int, num_envs: int, cfg: PPOConfig, device,
-                 obs_shape: tuple | None = None):
+                 obs_shape: tuple | None = None, obs_dtype: torch.dtype = torch.float32):
         self.cfg, self.device = cfg, torch.device(device)
         self.actor = network(cfg, num_obs, obs_shape, num_actions).to(self.device)
         self.critic = network(cfg, num_obs, obs_shape, 1).to(self.device)
@@ -56,7 +73,8 @@ class TorchPPO:
         self.num_mini_batches = cfg.num_mini_batches(num_envs)
         T, N = cfg.rollout, num_envs
         z = lambda *shape, dtype=torch.float32: torch.zeros(T, N, *shape, device=self.device, dtype=dtype)  # noqa: E731
-        self.obs, self.actions = z(num_obs), z(num_actions)
+        # observations are stored as they come: a float rollout of uint8 images would be 4x larger
+        self.obs, self.actions = z(num_obs, dtype=obs_dtype), z(num_actions)
         self.log_prob, self.values, self.rewards, self.returns = z(), z(), z(), z()
         self.dones = z(dtype=torch.bool)
         self.step = 0

@@ -1,5 +1,4 @@
-"""Sensor outputs on the host: PNG export of images (ultrasound layers, camera images)."""
-from .png import write_png
+"""Sensor outputs on the host: PNG export of ultrasound layers (the PNG writer is cressim.io's)."""
 from .ultrasound import save_ultrasound_png
 
-__all__ = ["save_ultrasound_png", "write_png"]
+__all__ = ["save_ultrasound_png"]

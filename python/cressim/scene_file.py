@@ -1,0 +1,405 @@
+"""Scene files: a YAML description of envs, meshes, textures, materials and entities, loaded
+into a cressim.World. Every entity is made once per env (`envs: N`). Errors name the file, the
+line and the field. The format (every key optional unless said)::
+
+    envs: 2
+    layout: {max_renderables_per_env: 16, max_lights_per_env: 4, max_cameras_per_env: 4}
+    environment: {sky: [0.3, 0.35, 0.4], ground: [0.15, 0.12, 0.1], intensity: 1}
+    meshes:                              # named meshes (files relative to the scene file)
+      bunny: {file: meshes/bunny.obj, scale: 1.0}
+      ball: {sphere: {radius: 0.1}}      # or box: {half_extents}, capsule: {radius, half_height},
+                                         # plane: {half_size}
+    textures:
+      checker: {checker: {size: 64, squares: 8}}   # or {file: wood.png}
+    materials:
+      red: {color: [1, 0, 0, 1], metallic: 0, roughness: 0.5, texture: checker}
+    entities:
+      - name: ground
+        transform: {position: [0, 0, 0], rotation: [0, 0, 0, 1], scale: [1, 1, 1]}
+        renderable: {mesh: ball, material: red, segmentation_id: 3}   # or mesh: {box: {...}},
+                                         # and color/metallic/roughness/texture inline
+        collider: {shapes: [{box: {half_extents: [1, 1, 0.1]}}], static_friction: 0.5}
+        rigid_body: {mass: 1.0}
+      - name: camera
+        transform: {position: [1, -1, 1], look_at: [0, 0, 0]}   # look_at: +z towards the point
+        camera: {width: 128, height: 96, fov_y: 50}   # products: [rgb, depth, segmentation] (default)
+      - name: sun
+        transform: {position: [0, 0, 2], look_at: [0.2, 0.3, 0]}
+        light: {kind: directional, intensity: 2.5, shadows: true, shadow_extent: 1.5}
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+import cressim
+
+
+class SceneFileError(ValueError):
+    """A scene file that cannot be loaded; the message starts with file:line: field."""
+
+
+@dataclass
+class Field:
+    """A YAML node and where it is: its file, line, and dotted field path."""
+
+    node: yaml.Node
+    file: str
+    path: str
+
+    def fail(self, message: str) -> SceneFileError:
+        mark = self.node.start_mark
+        return SceneFileError(f"{self.file}:{mark.line + 1}: {self.path or '(top)'}: {message}")
+
+    # --- structure -------------------------------------------------------------------------
+    def is_map(self) -> bool:
+        return isinstance(self.node, yaml.MappingNode)
+
+    def items(self) -> dict[str, Field]:
+        if not self.is_map():
+            raise self.fail("expected a mapping (key: value)")
+        out = {}
+        for k, v in self.node.value:
+            key = str(k.value)
+            if key in out:
+                raise Field(k, self.file, self._join(key)).fail("given twice")
+            out[key] = Field(v, self.file, self._join(key))
+        return out
+
+    def list(self) -> list[Field]:
+        if not isinstance(self.node, yaml.SequenceNode):
+            raise self.fail("expected a list")
+        return [Field(v, self.file, f"{self.path}[{i}]") for i, v in enumerate(self.node.value)]
+
+    def keys(self, allowed: tuple[str, ...]) -> dict[str, Field]:
+        """The mapping's fields, refusing keys not in `allowed`."""
+        fields = self.items()
+        for k, f in fields.items():
+            if k not in allowed:
+                raise f.fail(f"unknown field '{k}'; expected one of: {', '.join(allowed)}")
+        return fields
+
+    def _join(self, key: str) -> str:
+        return f"{self.path}.{key}" if self.path else key
+
+    # --- scalars ---------------------------------------------------------------------------
+    def _scalar(self):
+        if not isinstance(self.node, yaml.ScalarNode):
+            raise self.fail("expected a single value")
+        return yaml.safe_load(self.node.value) if self.node.style is None else self.node.value
+
+    def str(self) -> str:
+        v = self._scalar()
+        if not isinstance(v, str):
+            raise self.fail(f"expected a name, got {v!r}")
+        return v
+
+    def float(self) -> float:
+        v = self._scalar()
+        if isinstance(v, str) and self.node.style is None:
+            try:
+                v = float(v)  # YAML 1.1 reads 1e-3 (no dot) as a string
+            except ValueError:
+                pass
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise self.fail(f"expected a number, got {v!r}")
+        return float(v)
+
+    def int(self, minimum: int | None = None) -> int:
+        v = self._scalar()
+        if isinstance(v, bool) or not isinstance(v, int):
+            raise self.fail(f"expected an integer, got {v!r}")
+        if minimum is not None and v < minimum:
+            raise self.fail(f"must be >= {minimum}, got {v}")
+        return v
+
+    def bool(self) -> bool:
+        v = self._scalar()
+        if not isinstance(v, bool):
+            raise self.fail(f"expected true or false, got {v!r}")
+        return v
+
+    def vec(self, n: int | tuple[int, ...]) -> tuple[float, ...]:
+        sizes = (n,) if isinstance(n, int) else n
+        items = self.list()
+        if len(items) not in sizes:
+            raise self.fail(f"expected {' or '.join(map(str, sizes))} numbers, got {len(items)}")
+        return tuple(f.float() for f in items)
+
+
+def _quat_look_at(eye, target, up=(0.0, 0.0, 1.0)) -> tuple[float, ...]:
+    """The rotation whose +z points from eye to target, with +y down (x = z cross up)."""
+    z = np.subtract(target, eye).astype(float)
+    if np.linalg.norm(z) < 1e-12:
+        raise ValueError("look_at: the point is the position itself")
+    z /= np.linalg.norm(z)
+    x = np.cross(z, up)
+    if np.linalg.norm(x) < 1e-9:  # looking straight up or down: any right vector
+        x = np.cross(z, (0.0, 1.0, 0.0))
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    m = np.column_stack([x, y, z])
+    # rotation matrix -> quaternion (x, y, z, w)
+    t = np.trace(m)
+    if t > 0:
+        s = 2 * math.sqrt(t + 1)
+        q = ((m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s, s / 4)
+    else:
+        i = int(np.argmax(np.diag(m)))
+        j, k = (i + 1) % 3, (i + 2) % 3
+        s = 2 * math.sqrt(1 + m[i, i] - m[j, j] - m[k, k])
+        q = [0.0, 0.0, 0.0, (m[k, j] - m[j, k]) / s]
+        q[i] = s / 4
+        q[j] = (m[j, i] + m[i, j]) / s
+        q[k] = (m[k, i] + m[i, k]) / s
+    return tuple(float(v) for v in q)
+
+
+class _Loader:
+    def __init__(self, root: Field, base: Path):
+        self.root, self.base = root, base
+        self.meshes: dict[str, int] = {}
+        self.textures: dict[str, int] = {}
+        self.materials: dict[str, dict] = {}
+        self.inline_meshes: dict[tuple, int] = {}
+
+    def load(self) -> cressim.World:
+        top = self.root.keys(("envs", "layout", "environment", "meshes", "textures", "materials", "entities"))
+        envs = top["envs"].int(1) if "envs" in top else 1
+        layout = {}
+        if "layout" in top:
+            for k, f in top["layout"].keys(("max_renderables_per_env", "max_lights_per_env",
+                                            "max_cameras_per_env")).items():
+                layout[k] = f.int(1)
+        self.world = cressim.World(cressim.SceneLayout(envs, **layout))
+        for name, f in (top["textures"].items() if "textures" in top else {}).items():
+            self.textures[name] = self.world.add_texture(self.texture(f))
+        for name, f in (top["meshes"].items() if "meshes" in top else {}).items():
+            self.meshes[name] = self.world.add_mesh(self.mesh(f))
+        for name, f in (top["materials"].items() if "materials" in top else {}).items():
+            self.materials[name] = self.material(f.keys(("color", "metallic", "roughness", "texture")))
+        entities = top["entities"].list() if "entities" in top else []
+        environment = self.environment(top["environment"]) if "environment" in top else None
+        for env in range(envs):
+            if environment is not None:
+                self.world.create_entity(env=env, name="environment").add(environment)
+            for f in entities:
+                self.entity(env, f)
+        return self.world
+
+    # --- resources -------------------------------------------------------------------------
+    def _file(self, f: Field) -> Path:
+        p = Path(f.str())
+        p = p if p.is_absolute() else self.base / p
+        if not p.exists():
+            raise f.fail(f"no such file: {p}")
+        return p
+
+    def texture(self, f: Field) -> cressim.Texture:
+        from cressim import io
+
+        kinds = f.keys(("file", "checker"))
+        if len(kinds) != 1:
+            raise f.fail("give one of: file, checker")
+        (kind, g), = kinds.items()
+        if kind == "file":
+            try:
+                return io.load_texture(self._file(g))
+            except (OSError, ValueError) as e:
+                raise g.fail(f"cannot read the image: {e}") from None
+        opts = g.keys(("size", "squares", "colors")) if g.is_map() else {}
+        colors = ((230, 230, 230), (40, 40, 40))
+        if "colors" in opts:
+            colors = tuple(tuple(int(round(255 * c)) for c in x.vec(3)) for x in opts["colors"].list())
+        return io.checker_texture(opts["size"].int(2) if "size" in opts else 64,
+                                  opts["squares"].int(1) if "squares" in opts else 8, colors)
+
+    def mesh(self, f: Field) -> cressim.Mesh:
+        kinds = f.keys(("file", "scale", "sphere", "box", "capsule", "plane"))
+        shape = [k for k in kinds if k != "scale"]
+        if len(shape) != 1:
+            raise f.fail("give one of: file, sphere, box, capsule, plane")
+        kind, g = shape[0], kinds[shape[0]]
+        if kind == "file":
+            from cressim import io
+
+            path = self._file(g)
+            try:
+                return io.load_mesh(path, scale=kinds["scale"].float() if "scale" in kinds else 1.0)
+            except Exception as e:  # trimesh raises many kinds
+                raise g.fail(f"cannot load the mesh: {e}") from None
+        if "scale" in kinds:
+            raise kinds["scale"].fail("scale applies to mesh files; size primitives directly")
+        opts = g.items() if g.is_map() else {}
+        need = {"sphere": ("radius",), "box": ("half_extents",), "capsule": ("radius", "half_height"),
+                "plane": ("half_size",)}[kind]
+        g.keys(need)
+        for k in need:
+            if k not in opts:
+                raise g.fail(f"{kind} needs '{k}'")
+        if kind == "sphere":
+            return cressim.Mesh.sphere(opts["radius"].float())
+        if kind == "box":
+            return cressim.Mesh.box(opts["half_extents"].vec(3))
+        if kind == "capsule":
+            return cressim.Mesh.capsule(opts["radius"].float(), opts["half_height"].float())
+        return cressim.Mesh.plane(opts["half_size"].float())
+
+    def material(self, m: dict[str, Field]) -> dict:
+        out = {}
+        if "color" in m:
+            c = m["color"].vec((3, 4))
+            out["color"] = (*c, 1.0) if len(c) == 3 else c
+        for k in ("metallic", "roughness"):
+            if k in m:
+                out[k] = m[k].float()
+        if "texture" in m:
+            name = m["texture"].str()
+            if name not in self.textures:
+                raise m["texture"].fail(f"no texture '{name}'; textures: {', '.join(self.textures) or 'none'}")
+            out["texture"] = self.textures[name]
+        return out
+
+    def environment(self, f: Field) -> cressim.EnvironmentLight:
+        e = f.keys(("sky", "ground", "intensity"))
+        return cressim.EnvironmentLight(**{k: (v.float() if k == "intensity" else v.vec(3)) for k, v in e.items()})
+
+    # --- entities --------------------------------------------------------------------------
+    def entity(self, env: int, f: Field) -> None:
+        e = f.keys(("name", "transform", "renderable", "camera", "light", "rigid_body", "collider"))
+        name = e["name"].str() if "name" in e else ""
+        ent = self.world.create_entity(env=env, name=name)
+        ent.add(self.transform(e["transform"]) if "transform" in e else cressim.Transform())
+        for key, make in (("renderable", self.renderable), ("camera", self.camera), ("light", self.light),
+                          ("rigid_body", self.rigid_body), ("collider", self.collider)):
+            if key in e:
+                try:
+                    ent.add(make(e[key]))
+                except (TypeError, ValueError) as err:
+                    if isinstance(err, SceneFileError):
+                        raise
+                    raise e[key].fail(str(err)) from None
+
+    def transform(self, f: Field) -> cressim.Transform:
+        t = f.keys(("position", "rotation", "scale", "look_at", "rpy_deg"))
+        position = t["position"].vec(3) if "position" in t else (0.0, 0.0, 0.0)
+        given = [k for k in ("rotation", "look_at", "rpy_deg") if k in t]
+        if len(given) > 1:
+            raise t[given[1]].fail(f"give one of rotation, look_at, rpy_deg (also has {given[0]})")
+        rotation = (0.0, 0.0, 0.0, 1.0)
+        if "rotation" in t:
+            rotation = t["rotation"].vec(4)
+            if abs(np.linalg.norm(rotation) - 1) > 1e-3:
+                raise t["rotation"].fail(f"a rotation is a unit quaternion (x, y, z, w); |q| = {np.linalg.norm(rotation):.4f}")
+        elif "look_at" in t:
+            try:
+                rotation = _quat_look_at(position, t["look_at"].vec(3))
+            except ValueError as e:
+                raise t["look_at"].fail(str(e)) from None
+        elif "rpy_deg" in t:
+            r, p, y = (math.radians(a) / 2 for a in t["rpy_deg"].vec(3))  # z-y-x (yaw, pitch, roll)
+            cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
+            rotation = (sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy,
+                        cr * cp * cy + sr * sp * sy)
+        scale = t["scale"].vec(3) if "scale" in t else (1.0, 1.0, 1.0)
+        return cressim.Transform(position=position, rotation=rotation, scale=scale)
+
+    def renderable(self, f: Field) -> cressim.Renderable:
+        r = f.keys(("mesh", "material", "color", "metallic", "roughness", "texture", "segmentation_id"))
+        if "mesh" not in r:
+            raise f.fail("a renderable needs 'mesh' (a name from meshes, or a primitive)")
+        m = r["mesh"]
+        if isinstance(m.node, yaml.ScalarNode):
+            name = m.str()
+            if name not in self.meshes:
+                raise m.fail(f"no mesh '{name}'; meshes: {', '.join(self.meshes) or 'none'}")
+            mesh = self.meshes[name]
+        else:  # an inline primitive, shared between envs
+            key = yaml.serialize(m.node)
+            if key not in self.inline_meshes:
+                self.inline_meshes[key] = self.world.add_mesh(self.mesh(m))
+            mesh = self.inline_meshes[key]
+        opts = {}
+        if "material" in r:
+            name = r["material"].str()
+            if name not in self.materials:
+                raise r["material"].fail(f"no material '{name}'; materials: {', '.join(self.materials) or 'none'}")
+            opts.update(self.materials[name])
+        opts.update(self.material({k: v for k, v in r.items() if k in ("color", "metallic", "roughness", "texture")}))
+        if "segmentation_id" in r:
+            opts["segmentation_id"] = r["segmentation_id"].int(1)
+        return cressim.Renderable(mesh, **opts)
+
+    def camera(self, f: Field) -> cressim.Camera:
+        c = f.keys(("width", "height", "fov_y", "fx", "fy", "cx", "cy", "near", "far", "products"))
+        return cressim.Camera(**{k: (v.int(1) if k in ("width", "height") else
+                                     [x.str() for x in v.list()] if k == "products" else v.float())
+                                 for k, v in c.items()})
+
+    def light(self, f: Field) -> cressim.Light:
+        c = f.keys(("kind", "color", "intensity", "ambient", "range", "inner_angle", "outer_angle", "shadows",
+                    "shadow_extent", "shadow_resolution"))
+        opts = {}
+        for k, v in c.items():
+            if k == "kind":
+                opts[k] = v.str()
+            elif k == "color":
+                opts[k] = v.vec(3)
+            elif k == "shadows":
+                opts[k] = v.bool()
+            elif k == "shadow_resolution":
+                opts[k] = v.int(1)
+            else:
+                opts[k] = v.float()
+        return cressim.Light(**opts)
+
+    def rigid_body(self, f: Field) -> cressim.RigidBody:
+        c = f.keys(("mass", "density", "inertia", "kinematic", "linear_damping", "angular_damping"))
+        return cressim.RigidBody(**{k: (v.vec(3) if k == "inertia" else v.bool() if k == "kinematic" else v.float())
+                                    for k, v in c.items()})
+
+    def collider(self, f: Field) -> cressim.Collider:
+        c = f.keys(("shapes", "static_friction", "dynamic_friction", "restitution", "group", "mask"))
+        if "shapes" not in c:
+            raise f.fail("a collider needs 'shapes'")
+        shapes = [self.shape(s) for s in c["shapes"].list()]
+        opts = {k: (v.int(0) if k in ("group", "mask") else v.float()) for k, v in c.items() if k != "shapes"}
+        return cressim.Collider(shapes, **opts)
+
+    def shape(self, f: Field) -> cressim.Shape:
+        kinds = f.keys(("sphere", "box", "capsule", "plane"))
+        if len(kinds) != 1:
+            raise f.fail("give one of: sphere, box, capsule, plane")
+        (kind, g), = kinds.items()
+        o = g.keys(("radius", "half_extents", "half_height", "position", "rotation")) if g.is_map() else {}
+        pose = {k: o[k].vec(3 if k == "position" else 4) for k in ("position", "rotation") if k in o}
+        need = {"sphere": ("radius",), "box": ("half_extents",), "capsule": ("radius", "half_height"), "plane": ()}[kind]
+        for k in need:
+            if k not in o:
+                raise g.fail(f"{kind} needs '{k}'")
+        if kind == "sphere":
+            return cressim.Shape.sphere(o["radius"].float(), **pose)
+        if kind == "box":
+            return cressim.Shape.box(o["half_extents"].vec(3), **pose)
+        if kind == "capsule":
+            return cressim.Shape.capsule(o["radius"].float(), o["half_height"].float(), **pose)
+        return cressim.Shape.plane(**pose)
+
+
+def load_scene(path) -> cressim.World:
+    """The World a scene file describes (see the module's docstring for the format)."""
+    path = Path(path)
+    text = path.read_text()
+    try:
+        node = yaml.compose(text)
+    except yaml.YAMLError as e:
+        mark = getattr(e, "problem_mark", None)
+        where = f"{path}:{mark.line + 1}" if mark else str(path)
+        raise SceneFileError(f"{where}: not valid YAML: {getattr(e, 'problem', e)}") from None
+    if node is None:
+        raise SceneFileError(f"{path}:1: the file is empty")
+    return _Loader(Field(node, str(path), ""), path.parent).load()

@@ -1,0 +1,237 @@
+// The compute rasterizer (CRESSIM_RASTER=compute): one workgroup per (camera, 64x32 tile).
+// Visibility in two sweeps over the env's triangles into groupshared buffers: the nearest
+// depth per pixel (atomic min of the float's bits, which order like the floats when positive),
+// then the id of the triangle at that depth; then each pixel shades its triangle (ray through
+// the pixel centre: exact depth and perspective-correct attributes) and writes the outputs
+// straight into camera{g}.rgb/.depth/.segmentation. Small triangles are rasterised by the
+// thread that set them up; large ones are queued and swept by the whole group, so one
+// screen-filling triangle does not leave the other threads idle.
+// Why: every SM runs it, where graphics pipelines on compute-first GPUs (H100) get only a few
+// graphics units.
+#include "cressim/quat.h"
+#include "cressim/render.h"
+
+#include "raster_resources.hlsli"
+#include "shading.hlsli"
+
+[[vk::binding(15)]] StructuredBuffer<uint2> env_renderables;  // per env: first renderable, count
+[[vk::binding(16)]] StructuredBuffer<uint4> mesh_ranges;      // per mesh: first index, index count, vertex offset,
+                                                              // bounding radius (float bits)
+[[vk::binding(17)]] StructuredBuffer<uint> mesh_indices;
+[[vk::binding(18)]] StructuredBuffer<uint> group_cameras;     // this group's camera per layer
+[[vk::binding(19)]] RWStructuredBuffer<uint> out_rgb;         // (layers, H, W) RGBA8
+[[vk::binding(20)]] RWStructuredBuffer<float> out_depth;
+[[vk::binding(21)]] RWStructuredBuffer<uint> out_segmentation;
+
+struct Params {
+  uint width;
+  uint height;
+  uint tiles_x;
+  uint products;  // CameraProduct bits: the outputs this group writes (others are bound to a stand-in)
+};
+[[vk::push_constant]] ConstantBuffer<Params> pc;
+
+static const uint TILE_W = 64, TILE_H = 32, TILE = TILE_W * TILE_H, THREADS = 256;
+static const uint BIG_AREA = 48;   // bounding boxes larger than this (pixels) are swept by the group
+static const uint MAX_BIG = 256;
+static const uint NONE = 0xffffffffu;
+
+groupshared uint zbuf[TILE];
+groupshared uint idbuf[TILE];
+groupshared uint big[MAX_BIG];
+groupshared uint big_count;
+
+struct Screen {       // a triangle in pixels, clipped at the near plane into at most two
+  float3 p[4];        // x, y in pixels, z = 1 / depth
+  uint n;             // polygon vertices (0: culled, 3 or 4)
+  int4 box;           // pixel bounds within the tile (x0, y0, x1, y1), inclusive-exclusive
+};
+
+float3 vertex_local(RenderableData r, uint vertex, float4 eye_q, float3 eye_p) {
+  return quat_unrotate(eye_q, world_position(r, vertex) - eye_p);
+}
+
+float3 to_screen(CameraData c, float3 v) {
+  return float3(c.intrinsics.xy * v.xy / v.z + c.intrinsics.zw, 1.0 / v.z);
+}
+
+Screen setup(CameraData c, float3 v[3], int2 origin) {
+  Screen s;
+  s.n = 0;
+  const float near = c.clip.x;
+  // Sutherland-Hodgman against z = near
+  uint n = 0;
+  float3 poly[4];
+  for (uint i = 0; i < 3; ++i) {
+    const float3 a = v[i], b = v[(i + 1) % 3];
+    const bool ia = a.z >= near, ib = b.z >= near;
+    if (ia) poly[n++] = a;
+    if (ia != ib && n < 4) poly[n++] = lerp(a, b, (near - a.z) / (b.z - a.z));
+  }
+  if (n < 3) return s;
+  float2 lo = float2(1e30, 1e30), hi = float2(-1e30, -1e30);
+  for (uint k = 0; k < n; ++k) {
+    s.p[k] = to_screen(c, poly[k]);
+    lo = min(lo, s.p[k].xy);
+    hi = max(hi, s.p[k].xy);
+  }
+  // pixels whose centres (x + 0.5) can be inside
+  const int2 tile_hi = min(origin + int2(TILE_W, TILE_H), int2(pc.width, pc.height));
+  s.box = int4(max(int2(ceil(lo - 0.5)), origin), min(int2(floor(hi - 0.5)) + 1, tile_hi));
+  if (any(s.box.xy >= s.box.zw)) return s;
+  s.n = n;
+  return s;
+}
+
+// false when the renderable's bounding sphere misses the tile's frustum (then none of its
+// triangles can cover a pixel of the tile)
+bool may_cover(RenderableData r, uint4 m, CameraData c, float4 eye_q, float3 eye_p, int2 origin) {
+  const float3 s = scales[r.ids.x].xyz;
+  const float radius = asfloat(m.w) * max(abs(s.x), max(abs(s.y), abs(s.z)));
+  const float3 centre = quat_unrotate(eye_q, positions[r.ids.x].xyz - eye_p);
+  if (centre.z + radius < c.clip.x || centre.z - radius > c.clip.y) return false;
+  // side planes through the eye and the tile's edges: u = x0 is fx x - (x0 - cx) z = 0
+  const float2 lo = float2(origin) - c.intrinsics.zw;
+  const float2 hi = float2(min(origin + int2(TILE_W, TILE_H), int2(pc.width, pc.height))) - c.intrinsics.zw;
+  const float3 planes[4] = {float3(c.intrinsics.x, 0, -lo.x), float3(-c.intrinsics.x, 0, hi.x),
+                            float3(0, c.intrinsics.y, -lo.y), float3(0, -c.intrinsics.y, hi.y)};
+  for (uint i = 0; i < 4; ++i)
+    if (dot(planes[i], centre) < -radius * length(planes[i])) return false;
+  return true;
+}
+
+float edge(float2 a, float2 b, float2 p) { return (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x); }
+
+// one pixel against the (fan of the) polygon; mode 0: depth, 1: id
+void cover(Screen s, int2 px, int2 origin, uint mode, uint id, float near, float far) {
+  const float2 p = float2(px) + 0.5;
+  for (uint t = 0; t + 2 < s.n; ++t) {
+    const float3 a = s.p[0], b = s.p[t + 1], c = s.p[t + 2];
+    const float area = edge(a.xy, b.xy, c.xy);
+    if (abs(area) < 1e-12) continue;
+    const float w0 = edge(b.xy, c.xy, p) / area, w1 = edge(c.xy, a.xy, p) / area, w2 = edge(a.xy, b.xy, p) / area;
+    if (w0 < 0 || w1 < 0 || w2 < 0) continue;
+    const float z = 1.0 / (w0 * a.z + w1 * b.z + w2 * c.z);
+    if (z < near || z > far) continue;
+    const uint local = uint(px.y - origin.y) * TILE_W + uint(px.x - origin.x);
+    if (mode == 0) {
+      uint previous;
+      InterlockedMin(zbuf[local], asuint(z), previous);
+    } else if (zbuf[local] == asuint(z)) {
+      idbuf[local] = id;
+    }
+    return;
+  }
+}
+
+[numthreads(THREADS, 1, 1)]
+void main(uint3 group : SV_GroupID, uint tid : SV_GroupIndex) {
+  const uint layer = group.y, camera = group_cameras[layer];
+  const CameraData c = cameras[camera];
+  const int2 origin = int2((group.x % pc.tiles_x) * TILE_W, (group.x / pc.tiles_x) * TILE_H);
+  const uint eye_row = c.ids.x;
+  const float4 eye_q = rotations[eye_row];
+  const float3 eye_p = positions[eye_row].xyz;
+  const uint2 list = env_renderables[c.ids.y];
+  const float near = c.clip.x, far = c.clip.y;
+
+  for (uint i = tid; i < TILE; i += THREADS) {
+    zbuf[i] = NONE;
+    idbuf[i] = NONE;
+  }
+  if (tid == 0) big_count = 0;
+  GroupMemoryBarrierWithGroupSync();
+
+  for (uint mode = 0; mode < 2; ++mode) {
+    // each thread sets up triangles; small ones it rasterises, large ones go to the queue
+    for (uint k = 0; k < list.y; ++k) {
+      const RenderableData r = renderables[list.x + k];
+      const uint4 m = mesh_ranges[r.ids.y];
+      if (!may_cover(r, m, c, eye_q, eye_p, origin)) continue;
+      for (uint t = tid; t < m.y / 3; t += THREADS) {
+        float3 v[3];
+        for (uint j = 0; j < 3; ++j) v[j] = vertex_local(r, mesh_indices[m.x + 3 * t + j] + m.z, eye_q, eye_p);
+        const Screen s = setup(c, v, origin);
+        if (s.n == 0) continue;
+        const uint id = (k << 20) | t;
+        const int2 size = s.box.zw - s.box.xy;
+        if (uint(size.x * size.y) > BIG_AREA) {
+          if (mode == 0) {
+            uint slot;
+            InterlockedAdd(big_count, 1, slot);
+            if (slot < MAX_BIG) {
+              big[slot] = id;
+              continue;
+            }
+          } else if (big_count <= MAX_BIG) {
+            continue;  // queued in the depth sweep: the group sweeps it below
+          }
+        }
+        for (int y = s.box.y; y < s.box.w; ++y)
+          for (int x = s.box.x; x < s.box.z; ++x) cover(s, int2(x, y), origin, mode, id, near, far);
+      }
+    }
+    GroupMemoryBarrierWithGroupSync();
+    // the queue, each triangle swept by every thread
+    const uint queued = min(big_count, MAX_BIG);
+    for (uint b = 0; b < queued; ++b) {
+      const uint id = big[b], k = id >> 20, t = id & 0xfffffu;
+      const RenderableData r = renderables[list.x + k];
+      const uint4 m = mesh_ranges[r.ids.y];
+      float3 v[3];
+      for (uint j = 0; j < 3; ++j) v[j] = vertex_local(r, mesh_indices[m.x + 3 * t + j] + m.z, eye_q, eye_p);
+      const Screen s = setup(c, v, origin);
+      const int2 size = s.box.zw - s.box.xy;
+      for (uint q = tid; q < uint(size.x * size.y); q += THREADS)
+        cover(s, s.box.xy + int2(q % uint(size.x), q / uint(size.x)), origin, mode, id, near, far);
+    }
+    GroupMemoryBarrierWithGroupSync();
+  }
+
+  // shading: the ray through each pixel centre meets its triangle (Moller-Trumbore)
+  for (uint i = tid; i < TILE; i += THREADS) {
+    const int2 px = origin + int2(i % TILE_W, i / TILE_W);
+    if (px.x >= int(pc.width) || px.y >= int(pc.height)) continue;
+    const uint at = (layer * pc.height + uint(px.y)) * pc.width + uint(px.x);
+    const uint id = idbuf[i];
+    if (id == NONE) {
+      if (pc.products & 1) out_rgb[at] = 0xff000000u;  // opaque black
+      if (pc.products & 2) out_depth[at] = 0;
+      if (pc.products & 4) out_segmentation[at] = 0;
+      continue;
+    }
+    const uint k = id >> 20, t = id & 0xfffffu;
+    const RenderableData r = renderables[list.x + k];
+    const uint4 m = mesh_ranges[r.ids.y];
+    uint vi[3];
+    float3 v[3];
+    for (uint j = 0; j < 3; ++j) {
+      vi[j] = mesh_indices[m.x + 3 * t + j] + m.z;
+      v[j] = vertex_local(r, vi[j], eye_q, eye_p);
+    }
+    const float3 d = float3((float2(px) + 0.5 - c.intrinsics.zw) / c.intrinsics.xy, 1);  // z = 1: t is depth
+    const float3 e1 = v[1] - v[0], e2 = v[2] - v[0], h = cross(d, e2);
+    const float det = dot(e1, h);
+    float b1 = 0, b2 = 0, depth = asfloat(zbuf[i]);
+    if (abs(det) > 1e-20) {
+      const float3 s0 = -v[0];
+      b1 = dot(s0, h) / det;
+      const float3 q = cross(s0, e1);
+      b2 = dot(d, q) / det;
+      depth = dot(e2, q) / det;
+    }
+    const float b0 = 1 - b1 - b2;
+    const uint row = r.ids.x;
+    const float3 world = eye_p + quat_rotate(eye_q, d * depth);
+    const float3 n = r.maps.y != 0 ? quat_rotate(eye_q, cross(e1, e2))  // flat: the triangle's
+                                   : quat_rotate(rotations[row], (b0 * vertex_normals[vi[0]].xyz + b1 * vertex_normals[vi[1]].xyz +
+                                                                  b2 * vertex_normals[vi[2]].xyz) / scales[row].xyz);
+    const float2 uv = b0 * vertex_uvs[vi[0]] + b1 * vertex_uvs[vi[1]] + b2 * vertex_uvs[vi[2]];
+    if (pc.products & 1) {
+      const uint4 bytes = uint4(round(saturate(encode_color(shade(r, world, n, uv, eye_p))) * 255));
+      out_rgb[at] = bytes.x | (bytes.y << 8) | (bytes.z << 16) | (bytes.w << 24);
+    }
+    if (pc.products & 2) out_depth[at] = depth;
+    if (pc.products & 4) out_segmentation[at] = r.ids.z;
+  }
+}

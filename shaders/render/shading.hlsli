@@ -1,0 +1,93 @@
+// Shading shared by the fragment stage and the compute rasterizer: GGX / Cook-Torrance
+// specular and Lambert diffuse from each of the env's lights (directional, point, spot;
+// shadows from the env's shadowed directional light), a hemisphere ambient term, base colour
+// times an optional texture. Needs raster_resources.hlsli.
+static const float PI = 3.14159265;
+
+float4 texel(TextureInfo t, int2 p) {
+  const int2 size = int2(t.extent.yz);
+  p = ((p % size) + size) % size;  // wrap
+  const uint w = texels[t.extent.x + uint(p.y) * t.extent.y + uint(p.x)];
+  return float4(w & 0xff, (w >> 8) & 0xff, (w >> 16) & 0xff, w >> 24) / 255.0;
+}
+
+float4 sample_texture(uint index, float2 uv) {  // bilinear, sRGB texels to linear
+  const TextureInfo t = texture_infos[index];
+  const float2 x = uv * float2(t.extent.yz) - 0.5;
+  const int2 p = int2(floor(x));
+  const float2 f = x - float2(p);
+  const float4 c = lerp(lerp(texel(t, p), texel(t, p + int2(1, 0)), f.x),
+                        lerp(texel(t, p + int2(0, 1)), texel(t, p + int2(1, 1)), f.x), f.y);
+  return float4(pow(c.rgb, 2.2), c.a);
+}
+
+// fraction of a 3x3 texel neighbourhood that sees the light (1 outside the map)
+float shadow_factor(EnvLighting env, float3 world, float3 n) {
+  const float S = env.shadow.z, half_size = env.shadow.x, range = env.shadow.y;
+  const float texel_size = 2 * half_size / S;
+  const float3 p = shadow_frame(env, world + 1.5 * texel_size * n);  // normal offset against acne
+  const float2 uv = (p.xy / half_size * 0.5 + 0.5) * S;
+  if (any(uv < 0) || any(uv >= S)) return 1;
+  const float z = (p.z + range) / (2 * range) - texel_size / (2 * range);
+  const uint first = (env.ids.z - 1) * uint(S) * uint(S);
+  const int2 centre = int2(uv);
+  float lit = 0;
+  for (int dy = -1; dy <= 1; ++dy)
+    for (int dx = -1; dx <= 1; ++dx) {
+      const int2 t = clamp(centre + int2(dx, dy), 0, int(S) - 1);
+      lit += z <= shadow_maps[first + uint(t.y) * uint(S) + uint(t.x)] ? 1.0 : 0.0;
+    }
+  return lit / 9;
+}
+
+// outgoing radiance per unit incoming (x pi: a white matte surface facing a light of 1 shows 1)
+float3 brdf_cos(float3 n, float3 v, float3 l, float3 base, float metallic, float roughness) {
+  const float nl = saturate(dot(n, l));
+  if (nl <= 0) return 0;
+  const float nv = max(dot(n, v), 1e-4);
+  const float3 h = normalize(l + v);
+  const float a = roughness * roughness, a2 = a * a;
+  const float nh = saturate(dot(n, h));
+  const float d = a2 / (PI * pow(nh * nh * (a2 - 1) + 1, 2));
+  const float k = (roughness + 1) * (roughness + 1) / 8;
+  const float g = nl / (nl * (1 - k) + k) * nv / (nv * (1 - k) + k);
+  const float3 f0 = lerp(float3(0.04, 0.04, 0.04), base, metallic);
+  const float3 f = f0 + (1 - f0) * pow(1 - saturate(dot(h, v)), 5);
+  const float3 diffuse = (1 - f) * (1 - metallic) * base;
+  return (diffuse + PI * d * g * f / (4 * nl * nv)) * nl;
+}
+
+// linear RGBA of a surface point seen from `eye`; n need not face the eye
+float4 shade(RenderableData r, float3 world, float3 n, float2 uv, float3 eye) {
+  const EnvLighting env = env_lighting[r.ids.w];
+  n = normalize(n);
+  const float3 v = normalize(eye - world);
+  if (dot(n, v) < 0) n = -n;  // two-sided
+  float4 base = r.color;
+  if (r.maps.x != 0) base *= sample_texture(r.maps.x - 1, uv);
+  const float metallic = saturate(r.material.x), roughness = clamp(r.material.y, 0.05, 1.0);
+  float3 rgb = lerp(env.ground.rgb, env.sky.rgb, 0.5 + 0.5 * n.z) * base.rgb;
+  for (uint k = 0; k < env.ids.y; ++k) {
+    const LightData light = lights[env.ids.x + k];
+    const uint kind = light.ids.y, row = light.ids.x;
+    if (kind == 0) continue;
+    const float3 axis = row == RENDER_NO_ROW ? normalize(light.direction.xyz) : quat_rotate(rotations[row], float3(0, 0, 1));
+    float3 l = -axis, radiance = light.color.rgb;
+    if (kind == LIGHT_DIRECTIONAL) {
+      if (env.ids.z != 0 && row == env.ids.w) radiance *= shadow_factor(env, world, n);
+    } else {
+      const float3 to_light = positions[row].xyz - world;
+      const float d2 = max(dot(to_light, to_light), 1e-8);
+      l = to_light * rsqrt(d2);
+      radiance /= d2;
+      const float range = light.color.w;
+      if (range > 0) radiance *= pow(saturate(1 - pow(d2 / (range * range), 2)), 2);  // smooth cut-off
+      if (kind == LIGHT_SPOT) radiance *= smoothstep(light.cone.y, light.cone.x, dot(-l, axis));
+    }
+    rgb += brdf_cos(n, v, l, base.rgb, metallic, roughness) * radiance;
+  }
+  return float4(rgb, base.a);
+}
+
+// to sRGB-ish 8-bit
+float4 encode_color(float4 linear_rgba) { return float4(pow(saturate(linear_rgba.rgb), 1.0 / 2.2), linear_rgba.a); }

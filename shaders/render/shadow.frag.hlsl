@@ -1,0 +1,2 @@
+// Shadow maps keep depth only.
+void main() {}
