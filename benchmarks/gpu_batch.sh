@@ -1,0 +1,61 @@
+#!/usr/bin/env bash
+# The GPU machine's whole session in stages (device time is scarce: one call per stage or two).
+#   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh setup tests      # build, ctest, pytest
+#   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-a           # CartPole, rendering
+#   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-b           # ultrasound, particles, twin
+# Results (text and JSON) go to $OUT (default out/gpu). Each command has its own time limit, so
+# one slow run cannot eat the stage. `setup` also installs the pure-Python wheels the twin's
+# kinematics need (.gpu-wheels, made on the development machine: benchmarks/README.md) into
+# .gpu-py, since the GPU machine reaches no registry.
+set -uo pipefail
+cd "$(dirname "$0")/.."
+OUT=${OUT:-out/gpu}
+mkdir -p "$OUT"
+export PYTHONPATH=python:ros_ws/src/cressim_ros:.gpu-py
+
+run() {  # run NAME SECONDS CMD...: output to $OUT/NAME.txt, a line per run to $OUT/runs.txt
+  local name=$1 limit=$2
+  shift 2
+  local t0=$SECONDS
+  timeout "$limit" "$@" > "$OUT/$name.txt" 2>&1
+  local rc=$?
+  echo "$name rc=$rc $((SECONDS - t0))s: $*" | tee -a "$OUT/runs.txt"
+}
+
+for stage in "$@"; do
+  case $stage in
+    setup)
+      run build 400 env CRESSIM_TESTS=ON bash benchmarks/gpu_build.sh
+      [ -d .gpu-wheels ] && run wheels 120 python3 -m pip install -q --no-index --no-deps --target .gpu-py .gpu-wheels/*.whl
+      run info 60 python3 -m cressim info
+      ;;
+    tests)
+      run ctest 200 bash -c "cd build/gpu && ctest --output-on-failure"
+      run pytest 420 env CRESSIM_VALIDATION=1 python3 -m pytest -q -x -p no:cacheprovider tests/gpu tests/scene \
+        tests/compute tests/runtime tests/physics tests/render tests/sensors tests/particles tests/envs
+      ;;
+    bench-a)
+      run cartpole 300 python3 -m cressim bench CartPole --envs 256,1024,4096,8192,16384,65536 --mode both \
+        --device cuda --minibatch 262144 --out "$OUT"
+      run render 240 python3 benchmarks/bench_render.py --envs 256,1024,4096,8192 --sizes 64,128,256 --raster both \
+        --frames 50 --json "$OUT/render2.json"
+      run render_rgb 120 python3 benchmarks/bench_render.py --envs 1024,4096,8192 --sizes 64 --raster both \
+        --products rgb --frames 50 --json "$OUT/render2_rgb.json"
+      mkdir -p "$OUT/targetcenter_graphics" "$OUT/targetcenter_compute"
+      run targetcenter 200 python3 -m cressim bench TargetCenter --envs 32,256,1024,4096,8192 --mode step \
+        --out "$OUT/targetcenter_graphics"
+      run targetcenter_compute 200 env CRESSIM_RASTER=compute python3 -m cressim bench TargetCenter \
+        --envs 32,256,1024,4096,8192 --mode step --out "$OUT/targetcenter_compute"
+      ;;
+    bench-b)
+      mkdir -p "$OUT/ultrasound" "$OUT/ultrasound_sweep"
+      run ultrasound 200 python3 -m cressim bench UltrasoundScan --envs 1,8,32,64 --mode both --out "$OUT/ultrasound"
+      run ultrasound_sweep 150 python3 -m cressim bench UltrasoundScan --envs 128,256,512,1024 --mode step \
+        --out "$OUT/ultrasound_sweep"
+      run ultrasound_sensor 120 python3 benchmarks/bench_ultrasound.py --envs 1,32,256,1024,4096 \
+        --json "$OUT/ultrasound_sensor.json"
+      run twin 240 python3 benchmarks/bench_twin.py --envs 1,64,1024,4096 --ticks 50 --json "$OUT/twin.json"
+      ;;
+    *) echo "unknown stage $stage" >&2; exit 2 ;;
+  esac
+done
