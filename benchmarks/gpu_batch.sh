@@ -12,6 +12,7 @@ cd "$(dirname "$0")/.."
 OUT=${OUT:-out/gpu}
 mkdir -p "$OUT"
 export PYTHONPATH=python:ros_ws/src/cressim_ros:.gpu-py
+ulimit -n "$(ulimit -Hn)" 2>/dev/null  # every Vulkan device on the NVIDIA driver holds a few fds
 
 run() {  # run NAME SECONDS CMD...: output to $OUT/NAME.txt, a line per run to $OUT/runs.txt
   local name=$1 limit=$2
@@ -31,8 +32,10 @@ for stage in "$@"; do
       ;;
     tests)
       run ctest 200 bash -c "cd build/gpu && ctest --output-on-failure"
-      dirs=$(for d in gpu scene compute runtime physics render sensors particles envs; do [ -d tests/$d ] && echo tests/$d; done)
-      run pytest 360 env CRESSIM_VALIDATION=1 python3 -m pytest -q -p no:cacheprovider $dirs
+      # a process per folder: what one folder leaves behind in the driver cannot fail another's
+      for d in gpu scene compute runtime physics render sensors particles envs; do
+        [ -d tests/$d ] && run pytest_$d 240 env CRESSIM_VALIDATION=1 python3 -m pytest -v -p no:cacheprovider tests/$d
+      done
       ;;
     bench-a)
       run cartpole 300 python3 -m cressim bench CartPole --envs 256,1024,4096,8192,16384,65536 --mode both \

@@ -117,9 +117,14 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--extend", action="store_true", help="keep doubling envs while step throughput rises >= 5%%")
     p.add_argument("--minibatch", type=int, help="PPO samples per minibatch (default: the paper's, 2048 for CartPole)")
     p.set_defaults(run=_bench)
-    from cressim.record.cli import register
-
-    register(sub)  # record, replay
+    try:  # record, replay: need mcap and rosbags, which a bare machine (the GPU one) may lack
+        from cressim.record.cli import register
+    except ImportError as exc:
+        for name in ("record", "replay"):
+            p = sub.add_parser(name, help=f"unavailable here: {exc}")
+            p.set_defaults(run=lambda args, exc=exc: sys.exit(f"cressim {args.command}: needs {exc.name} ({exc})"))
+    else:
+        register(sub)
     args = parser.parse_args(argv)
     return args.run(args)
 
