@@ -38,17 +38,19 @@ for stage in "$@"; do
       done
       ;;
     bench-a)
-      run cartpole 300 python3 -m cressim bench CartPole --envs 256,1024,4096,8192,16384,65536 --mode both \
-        --device cuda --minibatch 262144 --out "$OUT"
-      run render 240 python3 benchmarks/bench_render.py --envs 256,1024,4096,8192 --sizes 64,128,256 --raster both \
-        --frames 50 --json "$OUT/render2.json"
-      run render_rgb 120 python3 benchmarks/bench_render.py --envs 1024,4096,8192 --sizes 64 --raster both \
+      run cartpole 120 python3 -m cressim bench CartPole --envs 256 --mode both --device cuda --minibatch 262144 \
+        --out "$OUT"
+      run render 150 python3 benchmarks/bench_render.py --envs 1024,4096,8192 --sizes 64 --raster both \
+        --frames 50 --json "$OUT/render2_64.json"
+      run render_sizes 100 python3 benchmarks/bench_render.py --envs 4096 --sizes 128,256 --raster both \
+        --frames 30 --json "$OUT/render2_sizes.json"
+      run render_rgb 100 python3 benchmarks/bench_render.py --envs 4096,8192 --sizes 64 --raster both \
         --products rgb --frames 50 --json "$OUT/render2_rgb.json"
       mkdir -p "$OUT/targetcenter_graphics" "$OUT/targetcenter_compute"
-      run targetcenter 200 python3 -m cressim bench TargetCenter --envs 32,256,1024,4096,8192 --mode step \
+      run targetcenter 120 python3 -m cressim bench TargetCenter --envs 256,1024,4096,8192 --mode step \
         --out "$OUT/targetcenter_graphics"
-      run targetcenter_compute 200 env CRESSIM_RASTER=compute python3 -m cressim bench TargetCenter \
-        --envs 32,256,1024,4096,8192 --mode step --out "$OUT/targetcenter_compute"
+      run targetcenter_compute 120 env CRESSIM_RASTER=compute python3 -m cressim bench TargetCenter \
+        --envs 256,1024,4096,8192 --mode step --out "$OUT/targetcenter_compute"
       ;;
     bench-b)
       mkdir -p "$OUT/ultrasound" "$OUT/ultrasound_sweep"
