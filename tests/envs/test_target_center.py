@@ -13,8 +13,8 @@ def target_pixels(obs):
     """Mean (row, col) of the red target in each env's image (NaN when not visible)."""
     img = obs.float()
     red = (img[..., 0] > 120) & (img[..., 1] < 80) & (img[..., 2] < 80)
-    rows = torch.arange(img.shape[1], dtype=torch.float32)[:, None].expand(img.shape[1:3])
-    cols = torch.arange(img.shape[2], dtype=torch.float32)[None, :].expand(img.shape[1:3])
+    rows = torch.arange(img.shape[1], dtype=torch.float32, device=img.device)[:, None].expand(img.shape[1:3])
+    cols = torch.arange(img.shape[2], dtype=torch.float32, device=img.device)[None, :].expand(img.shape[1:3])
     n = red.sum((1, 2)).float()
     return (red * rows).sum((1, 2)) / n, (red * cols).sum((1, 2)) / n, n
 
