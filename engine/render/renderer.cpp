@@ -48,18 +48,21 @@ void copy_out(VkCommandBuffer cmd, const gpu::Image& im, const compute::TypedBuf
 
 }  // namespace
 
-// CRESSIM_RASTER: "graphics" (default) or "compute"
-bool compute_raster() {
+// CRESSIM_RASTER: "graphics", "compute", or "auto"/unset: compute on discrete GPUs (on an H100 it
+// renders 64x64 cameras 19x faster than the graphics pipelines, which use a small part of the
+// chip; benchmarks/README.md), graphics elsewhere (on a CPU, lavapipe, the reverse holds)
+bool compute_raster(const gpu::Context& ctx) {
   const char* v = std::getenv("CRESSIM_RASTER");
-  if (!v || !*v || std::strcmp(v, "graphics") == 0) return false;
+  if (!v || !*v || std::strcmp(v, "auto") == 0) return ctx.info.type == "discrete";
+  if (std::strcmp(v, "graphics") == 0) return false;
   if (std::strcmp(v, "compute") == 0) return true;
-  throw std::invalid_argument(std::string("CRESSIM_RASTER='") + v + "': use 'graphics' or 'compute'");
+  throw std::invalid_argument(std::string("CRESSIM_RASTER='") + v + "': use 'auto', 'graphics' or 'compute'");
 }
 
 Renderer::Renderer(std::shared_ptr<gpu::Context> ctx, RenderModel model, uint64_t generation, BufferMap& internal,
                    const BufferMap& scene)
     : ctx_(std::move(ctx)), model_(std::move(model)) {
-  const bool use_compute = compute_raster();
+  const bool use_compute = compute_raster(*ctx_);
   const bool exportable = ctx_->external_memory_fd && !ctx_->unified_memory;
   auto n = [](const auto& v) { return int64_t(v.size()); };
   std::vector<uint32_t> flat_instances, flat_shadow_instances;

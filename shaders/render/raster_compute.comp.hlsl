@@ -212,13 +212,19 @@ void main(uint3 group : SV_GroupID, uint tid : SV_GroupIndex) {
     const float3 d = float3((float2(px) + 0.5 - c.intrinsics.zw) / c.intrinsics.xy, 1);  // z = 1: t is depth
     const float3 e1 = v[1] - v[0], e2 = v[2] - v[0], h = cross(d, e2);
     const float det = dot(e1, h);
-    float b1 = 0, b2 = 0, depth = asfloat(zbuf[i]);
+    const float raster_depth = asfloat(zbuf[i]);
+    float b1 = 1.0 / 3, b2 = 1.0 / 3, depth = raster_depth;
     if (abs(det) > 1e-20) {
       const float3 s0 = -v[0];
-      b1 = dot(s0, h) / det;
       const float3 q = cross(s0, e1);
-      b2 = dot(d, q) / det;
-      depth = dot(e2, q) / det;
+      const float t = dot(e2, q) / det;
+      // a sliver (where many triangles meet, such as a sphere's pole) can win the id pass with
+      // an ill-conditioned ray hit: keep the rasterised depth and flat attributes there
+      if (abs(t - raster_depth) <= 1e-3 * raster_depth) {
+        b1 = dot(s0, h) / det;
+        b2 = dot(d, q) / det;
+        depth = t;
+      }
     }
     const float b0 = 1 - b1 - b2;
     const uint row = r.ids.x;
