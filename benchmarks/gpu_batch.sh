@@ -37,6 +37,11 @@ for stage in "$@"; do
         [ -d tests/$d ] && run pytest_$d 240 env CRESSIM_VALIDATION=1 python3 -m pytest -v -p no:cacheprovider tests/$d
       done
       ;;
+    verify)  # the folders a change touched, after a fix
+      for d in ${VERIFY:-render envs}; do
+        run pytest_$d 240 env CRESSIM_VALIDATION=1 python3 -m pytest -q -p no:cacheprovider tests/$d
+      done
+      ;;
     bench-a)
       run cartpole 120 python3 -m cressim bench CartPole --envs 256 --mode both --device cuda --minibatch 262144 \
         --out "$OUT"
@@ -64,3 +69,5 @@ for stage in "$@"; do
     *) echo "unknown stage $stage" >&2; exit 2 ;;
   esac
 done
+# only a few files come back from the GPU machine: everything in one archive beside the summary
+(cd "$OUT" && tar czf ../gpu_results.tgz . && mv ../gpu_results.tgz .)
