@@ -35,7 +35,7 @@ def test_observations_show_the_target_near_the_centre():
 def test_steering_towards_the_target_is_rewarded_and_succeeds():
     env = cressim.envs.make("TargetCenter", num_envs=8, seed=2, validation=True)
     obs, _ = env.reset()
-    total, successes = torch.zeros(8), torch.zeros(8)
+    total, successes = torch.zeros(8, device=obs.device), torch.zeros(8, device=obs.device)
     for _ in range(120):
         r, c, _ = target_pixels(obs)
         # image x right = yaw right (negative yaw), image y down = pitch down (positive)
