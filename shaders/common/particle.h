@@ -1,0 +1,66 @@
+// Particle system layouts shared by the engine and shaders/physics/particle_*: one set of flat
+// particle buffers for every kind (soft bodies, fluids, strands) and env, constraint records of a
+// common shape, and the per-env / per-object ranges. Every struct is whole 16-byte vectors.
+#ifndef CRESSIM_PARTICLE_H
+#define CRESSIM_PARTICLE_H
+#include "cressim/types.h"
+
+CRESSIM_SHADER_BEGIN
+
+// particle kinds (phase.x)
+static const uint PARTICLE_SOLID = 1;   // soft bodies (tetrahedral or meshfree)
+static const uint PARTICLE_FLUID = 2;   // position-based fluids
+static const uint PARTICLE_STRAND = 3;  // threads and cables
+
+// phase.w flags
+static const uint PARTICLE_ACTIVE = 1;        // inactive slots (fluid budget) neither move nor collide
+static const uint PARTICLE_SELF_COLLIDE = 2;  // collides with particles of its own object
+
+// Every constraint family stores records of this shape: up to 4 particles, the correction slot
+// of each, and family-specific parameters. A family's solve pass writes each particle's
+// correction into its slot; one gather pass averages every particle's slots (Jacobi with mass
+// splitting), so families never write the same memory and a new family needs no solver change.
+struct ParticleConstraint {
+  uint4 particles;  // global particle indices (CRESSIM_NONE when unused)
+  uint4 slots;      // correction slot of each particle (particles.slots)
+  float4 params;    // x rest value, y compliance, zw family-specific
+};
+
+struct ParticleObject {
+  uint4 range;      // x first particle, y count, z env, w kind
+  uint4 ids;        // x entity row, y flags (PARTICLE_SELF_COLLIDE), z budget (fluid), w unused
+  float4 material;  // x radius, y friction, z damping (1/s), w rest density (fluid)
+  float4 fluid;     // x viscosity (XSPH), y cohesion, z surface tension, w vorticity confinement
+};
+
+struct ParticleEnvRange {
+  uint4 range;  // x first particle, y count, z first object, w count
+};
+
+// A rigid-particle attachment slot (control.particle_attachments, max_particle_attachments_per_env
+// per env): state 0 free, 1 attached, 2 attach at the next step (local offset taken from the
+// poses then). Written by the host (Engine.attach_particle) or by task passes.
+static const uint ATTACH_FREE = 0;
+static const uint ATTACH_ACTIVE = 1;
+static const uint ATTACH_PENDING = 2;
+struct ParticleAttachment {
+  uint4 ids;     // x particle, y body (rigid body index), z state, w env
+  float4 local;  // xyz particle position in the body frame, w compliance (0: rigid)
+};
+
+// push constants of every particle pass
+struct ParticleConstants {
+  float4 gravity;     // xyz; w substep h
+  float4 grid;        // x cell size, y fraction of the frame done at the end of this substep, z max speed, w substeps
+  uint particle_count;
+  uint item_count;    // threads of this pass (constraints of the family, buckets, envs...)
+  uint table_size;    // hash buckets (power of two)
+  uint env_count;
+  uint has_rigid;     // rigid buffers are real (else one-element stand-ins)
+  uint owns_health;   // no rigid system: the particle health pass writes env.health itself
+  uint attachment_count;
+  uint pad0;
+};
+
+CRESSIM_SHADER_END
+#endif

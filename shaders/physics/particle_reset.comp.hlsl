@@ -1,0 +1,26 @@
+// Particles of every env flagged in env.reset_mask go back to their authored state (positions,
+// velocities, which budget slots are active); the env's attachments are released.
+#include "cressim/layout.h"
+#include "cressim/particle.h"
+
+[[vk::push_constant]] ConstantBuffer<ParticleConstants> pc;
+StructuredBuffer<uint> reset_mask;
+StructuredBuffer<float4> initial_positions;
+StructuredBuffer<float4> initial_velocities;
+StructuredBuffer<uint4> initial_phases;
+RWStructuredBuffer<float4> positions;
+RWStructuredBuffer<float4> velocities;
+RWStructuredBuffer<uint4> phases;
+RWStructuredBuffer<ParticleAttachment> attachments;
+
+[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
+void main(uint3 id : SV_DispatchThreadID) {
+  const uint i = id.x;
+  if (i < pc.attachment_count && reset_mask[attachments[i].ids.w] != 0) attachments[i].ids.z = ATTACH_FREE;
+  if (i >= pc.particle_count) return;
+  const uint4 ph = initial_phases[i];
+  if (reset_mask[ph.z] == 0) return;
+  positions[i] = initial_positions[i];
+  velocities[i] = initial_velocities[i];
+  phases[i] = ph;
+}
