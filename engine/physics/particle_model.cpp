@@ -87,7 +87,6 @@ class Builder {
     int k = 0;
     for (uint32_t i : ids) p[k++] = i;
     c.particles = {p[0], p[1], p[2], p[3]};
-    c.slots = {NONE, NONE, NONE, NONE};
     c.params = {rest, compliance, z, 0};
     s.records.push_back(c);
   }
@@ -191,6 +190,39 @@ class Builder {
   ParticleModel& m_;
 };
 
+// greedy colouring: each constraint takes the lowest colour none of its particles has yet;
+// records are then grouped by colour (stable, so objects and envs keep their order inside one)
+void colour(ConstraintSet& s, size_t particles) {
+  std::vector<std::vector<bool>> used(particles);
+  std::vector<uint32_t> colour_of(s.records.size());
+  uint32_t colours = 0;
+  for (size_t c = 0; c < s.records.size(); ++c) {
+    const uint32_t* p = &s.records[c].particles.x;
+    uint32_t k = 0;
+    auto taken = [&](uint32_t k) {
+      for (int i = 0; i < 4; ++i)
+        if (p[i] != NONE && k < used[p[i]].size() && used[p[i]][k]) return true;
+      return false;
+    };
+    while (taken(k)) ++k;
+    for (int i = 0; i < 4; ++i)
+      if (p[i] != NONE) {
+        if (used[p[i]].size() <= k) used[p[i]].resize(k + 1, false);
+        used[p[i]][k] = true;
+      }
+    colour_of[c] = k;
+    colours = std::max(colours, k + 1);
+  }
+  s.colour_count.assign(colours, 0);
+  for (uint32_t k : colour_of) ++s.colour_count[k];
+  s.colour_offset.assign(colours, 0);
+  for (uint32_t k = 1; k < colours; ++k) s.colour_offset[k] = s.colour_offset[k - 1] + s.colour_count[k - 1];
+  std::vector<ParticleConstraint> sorted(s.records.size());
+  std::vector<uint32_t> cursor = s.colour_offset;
+  for (size_t c = 0; c < s.records.size(); ++c) sorted[cursor[colour_of[c]]++] = s.records[c];
+  s.records = std::move(sorted);
+}
+
 float poly6(float r, float h) {
   if (r >= h) return 0;
   const float x = h * h - r * r;
@@ -234,14 +266,14 @@ ParticleModel build_particle_model(const scene::World& world, const scene::Layou
         o.ids = {row, 0, 0, 0};
         m.objects.push_back(o);
         m.object_entity.push_back(e);
-        for (auto& s : m.sets) s.object_offset.push_back(uint32_t(s.records.size()));
+        for (auto& s : m.sets) s.object_count.push_back(uint32_t(s.records.size()));
         m.surface_offset.push_back(uint32_t(m.surface.size() / 3));
         return Adding{world, e, env, uint32_t(m.objects.size() - 1), uint32_t(m.size())};
       };
       auto end = [&]() {
         auto& o = m.objects.back();
         o.range.y = uint32_t(m.size()) - o.range.x;
-        for (auto& s : m.sets) s.object_count.push_back(uint32_t(s.records.size()) - s.object_offset.back());
+        for (auto& s : m.sets) s.object_count.back() = uint32_t(s.records.size()) - s.object_count.back();
         m.surface_count.push_back(uint32_t(m.surface.size() / 3) - m.surface_offset.back());
       };
       if (world.has<scene::SoftBody>(e)) {
@@ -282,28 +314,7 @@ ParticleModel build_particle_model(const scene::World& world, const scene::Layou
   for (auto& r : m.env_ranges) m.has_contacts = m.has_contacts || r.range.w > 1;
   for (auto& o : m.objects) m.has_contacts = m.has_contacts || (o.ids.y & shader::PARTICLE_SELF_COLLIDE);
 
-  // correction slots, particle-major: a particle's slots are contiguous
-  std::vector<uint32_t> count(m.size(), 0);
-  for (auto& s : m.sets)
-    for (auto& c : s.records)
-      for (uint32_t p : {c.particles.x, c.particles.y, c.particles.z, c.particles.w})
-        if (p != NONE) ++count[p];
-  m.slot_ranges.resize(2 * m.size());
-  uint32_t next = 0;
-  for (size_t i = 0; i < m.size(); ++i) {
-    m.slot_ranges[2 * i] = next;
-    m.slot_ranges[2 * i + 1] = count[i];
-    next += count[i];
-  }
-  m.slot_count = next;
-  std::vector<uint32_t> cursor(m.size(), 0);
-  for (auto& s : m.sets)
-    for (auto& c : s.records) {
-      uint32_t* p = &c.particles.x;
-      uint32_t* slot = &c.slots.x;
-      for (int k = 0; k < 4; ++k)
-        if (p[k] != NONE) slot[k] = m.slot_ranges[2 * p[k]] + cursor[p[k]]++;
-    }
+  for (auto& s : m.sets) colour(s, m.size());
   return m;
 }
 

@@ -1,6 +1,6 @@
 // prepare() for particles: SoftBody / Fluid / Strand components flattened into one particle
 // array (envs contiguous, objects in entity order within an env), the per-object and per-env
-// ranges, the constraint sets of every family with their correction slots, and the surface
+// ranges, the constraint sets of every family grouped by colour, and the surface
 // triangles kept for rendering.
 #pragma once
 #include <cstdint>
@@ -13,21 +13,21 @@
 
 namespace cressim::physics {
 
-// One constraint family's records and the pass that solves them (shaders/<shader>.comp.hlsl,
-// which reads `constraints` and writes `slots`; see particle_distance.comp.hlsl).
+// One constraint family's records and the pass that projects them (shaders/<shader>.comp.hlsl,
+// one colour per dispatch; see particle_distance.comp.hlsl). Records are grouped by colour; a
+// record's object is the object of its first particle (particles.phases[i].y).
 struct ConstraintSet {
   std::string name;    // buffer key particles.<name>_constraints
   std::string shader;  // built-in pass
   std::vector<shader::ParticleConstraint> records;
-  std::vector<uint32_t> object_offset, object_count;  // each object's slice of records
+  std::vector<uint32_t> colour_offset, colour_count;  // each colour's slice of records
+  std::vector<uint32_t> object_count;  // constraints of each object
 };
 
 struct ParticleModel {
   std::vector<shader::float4> positions;   // xyz, w inverse mass
   std::vector<shader::float4> velocities;
   std::vector<shader::uint4> phases;       // x kind, y object, z env, w flags
-  std::vector<uint32_t> slot_ranges;       // 2 per particle: first slot, count
-  uint32_t slot_count = 0;
   std::vector<shader::ParticleObject> objects;
   std::vector<uint32_t> object_entity;
   std::vector<shader::ParticleEnvRange> env_ranges;

@@ -5,6 +5,7 @@
 #include <cstring>
 
 #include "gpu/commands.h"
+#include "cressim/layout.h"
 #include "gpu/context.h"
 
 namespace cressim::physics {
@@ -15,6 +16,7 @@ using shader::float4;
 using shader::uint4;
 
 constexpr uint32_t kScanBlock = 256;  // particle_scan_*.comp.hlsl group size
+constexpr uint32_t kGroup = shader::CRESSIM_GROUP_SIZE;
 
 template <class T>
 std::vector<uint32_t> words(const std::vector<T>& v) {
@@ -76,12 +78,10 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   in("initial_phases", "particles.initial_phases", model_.phases, {n, 4}, DType::UINT32);
   in("objects", "particles.objects", words(model_.objects), {no, int64_t(sizeof(shader::ParticleObject) / 4)}, DType::UINT32);
   in("env_ranges", "particles.env_ranges", words(model_.env_ranges), {ne, 4}, DType::UINT32);
-  in("slot_ranges", "particles.slot_ranges", model_.slot_ranges, {n, 2}, DType::UINT32);
   in("", "particles.surface", model_.surface, {int64_t(model_.surface.size() / 3), 3}, DType::UINT32);
   scratch("densities", "particles.densities", {n}, DType::FLOAT32);
   // scratch
   scratch("prev_positions", "particles.prev_positions", {n, 4}, DType::FLOAT32);
-  scratch("slots", "particles.slots", {int64_t(model_.slot_count), 4}, DType::FLOAT32);
   scratch("deltas", "particles.deltas", {n, 4}, DType::FLOAT32);
   scratch("fluid_lambdas", "particles.fluid_lambdas", {n}, DType::FLOAT32);
   scratch("vorticities", "particles.vorticities", {n, 4}, DType::FLOAT32);
@@ -151,9 +151,8 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
     b["constraints"] = cb;
     b["lambdas"] = lb;
     auto p = compute::create_builtin_pass(ctx, s.shader, b);
-    p->set_threads({uint64_t(c), 1, 1});
     all_.push_back(p);
-    families_.push_back({p, lb->storage->buffer.buffer});
+    families_.push_back({p, &s});
     per_substep_clears_.push_back(lb->storage->buffer.buffer);
   }
   gather_ = pass("physics/particle_gather", uint64_t(n));
@@ -195,14 +194,6 @@ void ParticleSystem::set_constants(const PhysicsSettings& s) {
     if (p->constants.size() != sizeof(c)) throw std::logic_error("ParticleConstants does not match " + p->name);
     std::memcpy(p->constants.data(), &c, sizeof(c));
   }
-  // constraint counts of the families, in the order their passes were made
-  size_t k = 0;
-  for (auto& set : model_.sets) {
-    if (set.records.empty()) continue;
-    auto& p = families_[k++].first;
-    const uint32_t count = uint32_t(set.records.size());
-    std::memcpy(p->constants.data() + offsetof(shader::ParticleConstants, item_count), &count, 4);
-  }
 }
 
 void ParticleSystem::record_step(VkCommandBuffer cmd) const {
@@ -225,10 +216,16 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
     }
     for (uint32_t it = 0; it < settings_.particle_iterations; ++it) {
       run(fluid_lambda_);
-      // families and neighbour corrections write disjoint memory: one barrier after them all
-      for (auto& [p, lambdas] : families_) p->record(cmd);
-      if (neighbors_) neighbors_->record(cmd);
-      gpu::compute_barrier(cmd);
+      // each family colour by colour (Gauss-Seidel between colours), then neighbours and colliders
+      for (auto& [p, set] : families_)
+        for (size_t k = 0; k < set->colour_count.size(); ++k) {
+          const uint32_t range[2] = {set->colour_offset[k], set->colour_count[k]};
+          std::memcpy(p->constants.data() + offsetof(shader::ParticleConstants, item_offset), &range[0], 4);
+          std::memcpy(p->constants.data() + offsetof(shader::ParticleConstants, item_count), &range[1], 4);
+          p->groups = {(range[1] + kGroup - 1) / kGroup, 1, 1};
+          run(p);
+        }
+      run(neighbors_);
       run(gather_);
       run(attach_);
     }

@@ -3,10 +3,10 @@
 // step_physics after the rigid solver, and the per-env reset.
 //
 // Per substep: integrate; neighbour grid keyed on (env, cell) (count, prefix sum, scatter, sort
-// each bucket); `particle_iterations` times: fluid densities, every constraint family's solve
-// pass (each writes its particles' correction slots), neighbour corrections (fluid density,
-// particle contacts), the gather (mean of slots + rigid collider contacts with friction) and
-// attachments; then velocities and the fluid velocity terms. At the frame's end, env health.
+// each bucket); `particle_iterations` times: fluid densities, every constraint family colour by
+// colour, neighbour corrections (fluid density, particle contacts), the gather (those
+// corrections + rigid collider contacts with friction) and attachments; then velocities and the
+// fluid velocity terms. At the frame's end, env health.
 #pragma once
 #include <map>
 #include <memory>
@@ -49,7 +49,8 @@ class ParticleSystem {
   std::vector<std::shared_ptr<compute::ComputePass>> all_;
   std::shared_ptr<compute::ComputePass> integrate_, grid_count_, scan_local_, scan_blocks_, scan_add_, scatter_, sort_,
       fluid_lambda_, neighbors_, gather_, attach_, velocity_, vorticity_, fluid_velocity_, health_, reset_;
-  std::vector<std::pair<std::shared_ptr<compute::ComputePass>, VkBuffer>> families_;  // solve pass, its lambdas
+  // one pass per non-empty constraint set, dispatched once per colour
+  std::vector<std::pair<std::shared_ptr<compute::ComputePass>, const ConstraintSet*>> families_;
 };
 
 }  // namespace cressim::physics

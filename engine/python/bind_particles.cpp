@@ -175,8 +175,9 @@ void bind_particles(py::module_& m) {
         py::dict sets;
         for (auto& s : pm.sets) {
           py::dict r;
-          r["offset"] = v(s.object_offset);
-          r["count"] = v(s.object_count);
+          r["colour_offset"] = v(s.colour_offset);
+          r["colour_count"] = v(s.colour_count);
+          r["object_count"] = v(s.object_count);
           sets[py::str(s.name)] = r;
         }
         d["constraints"] = sets;
@@ -185,8 +186,8 @@ void bind_particles(py::module_& m) {
         return d;
       },
       "Particle objects (entity, env, kind, first particle, count), each env's particle range, the surface "
-      "triangles (global particle indices, each object's slice), and each constraint set's per-object range "
-      "(particles.<name>_constraints rows).")
+      "triangles (global particle indices, each object's slice), and each constraint set's colour ranges of "
+      "particles.<name>_constraints rows (a row's object is its first particle's) and constraints per object.")
       .def("attach_particle",
            [](runtime::Engine& e, uint32_t env, uint32_t slot, uint32_t particle, py::object body, float compliance) {
              const uint32_t id = py::isinstance<Entity>(body) ? body.cast<Entity>().id : body.cast<uint32_t>();

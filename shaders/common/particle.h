@@ -16,13 +16,13 @@ static const uint PARTICLE_STRAND = 3;  // threads and cables
 static const uint PARTICLE_ACTIVE = 1;        // inactive slots (fluid budget) neither move nor collide
 static const uint PARTICLE_SELF_COLLIDE = 2;  // collides with particles of its own object
 
-// Every constraint family stores records of this shape: up to 4 particles, the correction slot
-// of each, and family-specific parameters. A family's solve pass writes each particle's
-// correction into its slot; one gather pass averages every particle's slots (Jacobi with mass
-// splitting), so families never write the same memory and a new family needs no solver change.
+// Every constraint family stores records of this shape: up to 4 particles and family-specific
+// parameters. Records are grouped by colour (no two constraints of a colour share a particle),
+// and the family's pass projects one colour per dispatch straight onto the positions: Gauss-Seidel
+// between colours, parallel within one, the same for every env. A new family is a record builder
+// and a pass; the solver core only walks the table of sets.
 struct ParticleConstraint {
   uint4 particles;  // global particle indices (CRESSIM_NONE when unused)
-  uint4 slots;      // correction slot of each particle (particles.slots)
   float4 params;    // x rest value, y compliance, zw family-specific
 };
 
@@ -53,13 +53,13 @@ struct ParticleConstants {
   float4 gravity;     // xyz; w substep h
   float4 grid;        // x cell size, y fraction of the frame done at the end of this substep, z max speed, w substeps
   uint particle_count;
-  uint item_count;    // threads of this pass (constraints of the family, buckets, envs...)
+  uint item_count;    // threads of this pass (constraints of one colour, blocks...)
   uint table_size;    // hash buckets (power of two)
   uint env_count;
   uint has_rigid;     // rigid buffers are real (else one-element stand-ins)
   uint owns_health;   // no rigid system: the particle health pass writes env.health itself
   uint attachment_count;
-  uint pad0;
+  uint item_offset;   // first constraint of the colour this dispatch projects
 };
 
 CRESSIM_SHADER_END

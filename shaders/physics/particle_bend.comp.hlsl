@@ -6,8 +6,8 @@
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
 void main(uint3 id : SV_DispatchThreadID) {
-  const uint c = id.x;
-  if (c >= pc.item_count) return;
+  const uint c = constraint_index(id.x);
+  if (c == CRESSIM_NONE) return;
   const ParticleConstraint rec = constraints[c];
   const float3 u = positions[rec.particles.y].xyz - 0.5 * (positions[rec.particles.x].xyz + positions[rec.particles.z].xyz);
   const float len = length(u), seg = rec.params.z;

@@ -1,37 +1,31 @@
-// The common part of every constraint family's solve pass (XPBD with Jacobi mass splitting):
-// a particle in n constraints is seen by each as n times heavier, each writes its correction
-// into the particle's own slot, and the gather pass applies the mean of the slots. lambda
-// accumulates over the substep; compliance is divided by h^2 so stiffness does not depend on
-// the iteration count.
+// The common part of every constraint family's pass: one XPBD step (Macklin et al. 2016) for
+// each constraint of one colour, applied to the positions at once (the colour's constraints
+// share no particle). lambda accumulates over the substep; compliance is divided by h^2 so
+// stiffness does not depend on the iteration count once the solve has converged.
 #include "cressim/layout.h"
 #include "cressim/particle.h"
 #include "cressim/rigid.h"
 
 [[vk::push_constant]] ConstantBuffer<ParticleConstants> pc;
 StructuredBuffer<ParticleConstraint> constraints;
-StructuredBuffer<uint2> slot_ranges;
-StructuredBuffer<float4> positions;
-RWStructuredBuffer<float4> slots;
+RWStructuredBuffer<float4> positions;
 RWStructuredBuffer<float> lambdas;
 
-// split inverse mass of particle p
-float split_weight(uint p) { return positions[p].w * float(slot_ranges[p].y); }
+// the constraint this thread projects, or CRESSIM_NONE
+uint constraint_index(uint thread) { return thread < pc.item_count ? pc.item_offset + thread : CRESSIM_NONE; }
 
-// one XPBD step of constraint c with value C, gradients g[k] of its n particles
+// one XPBD step of constraint c with value C and gradients g[k] of its n particles
 void project(uint c, ParticleConstraint rec, uint n, float C, float3 g[4]) {
   const uint ids[4] = {rec.particles.x, rec.particles.y, rec.particles.z, rec.particles.w};
-  const uint slot_ids[4] = {rec.slots.x, rec.slots.y, rec.slots.z, rec.slots.w};
   float w[4] = {0, 0, 0, 0};
-  float denom = rec.params.y / (pc.gravity.w * pc.gravity.w);
-  const float alpha = denom;
+  const float alpha = rec.params.y / (pc.gravity.w * pc.gravity.w);
+  float denom = alpha;
   for (uint k = 0; k < n; ++k) {
-    w[k] = split_weight(ids[k]);
+    w[k] = positions[ids[k]].w;
     denom += w[k] * dot(g[k], g[k]);
   }
-  float dl = 0;
-  if (denom > 1e-20) {
-    dl = (-C - alpha * lambdas[c]) / denom;
-    lambdas[c] += dl;
-  }
-  for (uint k = 0; k < n; ++k) slots[slot_ids[k]] = float4(w[k] * dl * g[k], 0);
+  if (denom <= 1e-20) return;
+  const float dl = (-C - alpha * lambdas[c]) / denom;
+  lambdas[c] += dl;
+  for (uint k = 0; k < n; ++k) positions[ids[k]].xyz += w[k] * dl * g[k];
 }

@@ -3,8 +3,8 @@
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
 void main(uint3 id : SV_DispatchThreadID) {
-  const uint c = id.x;
-  if (c >= pc.item_count) return;
+  const uint c = constraint_index(id.x);
+  if (c == CRESSIM_NONE) return;
   const ParticleConstraint rec = constraints[c];
   const float3 d = positions[rec.particles.x].xyz - positions[rec.particles.y].xyz;
   const float len = length(d), rest = rec.params.x;

@@ -1,5 +1,5 @@
-// Per iteration: every particle takes the mean of its constraint slots (mass splitting) and
-// its neighbour delta, then is pushed out of the rigid colliders of its env with Coulomb
+// Per iteration, after the constraint families: every particle takes its neighbour delta (fluid
+// density, particle contacts), then is pushed out of the rigid colliders of its env with Coulomb
 // friction against the collider's motion over the substep.
 #include "cressim/layout.h"
 #include "cressim/particle.h"
@@ -9,8 +9,6 @@
 [[vk::push_constant]] ConstantBuffer<ParticleConstants> pc;
 StructuredBuffer<ParticleObject> objects;
 StructuredBuffer<uint4> phases;
-StructuredBuffer<uint2> slot_ranges;
-StructuredBuffer<float4> slots;
 StructuredBuffer<float4> deltas;
 StructuredBuffer<float4> prev_positions;
 StructuredBuffer<EnvRigidRange> env_rigid_ranges;
@@ -30,10 +28,7 @@ void main(uint3 id : SV_DispatchThreadID) {
   const uint4 ph = phases[i];
   float4 x = positions[i];
   if ((ph.w & PARTICLE_ACTIVE) == 0 || x.w <= 0) return;
-  const uint2 sr = slot_ranges[i];
-  float3 sum = float3(0, 0, 0);
-  for (uint k = sr.x; k < sr.x + sr.y; ++k) sum += slots[k].xyz;
-  x.xyz += deltas[i].xyz + (sr.y > 0 ? sum / float(sr.y) : float3(0, 0, 0));
+  x.xyz += deltas[i].xyz;
 
   if (pc.has_rigid != 0) {
     const ParticleObject o = objects[ph.y];

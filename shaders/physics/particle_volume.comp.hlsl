@@ -3,8 +3,8 @@
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
 void main(uint3 id : SV_DispatchThreadID) {
-  const uint c = id.x;
-  if (c >= pc.item_count) return;
+  const uint c = constraint_index(id.x);
+  if (c == CRESSIM_NONE) return;
   const ParticleConstraint rec = constraints[c];
   const float3 x0 = positions[rec.particles.x].xyz, e1 = positions[rec.particles.y].xyz - x0,
                e2 = positions[rec.particles.z].xyz - x0, e3 = positions[rec.particles.w].xyz - x0;
