@@ -172,13 +172,11 @@ class Builder {
                   "Strand.points");
     fix(a, s.fixed, n, "Strand.fixed");
     for (uint32_t i = 0; i + 1 < n; ++i) distance(a.first + i, a.first + i + 1, s.stretch_compliance);
-    // bending: the middle particle's offset from the midpoint of its neighbours, against its rest offset
+    // bending toward straight (threads and cables rest straight, whatever their authored path)
     for (uint32_t i = 0; i + 2 < n; ++i) {
       const uint32_t p = a.first + i;
-      const float4 &x0 = m_.positions[p], &x1 = m_.positions[p + 1], &x2 = m_.positions[p + 2];
-      const float rx = x1.x - 0.5f * (x0.x + x2.x), ry = x1.y - 0.5f * (x0.y + x2.y), rz = x1.z - 0.5f * (x0.z + x2.z);
-      const float seg = 0.5f * (dist(x0, x1) + dist(x1, x2));
-      constraint(set("bend"), {p, p + 1, p + 2}, std::sqrt(rx * rx + ry * ry + rz * rz), s.bend_compliance, seg);
+      const float seg = 0.5f * (dist(m_.positions[p], m_.positions[p + 1]) + dist(m_.positions[p + 1], m_.positions[p + 2]));
+      constraint(set("bend"), {p, p + 1, p + 2}, 0, s.bend_compliance, seg);
     }
   }
 

@@ -1,6 +1,5 @@
-// Strand bending: the middle particle's distance from the midpoint of its two neighbours keeps
-// its rest value (zero for a straight strand), per unit segment length:
-// C = (|x1 - (x0 + x2) / 2| - rest) / segment. For small angles this is the discrete curvature
+// Strand bending toward straight: the middle particle's distance from the midpoint of its two
+// neighbours, per unit segment length: C = (|x1 - (x0 + x2) / 2| - rest) / segment, rest 0. For small angles this is the discrete curvature
 // times segment / 2, so bend compliance acts like a rod's inverse bending stiffness.
 #include "particle_constraint.hlsli"
 

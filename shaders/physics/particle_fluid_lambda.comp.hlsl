@@ -25,7 +25,8 @@ void main(uint3 id : SV_DispatchThreadID) {
   const uint4 ph = phases[i];
   if (ph.x != PARTICLE_FLUID || (ph.w & PARTICLE_ACTIVE) == 0) return;
   const ParticleObject o = objects[ph.y];
-  const float h = kernel_support(o.material.x), rho0 = o.material.w;
+  const Kernel K = make_kernel(o.material.x);
+  const float rho0 = o.material.w;
   const float3 xi = positions[i].xyz;
   float density = 0, sum_squares = 0;
   float3 grad_i = float3(0, 0, 0);
@@ -34,9 +35,9 @@ void main(uint3 id : SV_DispatchThreadID) {
       const float4 xj = positions[j];
       const float3 r = xi - xj.xyz;
       const float m = particle_mass(xj);
-      density += m * poly6(length(r), h);
+      density += m * poly6(K, dot(r, r));
       if (j != i) {
-        const float3 g = (m / rho0) * spiky_gradient(r, h);
+        const float3 g = (m / rho0) * spiky_gradient(K, r);
         grad_i += g;
         sum_squares += dot(g, g);
       }

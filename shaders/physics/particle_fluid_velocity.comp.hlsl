@@ -27,7 +27,8 @@ void main(uint3 id : SV_DispatchThreadID) {
   const uint4 ph = phases[i];
   if (ph.x != PARTICLE_FLUID || (ph.w & PARTICLE_ACTIVE) == 0 || positions[i].w <= 0) return;
   const ParticleObject o = objects[ph.y];
-  const float h = kernel_support(o.material.x), rho0 = o.material.w, dt = pc.gravity.w;
+  const Kernel K = make_kernel(o.material.x);
+  const float rho0 = o.material.w, dt = pc.gravity.w;
   const float3 xi = positions[i].xyz, vi = velocity_copies[i].xyz, omega = vorticities[i].xyz, ni = normals[i].xyz;
   const float rho_i = max(densities[i], 1e-6);
   float3 xsph = float3(0, 0, 0), eta = float3(0, 0, 0), accel = float3(0, 0, 0);
@@ -35,10 +36,10 @@ void main(uint3 id : SV_DispatchThreadID) {
     if (j != i && phases[j].x == PARTICLE_FLUID) {
       const float3 r = xi - positions[j].xyz;
       const float len = length(r), mj = particle_mass(positions[j]), rho_j = max(densities[j], 1e-6);
-      xsph += (mj / rho_j) * (velocity_copies[j].xyz - vi) * poly6(len, h);
-      eta += (mj / rho_j) * (length(vorticities[j].xyz) - length(omega)) * spiky_gradient(r, h);
+      xsph += (mj / rho_j) * (velocity_copies[j].xyz - vi) * poly6(K, len * len);
+      eta += (mj / rho_j) * (length(vorticities[j].xyz) - length(omega)) * spiky_gradient(K, r);
       const float k = 2 * rho0 / (rho_i + rho_j);
-      if (len > 1e-9) accel += k * (-o.fluid.y * mj * cohesion_spline(len, h) * (r / len) - o.fluid.z * (ni - normals[j].xyz));
+      if (len > 1e-9) accel += k * (-o.fluid.y * mj * cohesion_spline(K, len) * (r / len) - o.fluid.z * (ni - normals[j].xyz));
     }
   })
   float3 v = vi + o.fluid.x * xsph + dt * accel;

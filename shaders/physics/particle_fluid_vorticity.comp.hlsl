@@ -28,17 +28,17 @@ void main(uint3 id : SV_DispatchThreadID) {
   velocity_copies[i] = velocities[i];
   const uint4 ph = phases[i];
   if (ph.x != PARTICLE_FLUID || (ph.w & PARTICLE_ACTIVE) == 0) return;
-  const float h = kernel_support(objects[ph.y].material.x);
+  const Kernel K = make_kernel(objects[ph.y].material.x);
   const float3 xi = positions[i].xyz, vi = velocities[i].xyz;
   float3 omega = float3(0, 0, 0), n = float3(0, 0, 0);
   FOR_EACH_NEIGHBOR(i, j, {
     if (j != i && phases[j].x == PARTICLE_FLUID) {
-      const float3 g = spiky_gradient(xi - positions[j].xyz, h);
+      const float3 g = spiky_gradient(K, xi - positions[j].xyz);
       const float vj = particle_mass(positions[j]) / max(densities[j], 1e-6);
       omega += vj * cross(g, velocities[j].xyz - vi);
       n += vj * g;
     }
   })
   vorticities[i] = float4(omega, 0);
-  normals[i] = float4(h * n, 0);
+  normals[i] = float4(K.h * n, 0);
 }

@@ -32,7 +32,8 @@ void main(uint3 id : SV_DispatchThreadID) {
   }
   const ParticleObject oi = objects[ph.y];
   const bool fluid = ph.x == PARTICLE_FLUID;
-  const float h = kernel_support(oi.material.x), rho0 = oi.material.w, lambda_i = fluid ? fluid_lambdas[i] : 0;
+  const Kernel K = make_kernel(oi.material.x);
+  const float rho0 = oi.material.w, lambda_i = fluid ? fluid_lambdas[i] : 0;
   float3 density_delta = float3(0, 0, 0), contact = float3(0, 0, 0);
   float contacts = 0;
   FOR_EACH_NEIGHBOR(i, j, {
@@ -41,7 +42,7 @@ void main(uint3 id : SV_DispatchThreadID) {
       const float4 xj = positions[j];
       const float3 r = xi.xyz - xj.xyz;
       if (fluid && pj.x == PARTICLE_FLUID) {
-        density_delta += particle_mass(xj) * (lambda_i + fluid_lambdas[j]) * spiky_gradient(r, h);
+        density_delta += particle_mass(xj) * (lambda_i + fluid_lambdas[j]) * spiky_gradient(K, r);
       } else if (pj.y != ph.y || (ph.w & PARTICLE_SELF_COLLIDE) != 0) {
         const float reach = oi.material.x + objects[pj.y].material.x, d = length(r);
         const float w = xi.w + xj.w;
