@@ -1,10 +1,12 @@
-"""Batched RL tasks: `cressim.envs.make("CartPole", num_envs=4096, device="cuda")`."""
+"""Batched RL tasks: `cressim.envs.make("CartPole", num_envs=4096, device="cuda")`; SoftBodyPush, FluidPour."""
 from __future__ import annotations
 
 from .cartpole import CartPole
+from .fluid_pour import FluidPour
+from .soft_body_push import SoftBodyPush
 from .vector_env import Space, VectorEnv
 
-REGISTRY = {"CartPole": CartPole}
+REGISTRY = {"CartPole": CartPole, "SoftBodyPush": SoftBodyPush, "FluidPour": FluidPour}
 
 
 def make(name: str, num_envs: int, **kwargs) -> VectorEnv:
@@ -16,4 +18,4 @@ def make(name: str, num_envs: int, **kwargs) -> VectorEnv:
     return task(num_envs, **kwargs)
 
 
-__all__ = ["CartPole", "REGISTRY", "Space", "VectorEnv", "make"]
+__all__ = ["CartPole", "FluidPour", "REGISTRY", "SoftBodyPush", "Space", "VectorEnv", "make"]

@@ -28,6 +28,14 @@ REFERENCE = {
         "paper RTX 4090 PPO": {1: 555, 1024: 236_791, 4096: 402_104, 8192: 451_904},
         "MJX H100 step": {1024: 505_730, 4096: 2_001_270, 8192: 2_823_936, 65536: 17_915_751},
     },
+    "SoftBodyPush": {
+        "paper RTX 4090 step": {128: 5_967, 256: 7_501, 512: 8_858, 1024: 7_024},
+        "paper RTX 4090 PPO": {512: 8_486},
+    },
+    "FluidPour": {
+        "paper RTX 4090 step": {64: 5_417, 128: 6_002, 256: 4_544},
+        "paper RTX 4090 PPO": {128: 5_168},
+    },
 }
 
 
@@ -63,6 +71,7 @@ def bench_step(task: str, num_envs: int, device=None, warmup: int = 64, steps: i
         sync(env.device)
     dt = time.perf_counter() - t0
     out = {"step_sps": steps * num_envs / dt, "engine_bytes": engine_bytes(env), "setup_s": setup,
+           "particles_per_env": getattr(env, "particles_per_env", None),
            "vulkan_device": env.engine.device["name"], "torch_device": str(env.device)}
     env.close()
     del env, zeros
