@@ -26,7 +26,6 @@ from .vector_env import Space, VectorEnv
 GROUND = (1.25, 0.85, 0.05)
 CUBE_HALF = 0.225
 PUSHER = (0.10, 0.18)  # radius, half height
-PUSHER_START = (-0.6, 0.0)
 TARGET = (0.45, 0.0, 0.18, 0.18, 0.3)  # centre x, y; half extents x, y, z
 
 
@@ -40,6 +39,7 @@ class SoftBodyPush(VectorEnv):
     cells = 6  # per axis: 7 particles an axis
     pusher_speed = 1.0  # m/s per unit action
     success_occupancy = 0.7
+    pusher_start = (-0.6, 0.0)  # x, y
 
     def build_world(self, num_envs: int) -> cressim.World:
         world = cressim.World(cressim.SceneLayout(num_envs))
@@ -50,7 +50,7 @@ class SoftBodyPush(VectorEnv):
             ground.add(cressim.Transform(position=(0, 0, -GROUND[2])))
             ground.add(cressim.Collider(cressim.Shape.box(GROUND)))
             pusher = world.create_entity(env=env, name="pusher")
-            pusher.add(cressim.Transform(position=(*PUSHER_START, PUSHER[1] + PUSHER[0] + 0.01)))
+            pusher.add(cressim.Transform(position=(*self.pusher_start, PUSHER[1] + PUSHER[0] + 0.01)))
             pusher.add(cressim.RigidBody(kinematic=True))
             pusher.add(cressim.Collider(cressim.Shape.capsule(*PUSHER)))
             cube = world.create_entity(env=env, name="cube")
