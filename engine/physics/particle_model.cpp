@@ -288,8 +288,20 @@ ParticleModel build_particle_model(const scene::World& world, const scene::Layou
         b.fluid(begin(shader::PARTICLE_FLUID), f);
         auto& o = m.objects.back();
         o.ids.z = uint32_t(m.size()) - o.range.x;
+        o.ids.w = uint32_t(f.positions.size() / 3);
         o.material = {f.radius, f.friction, f.damping, f.rest_density};
         o.fluid = {f.viscosity, f.cohesion, f.surface_tension, f.vorticity};
+        if (f.emit_rate > 0) {
+          if (f.emit_width < 1) fail(world, e, "Fluid.emit_width must be at least 1");
+          const scene::Transform t = world.has<scene::Transform>(e) ? world.get<scene::Transform>(e) : scene::Transform{};
+          const Vec3 local{f.emit_origin[0] * t.scale[0], f.emit_origin[1] * t.scale[1], f.emit_origin[2] * t.scale[2]};
+          const Vec3 c = rotate(t.rotation, local);
+          const Vec3& v = f.emit_velocity;
+          if (!(v[0] * v[0] + v[1] * v[1] + v[2] * v[2] > 0)) fail(world, e, "Fluid.emit_velocity must not be zero");
+          o.emitter = {c[0] + t.position[0], c[1] + t.position[1], c[2] + t.position[2], float(f.emit_rate)};
+          o.emit_velocity = {v[0], v[1], v[2], float(f.emit_width)};
+          m.has_emitters = true;
+        }
         max_radius = std::max(max_radius, f.radius);
         max_support = std::max(max_support, fluid_support(f.radius));
         end();

@@ -35,7 +35,7 @@ struct ParticleModel {
   std::vector<uint32_t> surface;           // 3 global particle indices per triangle
   std::vector<uint32_t> surface_offset, surface_count;  // each object's triangles
   float cell_size = 0;                     // neighbour grid: max of fluid kernel support and contact reach
-  bool has_fluid = false, has_contacts = false;
+  bool has_fluid = false, has_contacts = false, has_emitters = false;
 
   size_t size() const { return positions.size(); }
   bool empty() const { return positions.empty(); }

@@ -78,6 +78,9 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   in("initial_phases", "particles.initial_phases", model_.phases, {n, 4}, DType::UINT32);
   in("objects", "particles.objects", words(model_.objects), {no, int64_t(sizeof(shader::ParticleObject) / 4)}, DType::UINT32);
   in("env_ranges", "particles.env_ranges", words(model_.env_ranges), {ne, 4}, DType::UINT32);
+  std::vector<uint32_t> active(static_cast<size_t>(no), 0u);
+  for (size_t o = 0; o < active.size(); ++o) active[o] = model_.objects[o].range.w == shader::PARTICLE_FLUID ? model_.objects[o].ids.w : model_.objects[o].range.y;
+  in("emitted", "particles.emitted", active, {no}, DType::UINT32);
   in("", "particles.surface", model_.surface, {int64_t(model_.surface.size() / 3), 3}, DType::UINT32);
   scratch("densities", "particles.densities", {n}, DType::FLOAT32);
   // scratch
@@ -159,7 +162,8 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   if (na > 0) attach_ = pass("physics/particle_attach", uint64_t(na));
   velocity_ = pass("physics/particle_velocity", uint64_t(n));
   health_ = pass("physics/particle_health", uint64_t(ne));
-  reset_ = pass("physics/particle_reset", uint64_t(std::max<int64_t>(n, na)));
+  reset_ = pass("physics/particle_reset", uint64_t(std::max({n, na, no})));
+  if (model_.has_emitters) emit_ = pass("physics/particle_emit", uint64_t(no));
   set_settings(settings);
 }
 
@@ -190,7 +194,7 @@ void ParticleSystem::set_constants(const PhysicsSettings& s) {
     c.has_rigid = has_rigid_;
     c.owns_health = !has_rigid_;
     c.attachment_count = c.env_count * attachments_per_env_;
-    c.item_count = p == scan_blocks_ ? blocks_ : 0;
+    c.item_count = p == scan_blocks_ ? blocks_ : (p == emit_ || p == reset_) ? uint32_t(model_.objects.size()) : 0;
     if (p->constants.size() != sizeof(c)) throw std::logic_error("ParticleConstants does not match " + p->name);
     std::memcpy(p->constants.data(), &c, sizeof(c));
   }
@@ -204,6 +208,7 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
     }
   };
   const uint32_t substeps = settings_.substeps;
+  run(emit_);
   for (uint32_t s = 0; s < substeps; ++s) {
     // passes that look at moving bodies see them where they are at the end of this substep
     const float done = float(s + 1) / float(substeps);

@@ -107,20 +107,26 @@ void bind_particles(py::module_& m) {
 
   py::class_<scene::Fluid>(m, "Fluid")
       .def(py::init([](py::object positions, uint32_t budget, float radius, float rest_density, float viscosity,
-                       float cohesion, float surface_tension, float vorticity, float friction, float damping) {
+                       float cohesion, float surface_tension, float vorticity, float friction, float damping,
+                       uint32_t emit_rate, uint32_t emit_width, scene::Vec3 emit_origin, scene::Vec3 emit_velocity) {
              scene::Fluid f;
              f.positions = points(positions, "Fluid positions");
              f.budget = budget, f.radius = radius, f.rest_density = rest_density, f.viscosity = viscosity;
              f.cohesion = cohesion, f.surface_tension = surface_tension, f.vorticity = vorticity;
              f.friction = friction, f.damping = damping;
+             f.emit_rate = emit_rate, f.emit_width = emit_width, f.emit_origin = emit_origin;
+             f.emit_velocity = emit_velocity;
              return f;
            }),
            py::arg("positions"), py::kw_only(), py::arg("budget") = 0u, py::arg("radius") = 0.05f,
            py::arg("rest_density") = 1000.f, py::arg("viscosity") = 0.01f, py::arg("cohesion") = 0.f,
            py::arg("surface_tension") = 0.f, py::arg("vorticity") = 0.f, py::arg("friction") = 0.1f,
-           py::arg("damping") = 0.f,
+           py::arg("damping") = 0.f, py::arg("emit_rate") = 0u, py::arg("emit_width") = 4u,
+           py::arg("emit_origin") = scene::Vec3{0, 0, 0}, py::arg("emit_velocity") = scene::Vec3{0, 0, -1},
            "Position-based fluid: `positions` (n, 3) start active, `budget` slots in all (0: n), the rest "
-           "inactive until emitted. Rest spacing 2 x radius, kernel support 4 x radius.")
+           "inactive until emitted: each frame up to `emit_rate` slots start on a square nozzle of "
+           "`emit_width` x `emit_width` lattice points at `emit_origin` (entity frame), moving at "
+           "`emit_velocity`. Rest spacing 2 x radius, kernel support 4 x radius.")
       .def_readonly("radius", &scene::Fluid::radius)
       .def_readonly("rest_density", &scene::Fluid::rest_density)
       .def_readonly("budget", &scene::Fluid::budget);

@@ -133,6 +133,14 @@ struct Fluid {
   float vorticity = 0.0f;           // vorticity confinement epsilon
   float friction = 0.1f;
   float damping = 0;
+  // emitter: each frame activates up to emit_rate inactive slots on a square nozzle of
+  // emit_width x emit_width lattice points around emit_origin (entity frame), across the
+  // emit_velocity direction, moving at emit_velocity (world); it should carry a row clear of
+  // the nozzle within a frame (|v| dt >= 2 radius)
+  uint32_t emit_rate = 0;
+  uint32_t emit_width = 4;
+  Vec3 emit_origin{0, 0, 0};
+  Vec3 emit_velocity{0, 0, -1};
 };
 
 // A thread or cable: a chain of particles with stretch (distance) and bend constraints.

@@ -28,9 +28,11 @@ struct ParticleConstraint {
 
 struct ParticleObject {
   uint4 range;      // x first particle, y count, z env, w kind
-  uint4 ids;        // x entity row, y flags (PARTICLE_SELF_COLLIDE), z budget (fluid), w unused
+  uint4 ids;        // x entity row, y flags (PARTICLE_SELF_COLLIDE), z budget (fluid), w slots active at start
   float4 material;  // x radius, y friction, z damping (1/s), w rest density (fluid)
   float4 fluid;     // x viscosity (XSPH), y cohesion, z surface tension, w vorticity confinement
+  float4 emitter;   // fluid emitter: xyz nozzle centre (world), w particles per frame (0: none)
+  float4 emit_velocity;  // xyz velocity of emitted particles, w nozzle width (particles a side)
 };
 
 struct ParticleEnvRange {

@@ -1,5 +1,5 @@
 // Particles of every env flagged in env.reset_mask go back to their authored state (positions,
-// velocities, which budget slots are active); the env's attachments are released.
+// velocities, which budget slots are active, emitter counts); the env's attachments are released.
 #include "cressim/layout.h"
 #include "cressim/particle.h"
 
@@ -12,11 +12,14 @@ RWStructuredBuffer<float4> positions;
 RWStructuredBuffer<float4> velocities;
 RWStructuredBuffer<uint4> phases;
 RWStructuredBuffer<ParticleAttachment> attachments;
+StructuredBuffer<ParticleObject> objects;
+RWStructuredBuffer<uint> emitted;
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
 void main(uint3 id : SV_DispatchThreadID) {
   const uint i = id.x;
   if (i < pc.attachment_count && reset_mask[attachments[i].ids.w] != 0) attachments[i].ids.z = ATTACH_FREE;
+  if (i < pc.item_count && reset_mask[objects[i].range.z] != 0) emitted[i] = objects[i].ids.w;
   if (i >= pc.particle_count) return;
   const uint4 ph = initial_phases[i];
   if (reset_mask[ph.z] == 0) return;

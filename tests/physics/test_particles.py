@@ -262,3 +262,24 @@ def test_authoring_errors_name_the_entity(make_engine):
         make_engine(world).prepare()
     with pytest.raises(ValueError, match=r"Strand points: give an \(n, 3\) array"):
         cressim.Strand(np.zeros((4, 2)))
+
+
+def test_fluid_emitter_fills_its_budget_without_reallocation(make_engine):
+    world = cressim.World(cressim.SceneLayout(2))
+    for env in range(2):
+        open_box(world, env, (0.15, 0.15), height=0.6)
+        tap = world.create_entity(env=env, name="tap")
+        tap.add(cressim.Transform(position=(0, 0, 0.4)))
+        tap.add(cressim.Fluid(np.zeros((0, 3)), budget=100, radius=0.02, emit_rate=8, emit_width=3,
+                              emit_velocity=(0, 0, -2.5)))
+    engine = start(world, make_engine, substeps=2, particle_iterations=3)
+    active = lambda: (engine.buffer("particles.phases").read()[:, 3] & 1).reshape(2, -1).sum(1)  # noqa: E731
+    step(engine, 1)
+    assert list(active()) == [8, 8]
+    step(engine, 14)
+    assert list(active()) == [100, 100]  # the budget, then no more
+    p = positions(engine)
+    assert np.abs(p[:, :2]).max() <= 0.15 and p[:, 2].min() >= 0  # fell into the box
+    engine.reset_envs([1])
+    step(engine, 1)
+    assert list(active()) == [100, 8]  # env 1 starts over: its slots inactive, then one frame of emission
