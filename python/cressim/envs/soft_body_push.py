@@ -60,7 +60,9 @@ class SoftBodyPush(VectorEnv):
         return world
 
     def physics_settings(self) -> cressim.PhysicsSettings:
-        return cressim.PhysicsSettings(dt=1 / 60, substeps=self.substeps, particle_iterations=self.particle_iterations)
+        # no attachments in this task: no attachment pass
+        return cressim.PhysicsSettings(dt=1 / 60, substeps=self.substeps, particle_iterations=self.particle_iterations,
+                                       max_particle_attachments_per_env=0)
 
     def task_bindings(self) -> dict:
         # one rigid body per env (the pusher), in env order
