@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <map>
 #include <numbers>
 #include <set>
 #include <stdexcept>
@@ -28,6 +27,24 @@ Vec3 rotate(const scene::Quat& q0, const Vec3& v) {
           v[2] + w * t[2] + x * t[1] - y * t[0]};
 }
 
+using Q = std::array<float, 4>;
+float4 mul(const Q& a, const Q& b) {
+  return {a[3] * b[0] + b[3] * a[0] + a[1] * b[2] - a[2] * b[1], a[3] * b[1] + b[3] * a[1] + a[2] * b[0] - a[0] * b[2],
+          a[3] * b[2] + b[3] * a[2] + a[0] * b[1] - a[1] * b[0], a[3] * b[3] - a[0] * b[0] - a[1] * b[1] - a[2] * b[2]};
+}
+Q axis_angle(const Vec3& axis, float angle) {
+  const float s = std::sin(0.5f * angle);
+  return {axis[0] * s, axis[1] * s, axis[2] * s, std::cos(0.5f * angle)};
+}
+// the rotation taking +z onto the unit vector d (shortest arc)
+Q from_z_to(const Vec3& d) {
+  if (d[2] < -0.999999f) return {1, 0, 0, 0};  // half turn about x
+  const Vec3 w{-d[1], d[0], 0};                // z cross d
+  Q q{w[0], w[1], w[2], 1 + d[2]};
+  const float n = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+  return {q[0] / n, q[1] / n, q[2] / n, q[3] / n};
+}
+
 float dist(const float4& a, const float4& b) {
   return std::sqrt((a.x - b.x) * (a.x - b.x) + (a.y - b.y) * (a.y - b.y) + (a.z - b.z) * (a.z - b.z));
 }
@@ -46,7 +63,7 @@ struct Adding {
 class Builder {
  public:
   Builder(ParticleModel& m) : m_(m) {
-    for (const char* name : {"distance", "volume", "bend"}) {
+    for (const char* name : {"distance", "volume", "bend", "stretch_shear", "bend_twist"}) {
       ConstraintSet s;
       s.name = name;
       s.shader = std::string("physics/particle_") + name;
@@ -178,6 +195,29 @@ class Builder {
       const float seg = 0.5f * (dist(m_.positions[p], m_.positions[p + 1]) + dist(m_.positions[p + 1], m_.positions[p + 2]));
       constraint(set("bend"), {p, p + 1, p + 2}, 0, s.bend_compliance, seg);
     }
+    // segment frames: z along the segment, turned about it by the initial twist; ids after the particles
+    const uint32_t first_edge = uint32_t(m_.orientations.size());
+    for (uint32_t i = 0; i + 1 < n; ++i) {
+      const uint32_t p = a.first + i;
+      const float4 &x0 = m_.positions[p], &x1 = m_.positions[p + 1];
+      const float l = dist(x0, x1);
+      if (l < 1e-9f) fail(a.world, a.entity, "Strand.points[" + std::to_string(i) + "] and the next coincide");
+      const Vec3 d{(x1.x - x0.x) / l, (x1.y - x0.y) / l, (x1.z - x0.z) / l};
+      const float twist = n > 2 ? s.initial_twist * float(i) / float(n - 2) : 0;
+      m_.orientations.push_back(mul(axis_angle(d, twist), from_z_to(d)));
+      // a thin rod's inertia about its axis, m r^2 / 2
+      m_.orientation_weights.push_back(2 / (s.mass * s.radius * s.radius));
+      m_.edge_particles.push_back(p);
+      frames_.push_back({p, p + 1, first_edge + i, l});
+    }
+    for (uint32_t i = 0; i + 2 < n; ++i) pairs_.push_back({first_edge + i, first_edge + i + 1, s.bend_compliance, s.twist_compliance});
+  }
+
+  // records that name frames can be made once the particle count is known
+  void frame_constraints() {
+    const uint32_t np = uint32_t(m_.size());
+    for (auto& f : frames_) constraint(set("stretch_shear"), {f.p0, f.p1, np + f.edge}, f.length, 0);
+    for (auto& b : pairs_) constraint(set("bend_twist"), {np + b.e0, np + b.e1}, b.bend, b.twist);
   }
 
   void surface(const std::vector<uint32_t>& tris, uint32_t first) {
@@ -185,7 +225,11 @@ class Builder {
   }
 
  private:
+  struct Frame { uint32_t p0, p1, edge; float length; };
+  struct FramePair { uint32_t e0, e1; float bend, twist; };
   ParticleModel& m_;
+  std::vector<Frame> frames_;
+  std::vector<FramePair> pairs_;
 };
 
 // greedy colouring: each constraint takes the lowest colour none of its particles has yet;
@@ -264,14 +308,12 @@ ParticleModel build_particle_model(const scene::World& world, const scene::Layou
         o.ids = {row, 0, 0, 0};
         m.objects.push_back(o);
         m.object_entity.push_back(e);
-        for (auto& s : m.sets) s.object_count.push_back(uint32_t(s.records.size()));
         m.surface_offset.push_back(uint32_t(m.surface.size() / 3));
         return Adding{world, e, env, uint32_t(m.objects.size() - 1), uint32_t(m.size())};
       };
       auto end = [&]() {
         auto& o = m.objects.back();
         o.range.y = uint32_t(m.size()) - o.range.x;
-        for (auto& s : m.sets) s.object_count.back() = uint32_t(s.records.size()) - s.object_count.back();
         m.surface_count.push_back(uint32_t(m.surface.size() / 3) - m.surface_offset.back());
       };
       if (world.has<scene::SoftBody>(e)) {
@@ -319,12 +361,21 @@ ParticleModel build_particle_model(const scene::World& world, const scene::Layou
     range.y = uint32_t(m.size()) - range.x;
     range.w = uint32_t(m.objects.size()) - range.z;
   }
+  b.frame_constraints();
+  // constraints per object: a record belongs to its first particle's object (or its first frame's strand)
+  for (auto& s : m.sets) {
+    s.object_count.assign(m.objects.size(), 0);
+    for (auto& c : s.records) {
+      const uint32_t p = c.particles.x < m.size() ? c.particles.x : m.edge_particles[c.particles.x - m.size()];
+      ++s.object_count[m.phases[p].y];
+    }
+  }
   m.cell_size = std::max(max_support, 2 * max_radius);
   // particles of different objects (or of a self-colliding one) touch: the grid is needed
   for (auto& r : m.env_ranges) m.has_contacts = m.has_contacts || r.range.w > 1;
   for (auto& o : m.objects) m.has_contacts = m.has_contacts || (o.ids.y & shader::PARTICLE_SELF_COLLIDE);
 
-  for (auto& s : m.sets) colour(s, m.size());
+  for (auto& s : m.sets) colour(s, m.size() + m.orientations.size());
   return m;
 }
 

@@ -28,6 +28,10 @@ struct ParticleModel {
   std::vector<shader::float4> positions;   // xyz, w inverse mass
   std::vector<shader::float4> velocities;
   std::vector<shader::uint4> phases;       // x kind, y object, z env, w flags
+  // strand segments: material frame (quaternion whose z is the segment), inverse inertia, first particle
+  std::vector<shader::float4> orientations;
+  std::vector<float> orientation_weights;
+  std::vector<uint32_t> edge_particles;
   std::vector<shader::ParticleObject> objects;
   std::vector<uint32_t> object_entity;
   std::vector<shader::ParticleEnvRange> env_ranges;

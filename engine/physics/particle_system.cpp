@@ -78,6 +78,13 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   in("initial_phases", "particles.initial_phases", model_.phases, {n, 4}, DType::UINT32);
   in("objects", "particles.objects", words(model_.objects), {no, int64_t(sizeof(shader::ParticleObject) / 4)}, DType::UINT32);
   in("env_ranges", "particles.env_ranges", words(model_.env_ranges), {ne, 4}, DType::UINT32);
+  const auto ne_ = int64_t(model_.orientations.size());
+  in("orientations", "particles.orientations", model_.orientations, {ne_, 4}, DType::FLOAT32, exportable);
+  in("initial_orientations", "particles.initial_orientations", model_.orientations, {ne_, 4}, DType::FLOAT32);
+  in("orientation_weights", "particles.orientation_weights", model_.orientation_weights, {ne_}, DType::FLOAT32);
+  in("edge_particles", "particles.edge_particles", model_.edge_particles, {ne_}, DType::UINT32);
+  scratch("prev_orientations", "particles.prev_orientations", {ne_, 4}, DType::FLOAT32);
+  scratch("angular_velocities", "particles.angular_velocities", {ne_, 4}, DType::FLOAT32);
   std::vector<uint32_t> active(static_cast<size_t>(no), 0u);
   for (size_t o = 0; o < active.size(); ++o) active[o] = model_.objects[o].range.w == shader::PARTICLE_FLUID ? model_.objects[o].ids.w : model_.objects[o].range.y;
   in("emitted", "particles.emitted", active, {no}, DType::UINT32);
@@ -162,7 +169,11 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   if (na > 0) attach_ = pass("physics/particle_attach", uint64_t(na));
   velocity_ = pass("physics/particle_velocity", uint64_t(n));
   health_ = pass("physics/particle_health", uint64_t(ne));
-  reset_ = pass("physics/particle_reset", uint64_t(std::max({n, na, no})));
+  reset_ = pass("physics/particle_reset", uint64_t(std::max({n, na, no, ne_})));
+  if (ne_ > 0) {
+    orient_integrate_ = pass("physics/particle_orient_integrate", uint64_t(ne_));
+    orient_velocity_ = pass("physics/particle_orient_velocity", uint64_t(ne_));
+  }
   if (model_.has_emitters) emit_ = pass("physics/particle_emit", uint64_t(no));
   set_settings(settings);
 }
@@ -194,6 +205,7 @@ void ParticleSystem::set_constants(const PhysicsSettings& s) {
     c.has_rigid = has_rigid_;
     c.owns_health = !has_rigid_;
     c.attachment_count = c.env_count * attachments_per_env_;
+    c.edge_count = uint32_t(model_.orientations.size());
     c.item_count = p == scan_blocks_ ? blocks_ : (p == emit_ || p == reset_) ? uint32_t(model_.objects.size()) : 0;
     if (p->constants.size() != sizeof(c)) throw std::logic_error("ParticleConstants does not match " + p->name);
     std::memcpy(p->constants.data(), &c, sizeof(c));
@@ -216,6 +228,7 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
       if (p) std::memcpy(p->constants.data() + offsetof(shader::ParticleConstants, grid) + 4, &done, 4);
     for (VkBuffer b : per_substep_clears_) vkCmdFillBuffer(cmd, b, 0, VK_WHOLE_SIZE, 0);
     run(integrate_);
+    run(orient_integrate_);
     if (grid_count_) {
       for (auto& p : {grid_count_, scan_local_, scan_blocks_, scan_add_, scatter_, sort_}) run(p);
     }
@@ -235,6 +248,7 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
       run(attach_);
     }
     run(velocity_);
+    run(orient_velocity_);
     run(vorticity_);
     run(fluid_velocity_);
   }

@@ -48,7 +48,7 @@ class ParticleSystem {
   std::map<std::string, std::shared_ptr<compute::TypedBuffer>> bindings_;  // HLSL name -> buffer
   std::vector<VkBuffer> per_substep_clears_;  // zeroed at each substep start (grid counters, lambdas)
   std::vector<std::shared_ptr<compute::ComputePass>> all_;
-  std::shared_ptr<compute::ComputePass> emit_, integrate_, grid_count_, scan_local_, scan_blocks_, scan_add_, scatter_, sort_,
+  std::shared_ptr<compute::ComputePass> emit_, integrate_, orient_integrate_, orient_velocity_, grid_count_, scan_local_, scan_blocks_, scan_add_, scatter_, sort_,
       fluid_lambda_, neighbors_, gather_, attach_, velocity_, vorticity_, fluid_velocity_, health_, reset_;
   // one pass per non-empty constraint set, dispatched once per colour
   std::vector<std::pair<std::shared_ptr<compute::ComputePass>, const ConstraintSet*>> families_;

@@ -133,19 +133,22 @@ void bind_particles(py::module_& m) {
 
   py::class_<scene::Strand>(m, "Strand")
       .def(py::init([](py::object pts, py::object fixed, float mass, float radius, float stretch, float bend,
-                       float damping, float friction, bool self_collision) {
+                       float twist, float initial_twist, float damping, float friction, bool self_collision) {
              scene::Strand s;
              s.points = points(pts, "Strand points");
              s.fixed = indices(fixed, 1, "Strand fixed");
              s.mass = mass, s.radius = radius, s.stretch_compliance = stretch, s.bend_compliance = bend;
+             s.twist_compliance = twist, s.initial_twist = initial_twist;
              s.damping = damping, s.friction = friction, s.self_collision = self_collision;
              return s;
            }),
            py::arg("points"), py::kw_only(), py::arg("fixed") = py::none(), py::arg("mass") = 0.001f,
            py::arg("radius") = 0.005f, py::arg("stretch_compliance") = 0.f, py::arg("bend_compliance") = 1e-3f,
-           py::arg("damping") = 0.f, py::arg("friction") = 0.3f, py::arg("self_collision") = false,
-           "A thread or cable through `points` (n, 3): segment distance and bend constraints; self-collision "
-           "off unless asked.")
+           py::arg("twist_compliance") = 1e-3f, py::arg("initial_twist") = 0.f, py::arg("damping") = 0.f,
+           py::arg("friction") = 0.3f, py::arg("self_collision") = false,
+           "A thread or cable through `points` (n, 3), a Cosserat rod: segment distance, stretch-shear, bend "
+           "and twist constraints (rest straight and untwisted; initial_twist radians spread along it); "
+           "self-collision off unless asked.")
       .def_readonly("mass", &scene::Strand::mass);
 
   auto entity = py::reinterpret_borrow<py::class_<Entity>>(m.attr("Entity"));

@@ -143,7 +143,9 @@ struct Fluid {
   Vec3 emit_velocity{0, 0, -1};
 };
 
-// A thread or cable: a chain of particles with stretch (distance) and bend constraints.
+// A thread or cable: a chain of particles, each segment with a material frame (a Cosserat rod,
+// Kugelstadt & Schoemer 2016): stretch (distance), stretch-shear (frame along the segment),
+// bend and twist (between neighbouring frames; rest straight and untwisted).
 struct Strand {
   std::vector<float> points;        // x y z per particle, in order
   std::vector<uint32_t> fixed;
@@ -151,6 +153,8 @@ struct Strand {
   float radius = 0.005f;
   float stretch_compliance = 0;
   float bend_compliance = 1e-3f;
+  float twist_compliance = 1e-3f;
+  float initial_twist = 0;          // radians from the first segment's frame to the last's, spread evenly
   float damping = 0;
   float friction = 0.3f;
   bool self_collision = false;

@@ -62,7 +62,13 @@ struct ParticleConstants {
   uint owns_health;   // no rigid system: the particle health pass writes env.health itself
   uint attachment_count;
   uint item_offset;   // first constraint of the colour this dispatch projects
+  uint edge_count;    // strand segments (material frames)
+  uint pad0;
+  uint pad1;
+  uint pad2;
 };
+
+// Constraint records address a strand segment's frame as particle_count + segment.
 
 CRESSIM_SHADER_END
 #endif
