@@ -35,7 +35,7 @@ uint32_t next_pow2(uint64_t n) {
 
 ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel model, const PhysicsSettings& settings,
                                uint64_t generation, BufferMap& internal, BufferMap& control, const BufferMap& scene,
-                               bool has_rigid)
+                               bool has_rigid, bool dynamic_bodies)
     : ctx_(ctx), model_(std::move(model)), settings_(settings), has_rigid_(has_rigid),
       attachments_per_env_(settings.max_particle_attachments_per_env) {
   const auto n = int64_t(model_.size()), no = int64_t(model_.objects.size()), ne = int64_t(model_.env_ranges.size());
@@ -97,6 +97,8 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   scratch("vorticities", "particles.vorticities", {n, 4}, DType::FLOAT32);
   scratch("normals", "particles.normals", {n, 4}, DType::FLOAT32);
   scratch("velocity_copies", "particles.velocity_copies", {n, 4}, DType::FLOAT32);
+  scratch("rigid_pushes", "particles.rigid_pushes", {n, 4}, DType::FLOAT32);
+  scratch("rigid_contacts", "particles.rigid_contacts", {n, 4}, DType::FLOAT32);
   scratch("cells", "particles.cells", {n, 4}, DType::INT32);
   scratch("buckets", "particles.buckets", {n}, DType::UINT32);
   scratch("sorted", "particles.sorted", {n}, DType::UINT32);
@@ -129,10 +131,10 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   const std::pair<const char*, const char*> rigid[] = {
       {"env_rigid_ranges", "rigid.env_ranges"}, {"colliders", "rigid.colliders"}, {"body_positions", "rigid.positions"},
       {"body_rotations", "rigid.rotations"}, {"body_linear_velocities", "rigid.linear_velocities"},
-      {"body_angular_velocities", "rigid.angular_velocities"}};
+      {"body_angular_velocities", "rigid.angular_velocities"}, {"bodies", "rigid.bodies"}};
   for (auto [hlsl, key] : rigid) {
     if (has_rigid_) bindings_[hlsl] = scene.at(key);
-    else bindings_[hlsl] = compute::make_typed_buffer(ctx, std::string("particles.no_") + hlsl, {1, 4}, DType::UINT32, true);
+    else bindings_[hlsl] = compute::make_typed_buffer(ctx, std::string("particles.no_") + hlsl, {1, 12}, DType::UINT32, true);
   }
 
   // passes
@@ -168,6 +170,8 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   gather_ = pass("physics/particle_gather", uint64_t(n));
   if (na > 0) attach_ = pass("physics/particle_attach", uint64_t(na));
   velocity_ = pass("physics/particle_velocity", uint64_t(n));
+  // two-way coupling, where an env has dynamic bodies for particles to push
+  if (has_rigid_ && dynamic_bodies) rigid_push_ = pass("physics/particle_rigid_push", uint64_t(ne));
   health_ = pass("physics/particle_health", uint64_t(ne));
   reset_ = pass("physics/particle_reset", uint64_t(std::max({n, na, no, ne_})));
   if (ne_ > 0) {
@@ -245,6 +249,7 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
         }
       run(neighbors_);
       run(gather_);
+      run(rigid_push_);
       run(attach_);
     }
     run(velocity_);

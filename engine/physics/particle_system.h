@@ -6,7 +6,8 @@
 // Per substep: integrate; neighbour grid keyed on (env, cell) (count, prefix sum, scatter, sort
 // each bucket); `particle_iterations` times: fluid densities, every constraint family colour by
 // colour, neighbour corrections (fluid density, particle contacts), the gather (those
-// corrections + rigid collider contacts with friction) and attachments; then velocities and the
+// corrections + rigid collider contacts with friction), dynamic bodies' share of those contacts
+// (two-way coupling) and attachments; then velocities and the
 // fluid velocity terms. At the frame's end, env health.
 #pragma once
 #include <map>
@@ -24,9 +25,11 @@ namespace cressim::physics {
 class ParticleSystem {
  public:
   // internal: read-only engine buffers (keys added); control: writable ones (keys added);
-  // scene: env flags, and the rigid system's buffers when there is one (has_rigid).
+  // scene: env flags, and the rigid system's buffers when there is one (has_rigid); particles
+  // push dynamic bodies back when there are any (dynamic_bodies).
   ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel model, const PhysicsSettings& settings,
-                 uint64_t generation, BufferMap& internal, BufferMap& control, const BufferMap& scene, bool has_rigid);
+                 uint64_t generation, BufferMap& internal, BufferMap& control, const BufferMap& scene, bool has_rigid,
+                 bool dynamic_bodies);
 
   // max_particle_attachments_per_env sizes a buffer: it can change only with a new upload_world()
   void set_settings(const PhysicsSettings& s);
@@ -49,7 +52,7 @@ class ParticleSystem {
   std::vector<VkBuffer> per_substep_clears_;  // zeroed at each substep start (grid counters, lambdas)
   std::vector<std::shared_ptr<compute::ComputePass>> all_;
   std::shared_ptr<compute::ComputePass> emit_, integrate_, orient_integrate_, orient_velocity_, grid_count_, scan_local_, scan_blocks_, scan_add_, scatter_, sort_,
-      fluid_lambda_, neighbors_, gather_, attach_, velocity_, vorticity_, fluid_velocity_, health_, reset_;
+      fluid_lambda_, neighbors_, gather_, rigid_push_, attach_, velocity_, vorticity_, fluid_velocity_, health_, reset_;
   // one pass per non-empty constraint set, dispatched once per colour
   std::vector<std::pair<std::shared_ptr<compute::ComputePass>, const ConstraintSet*>> families_;
 };

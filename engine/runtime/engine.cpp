@@ -135,8 +135,10 @@ void Engine::upload_world() {
   if (!particle_model_.empty()) {
     physics::BufferMap scene = internal_;
     scene.insert(shared_.begin(), shared_.end());
+    bool dynamic = false;
+    for (auto& b : rigid_model_.bodies) dynamic = dynamic || b.inv_inertia.w > 0;
     particles_ = std::make_unique<physics::ParticleSystem>(ctx_, particle_model_, physics_settings_, generation_,
-                                                           internal_, shared_, scene, rigid_ != nullptr);
+                                                           internal_, shared_, scene, rigid_ != nullptr, dynamic);
   }
   if (!render_model_.empty()) renderer_ = std::make_unique<render::Renderer>(ctx_, render_model_, generation_, internal_, internal_);
   reported_health_events_ = 0;

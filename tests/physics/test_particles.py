@@ -332,3 +332,29 @@ def test_strand_twist_relaxes(make_engine):
     p = positions(engine)
     assert np.abs(p[:, 1]).max() < 1e-4 and np.abs(p[:, 2] - 1).max() < 1e-4
     assert np.linalg.norm(np.diff(p, axis=0), axis=1).sum() == pytest.approx(0.5, rel=1e-3)
+
+
+def test_particles_push_dynamic_bodies_back(make_engine):
+    # a 0.2 kg box dropped on a soft cube rests on it (one-way, it would fall through to the ground)
+    world = cressim.World(cressim.SceneLayout(1))
+    static(world, 0, [cressim.Shape.plane()], "ground")
+    r = 0.025
+    cube = world.create_entity(env=0, name="cube")
+    cube.add(cressim.Transform(position=(0, 0, 0.1 + r)))
+    cube.add(cressim.SoftBody(cressim.TetMesh.box((0.1, 0.1, 0.1), (4, 4, 4)), radius=r, mass=0.01,
+                              distance_compliance=0.01, volume_compliance=0.0, damping=1.0))
+    box = world.create_entity(env=0, name="box")
+    box.add(cressim.Transform(position=(0, 0, 0.4)))
+    box.add(cressim.RigidBody(mass=0.2))
+    box.add(cressim.Collider(cressim.Shape.box((0.06, 0.06, 0.06))))
+    engine = start(world, make_engine, substeps=4, particle_iterations=8)
+    step(engine, 60)
+    track = []
+    for _ in range(30):  # the last half second
+        step(engine, 1)
+        track.append(engine.buffer("rigid.positions").read()[0, :3].copy())
+    track = np.array(track)
+    top = positions(engine)[:, 2].max()
+    assert top > 0.2  # the cube holds (squeezed by less than a fifth)
+    assert abs(track[-1, 2] - (top + r + 0.06)) < 0.01  # the box lies on it
+    assert np.ptp(track[:, 2]) < 0.005 and np.abs(track[:, :2]).max() < 0.01  # and stays put (5 mm, 1 cm)
