@@ -18,6 +18,8 @@ void PhysicsSettings::validate() const {
   if (max_contacts_per_env > 4096) fail("max_contacts_per_env", "must be at most 4096");
   if (!(max_speed > 0)) fail("max_speed", "must be positive");
   if (!(max_penetration > 0)) fail("max_penetration", "must be positive");
+  if (particle_iterations < 1 || particle_iterations > 256) fail("particle_iterations", "must be 1..256");
+  if (max_particle_attachments_per_env > 4096) fail("max_particle_attachments_per_env", "must be at most 4096");
 }
 
 }  // namespace cressim::physics

@@ -13,6 +13,8 @@ struct PhysicsSettings {
   uint32_t max_contacts_per_env = 64;
   float max_speed = 100;        // m/s beyond which an env is unhealthy and reset
   float max_penetration = 0.25f;  // m
+  uint32_t particle_iterations = 4;  // particle constraint passes per substep (XPBD: compliance holds whatever the count)
+  uint32_t max_particle_attachments_per_env = 4;  // rigid-particle attachment slots (control.particle_attachments)
 
   void validate() const;
 };

@@ -7,4 +7,5 @@ PYBIND11_MODULE(_core, m) {
   cressim::python::bind_scene(m);
   cressim::python::bind_compute(m);
   cressim::python::bind_runtime(m);
+  cressim::python::bind_particles(m);
 }

@@ -7,6 +7,7 @@
 
 #include "gpu/error.h"
 #include "cressim/layout.h"
+#include "cressim/particle.h"
 #include "cressim/rigid.h"
 
 namespace cressim::runtime {
@@ -56,6 +57,7 @@ void Engine::prepare() {
   prepared_ = false;
   mapping_ = scene::build_layout_mapping(*world_);
   rigid_model_ = physics::build_rigid_model(*world_, mapping_);  // authoring errors surface here
+  particle_model_ = physics::build_particle_model(*world_, mapping_);
   const auto& limits = ctx_->properties.limits;
   render_model_ = render::build_render_model(*world_, mapping_,
                                              std::min(limits.maxImageArrayLayers, limits.maxFramebufferLayers));
@@ -131,6 +133,14 @@ void Engine::upload_world() {
     rigid_ = std::make_unique<physics::RigidSystem>(ctx_, rigid_model_, physics_settings_, generation_, internal_,
                                                      shared_, scene);
   }
+  if (!particle_model_.empty()) {
+    physics::BufferMap scene = internal_;
+    scene.insert(shared_.begin(), shared_.end());
+    bool dynamic = false;
+    for (auto& b : rigid_model_.bodies) dynamic = dynamic || b.inv_inertia.w > 0;
+    particles_ = std::make_unique<physics::ParticleSystem>(ctx_, particle_model_, physics_settings_, generation_,
+                                                           internal_, shared_, scene, rigid_ != nullptr, dynamic);
+  }
   if (!render_model_.empty()) renderer_ = std::make_unique<render::Renderer>(ctx_, render_model_, generation_, internal_, internal_);
   if (!ultrasound_model_.empty())
     ultrasound_ = std::make_unique<sensors::UltrasoundSensor>(ctx_, ultrasound_model_, generation_, internal_, internal_);
@@ -141,6 +151,7 @@ void Engine::upload_world() {
 void Engine::release_world_buffers() {
   ultrasound_.reset();
   renderer_.reset();
+  particles_.reset();
   rigid_.reset();
   reset_pass_.reset();
   internal_.clear();
@@ -152,6 +163,7 @@ void Engine::release_world_buffers() {
 void Engine::set_physics_settings(const physics::PhysicsSettings& s) {
   s.validate();
   if (rigid_) rigid_->set_settings(s);
+  if (particles_) particles_->set_settings(s);
   physics_settings_ = s;
   ++epoch_;
 }
@@ -316,10 +328,14 @@ void Engine::record_op(VkCommandBuffer cmd, const FrameOp& op) {
     // env resets requested by the host, a task pass or the health check, then clear the flags
     reset_pass_->record(cmd);
     if (rigid_) rigid_->record_reset(cmd);
+    if (particles_) particles_->record_reset(cmd);
     gpu::compute_barrier(cmd);
     vkCmdFillBuffer(cmd, shared_.at("env.reset_mask")->storage->buffer.buffer, 0, VK_WHOLE_SIZE, 0);
-  } else if (op.stage == Stage::PHYSICS && rigid_) {
-    rigid_->record_step(cmd);
+  } else if (op.stage == Stage::PHYSICS) {
+    // particles after the frame's rigid step: they collide with the bodies placed along it
+    if (rigid_) rigid_->record_step(cmd);
+    if (rigid_ && particles_) gpu::compute_barrier(cmd);
+    if (particles_) particles_->record_step(cmd);
   } else if (op.stage == Stage::VISUAL_SENSORS && renderer_) {
     renderer_->record(cmd);
   } else if (op.stage == Stage::SIMULATION_SENSORS && ultrasound_) {
@@ -415,7 +431,43 @@ void Engine::end_frame() {
   }
 }
 
-uint64_t Engine::health_events() const { return rigid_ ? rigid_->health_events(internal_) : 0; }
+uint64_t Engine::health_events() const {
+  return rigid_ ? rigid_->health_events(internal_) : particles_ ? particles_->health_events(internal_) : 0;
+}
+
+uint32_t Engine::attachment_row(uint32_t env, uint32_t slot, const char* what) const {
+  require_current_topology(what);
+  const uint32_t per_env = particles_ ? particles_->attachments_per_env() : 0;
+  if (env >= mapping_.num_envs)
+    throw std::out_of_range(std::string(what) + ": env " + std::to_string(env) + " is out of range (" +
+                            std::to_string(mapping_.num_envs) + " envs)");
+  if (slot >= per_env)
+    throw std::out_of_range(std::string(what) + ": slot " + std::to_string(slot) + " of env " + std::to_string(env) +
+                            " is out of range (PhysicsSettings.max_particle_attachments_per_env = " +
+                            std::to_string(per_env) + (particles_ ? "" : "; the scene has no particles") + ")");
+  return env * per_env + slot;
+}
+
+void Engine::attach_particle(uint32_t env, uint32_t slot, uint32_t particle, uint32_t body_entity, float compliance) {
+  const uint32_t row = attachment_row(env, slot, "attach_particle()");
+  const auto& pm = particles_->model();
+  if (particle >= pm.size() || pm.phases[particle].z != env)
+    throw std::out_of_range("attach_particle: particle " + std::to_string(particle) + " is not a particle of env " +
+                            std::to_string(env) + " (engine.particle_mapping says which are)");
+  const int64_t body = rigid_ ? rigid_->body_of(body_entity) : -1;
+  if (body < 0 || world_->env_of(body_entity) != env)
+    throw std::invalid_argument("attach_particle: " + world_->describe(body_entity) + " is not a rigid body of env " +
+                                std::to_string(env));
+  if (!(compliance >= 0)) throw std::invalid_argument("attach_particle: compliance must be >= 0");
+  shader::ParticleAttachment a{{particle, uint32_t(body), shader::ATTACH_PENDING, env}, {0, 0, 0, compliance}};
+  write_rows(*shared_.at("control.particle_attachments"), row, &a, sizeof(a));
+}
+
+void Engine::release_particle(uint32_t env, uint32_t slot) {
+  const uint32_t row = attachment_row(env, slot, "release_particle()");
+  shader::ParticleAttachment a{{0, 0, shader::ATTACH_FREE, env}, {0, 0, 0, 0}};
+  write_rows(*shared_.at("control.particle_attachments"), row, &a, sizeof(a));
+}
 
 void Engine::set_cuda_stream(uintptr_t stream, bool host_sync) {
   cuda_stream_ = stream;

@@ -14,6 +14,7 @@
 #include "compute/typed_buffer.h"
 #include "gpu/commands.h"
 #include "gpu/context.h"
+#include "physics/particle_system.h"
 #include "physics/rigid_system.h"
 #include "physics/settings.h"
 #include "render/renderer.h"
@@ -66,6 +67,11 @@ class Engine {
   const physics::PhysicsSettings& physics_settings() const { return physics_settings_; }
   void set_physics_settings(const physics::PhysicsSettings& s);
   const physics::RigidSystem* rigid() const { return rigid_.get(); }
+  const physics::ParticleSystem* particles() const { return particles_.get(); }
+  // rigid-particle attachment slot `slot` of `env`: ties `particle` (global index) to the rigid
+  // body of `body_entity` where both are at the next step; release frees the slot. No reallocation.
+  void attach_particle(uint32_t env, uint32_t slot, uint32_t particle, uint32_t body_entity, float compliance = 0);
+  void release_particle(uint32_t env, uint32_t slot);
   const render::Renderer* renderer() const { return renderer_.get(); }
   const sensors::UltrasoundSensor* ultrasound() const { return ultrasound_.get(); }
   // envs the solver flagged (NaN, speed, penetration) and reset since upload_world()
@@ -105,6 +111,7 @@ class Engine {
   void release_frames();
   void release_world_buffers();
   void write_rows(compute::TypedBuffer& dst, uint32_t row, const void* data, uint32_t row_bytes);
+  uint32_t attachment_row(uint32_t env, uint32_t slot, const char* what) const;
 
   std::shared_ptr<scene::World> world_;
   std::shared_ptr<gpu::Context> ctx_;
@@ -125,6 +132,8 @@ class Engine {
   physics::PhysicsSettings physics_settings_;
   physics::RigidModel rigid_model_;  // built by prepare(), moved to rigid_ by upload_world()
   std::unique_ptr<physics::RigidSystem> rigid_;
+  physics::ParticleModel particle_model_;  // built by prepare(), moved to particles_ by upload_world()
+  std::unique_ptr<physics::ParticleSystem> particles_;
   render::RenderModel render_model_;  // built by prepare(), moved to renderer_ by upload_world()
   std::unique_ptr<render::Renderer> renderer_;
   sensors::UltrasoundModel ultrasound_model_;  // built by prepare(), moved to ultrasound_ by upload_world()

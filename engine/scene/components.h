@@ -177,8 +177,71 @@ struct UltrasoundTissue {
   uint32_t seed = 0;     // with the entity id: envs get different speckle
 };
 
+// Particle objects (engine/physics/particle_*): positions are in the entity frame at prepare().
+// Compliances are XPBD compliances of normalised constraints (strain: |d|/L - 1, V/V0 - 1), so
+// stiffness does not depend on the iteration count or, to first order, on the mesh resolution.
+
+// A tetrahedral soft body (tets given) or a meshfree one (no tets: each particle is tied to its
+// k nearest neighbours by distance constraints). triangles: the surface for rendering (local
+// particle indices); fixed: particles with infinite mass (clamped).
+struct SoftBody {
+  std::vector<float> positions;     // x y z per particle
+  std::vector<uint32_t> tets;       // 4 per tetrahedron
+  std::vector<uint32_t> triangles;  // 3 per surface triangle
+  std::vector<uint32_t> fixed;
+  float mass = 0.01f;               // per particle (kg)
+  float distance_compliance = 1e-4f;
+  float volume_compliance = 1e-4f;
+  uint32_t neighbors = 8;           // meshfree: k
+  float damping = 0;                // 1/s
+  float radius = 0.02f;             // collision radius (m)
+  float friction = 0.5f;
+  bool self_collision = false;
+};
+
+// Position-based fluid (Macklin & Mueller 2013) with `budget` particle slots, of which the given
+// positions start active; the rest are inactive until emitted (no reallocation). Spacing 2 x
+// radius, kernel support 4 x radius; particle mass from the rest density on that lattice.
+struct Fluid {
+  std::vector<float> positions;     // x y z per initially active particle
+  uint32_t budget = 0;              // slots (0: as many as positions)
+  float radius = 0.05f;
+  float rest_density = 1000;        // kg/m^3
+  float viscosity = 0.01f;          // XSPH coefficient
+  float cohesion = 0.0f;            // Akinci et al. 2013 cohesion coefficient
+  float surface_tension = 0.0f;     // curvature term coefficient
+  float vorticity = 0.0f;           // vorticity confinement epsilon
+  float friction = 0.1f;
+  float damping = 0;
+  // emitter: each frame activates up to emit_rate inactive slots on a square nozzle of
+  // emit_width x emit_width lattice points around emit_origin (entity frame), across the
+  // emit_velocity direction, moving at emit_velocity (world); it should carry a row clear of
+  // the nozzle within a frame (|v| dt >= 2 radius)
+  uint32_t emit_rate = 0;
+  uint32_t emit_width = 4;
+  Vec3 emit_origin{0, 0, 0};
+  Vec3 emit_velocity{0, 0, -1};
+};
+
+// A thread or cable: a chain of particles, each segment with a material frame (a Cosserat rod,
+// Kugelstadt & Schoemer 2016): stretch (distance), stretch-shear (frame along the segment),
+// bend and twist (between neighbouring frames; rest straight and untwisted).
+struct Strand {
+  std::vector<float> points;        // x y z per particle, in order
+  std::vector<uint32_t> fixed;
+  float mass = 0.001f;              // per particle
+  float radius = 0.005f;
+  float stretch_compliance = 0;
+  float bend_compliance = 1e-3f;
+  float twist_compliance = 1e-3f;
+  float initial_twist = 0;          // radians from the first segment's frame to the last's, spread evenly
+  float damping = 0;
+  float friction = 0.3f;
+  bool self_collision = false;
+};
+
 using ComponentTypes = std::tuple<Transform, RigidBody, Collider, Joint, Renderable, Camera, Light, EnvironmentLight,
-                                  UltrasoundProbe, UltrasoundTissue>;
+                                  UltrasoundProbe, UltrasoundTissue, SoftBody, Fluid, Strand>;
 
 // Triangle meshes shared by all envs; vertex normals per vertex.
 struct Mesh {

@@ -31,6 +31,10 @@ def _demo(args: argparse.Namespace) -> int:
         from cressim.demos.twin_session import run
 
         return run(out_dir=args.out, seconds=args.seconds)
+    if args.scene in ("soft", "fluid", "thread"):
+        from cressim.demos.particles import run
+
+        return run(args.scene, frames=args.frames, out_dir=args.out)
     from cressim.demos.batched_scene import run
 
     return run(num_envs=args.envs, frames=args.frames, out_dir=args.out)
@@ -79,12 +83,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--json", action="store_true", help="print the chosen device as JSON")
     p.set_defaults(run=_info)
     p = sub.add_parser("demo", help="the main job on the default scene")
-    p.add_argument("scene", nargs="?", default="twin", choices=("twin", "batched"),
+    p.add_argument("scene", nargs="?", default="twin", choices=("twin", "batched", "soft", "fluid", "thread"),
                    help="twin: the PSM twin driven over ROS 2, recording MCAP (default); batched: a batched "
-                        "scene and a custom compute pass")
+                        "scene and a custom compute pass; soft, fluid, thread: particle scenes saved as "
+                        "particle-state sequences (.npz)")
     p.add_argument("--seconds", type=float, default=2.0, help="twin: length of the servo_jp sine")
     p.add_argument("--envs", type=int, default=16, help="batched: envs")
-    p.add_argument("--frames", type=int, default=120, help="batched: frames")
+    p.add_argument("--frames", type=int, default=120, help="batched and particle scenes: frames")
     p.add_argument("--out", default="out/demo", help="folder for the demo's outputs")
     p.set_defaults(run=_demo)
     p = sub.add_parser("render", help="PNG images of a scene file's cameras (RGB, depth, segmentation)")

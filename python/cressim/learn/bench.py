@@ -39,6 +39,14 @@ REFERENCE = {
         "paper RTX 4090 PPO": {32: 14_493},
         "Isaac Lab Cartpole-RGB step": {1024: 50_000},
     },
+    "SoftBodyPush": {
+        "paper RTX 4090 step": {128: 5_967, 256: 7_501, 512: 8_858, 1024: 7_024},
+        "paper RTX 4090 PPO": {512: 8_486},
+    },
+    "FluidPour": {
+        "paper RTX 4090 step": {64: 5_417, 128: 6_002, 256: 4_544},
+        "paper RTX 4090 PPO": {128: 5_168},
+    },
 }
 
 
@@ -74,6 +82,7 @@ def bench_step(task: str, num_envs: int, device=None, warmup: int = 64, steps: i
         sync(env.device)
     dt = time.perf_counter() - t0
     out = {"step_sps": steps * num_envs / dt, "engine_bytes": engine_bytes(env), "setup_s": setup,
+           "particles_per_env": getattr(env, "particles_per_env", None),
            "vulkan_device": env.engine.device["name"], "torch_device": str(env.device)}
     if hasattr(env, "scatterers"):  # ultrasound tasks: the workload's size
         out["scatterers"] = env.scatterers

@@ -1,0 +1,382 @@
+#include "physics/particle_model.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <set>
+#include <stdexcept>
+
+#include "cressim/rigid.h"
+
+namespace cressim::physics {
+namespace {
+
+using scene::Vec3;
+using shader::float4;
+using shader::ParticleConstraint;
+using shader::uint4;
+
+constexpr uint32_t NONE = shader::CRESSIM_NONE;
+
+Vec3 rotate(const scene::Quat& q0, const Vec3& v) {
+  const float n = std::sqrt(q0[0] * q0[0] + q0[1] * q0[1] + q0[2] * q0[2] + q0[3] * q0[3]);
+  const float x = q0[0] / n, y = q0[1] / n, z = q0[2] / n, w = q0[3] / n;
+  // v + 2w (q x v) + 2 q x (q x v)
+  const Vec3 t{2 * (y * v[2] - z * v[1]), 2 * (z * v[0] - x * v[2]), 2 * (x * v[1] - y * v[0])};
+  return {v[0] + w * t[0] + y * t[2] - z * t[1], v[1] + w * t[1] + z * t[0] - x * t[2],
+          v[2] + w * t[2] + x * t[1] - y * t[0]};
+}
+
+using Q = std::array<float, 4>;
+float4 mul(const Q& a, const Q& b) {
+  return {a[3] * b[0] + b[3] * a[0] + a[1] * b[2] - a[2] * b[1], a[3] * b[1] + b[3] * a[1] + a[2] * b[0] - a[0] * b[2],
+          a[3] * b[2] + b[3] * a[2] + a[0] * b[1] - a[1] * b[0], a[3] * b[3] - a[0] * b[0] - a[1] * b[1] - a[2] * b[2]};
+}
+Q axis_angle(const Vec3& axis, float angle) {
+  const float s = std::sin(0.5f * angle);
+  return {axis[0] * s, axis[1] * s, axis[2] * s, std::cos(0.5f * angle)};
+}
+// the rotation taking +z onto the unit vector d (shortest arc)
+Q from_z_to(const Vec3& d) {
+  if (d[2] < -0.999999f) return {1, 0, 0, 0};  // half turn about x
+  const Vec3 w{-d[1], d[0], 0};                // z cross d
+  Q q{w[0], w[1], w[2], 1 + d[2]};
+  const float n = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+  return {q[0] / n, q[1] / n, q[2] / n, q[3] / n};
+}
+
+float dist(const float4& a, const float4& b) {
+  return std::sqrt((a.x - b.x) * (a.x - b.x) + (a.y - b.y) * (a.y - b.y) + (a.z - b.z) * (a.z - b.z));
+}
+
+[[noreturn]] void fail(const scene::World& w, scene::EntityId e, const std::string& what) {
+  throw std::invalid_argument(w.describe(e) + ": " + what);
+}
+
+// one object being added: its entity, env and where its particles start
+struct Adding {
+  const scene::World& world;
+  scene::EntityId entity;
+  uint32_t env, object, first;
+};
+
+class Builder {
+ public:
+  Builder(ParticleModel& m) : m_(m) {
+    for (const char* name : {"distance", "volume", "bend", "stretch_shear", "bend_twist"}) {
+      ConstraintSet s;
+      s.name = name;
+      s.shader = std::string("physics/particle_") + name;
+      m_.sets.push_back(s);
+    }
+  }
+  ConstraintSet& set(const char* name) {
+    for (auto& s : m_.sets)
+      if (s.name == name) return s;
+    throw std::logic_error("no constraint set " + std::string(name));
+  }
+
+  // particles of an object at authored local positions, placed by the entity's transform
+  uint32_t add_particles(const Adding& a, const std::vector<float>& local, uint32_t count, float inv_mass,
+                         uint32_t kind, uint32_t flags, const char* field) {
+    if (local.size() % 3) fail(a.world, a.entity, std::string(field) + " needs 3 numbers per particle");
+    scene::Transform t = a.world.has<scene::Transform>(a.entity) ? a.world.get<scene::Transform>(a.entity) : scene::Transform{};
+    for (uint32_t i = 0; i < count; ++i) {
+      const bool authored = 3 * i < local.size();
+      Vec3 p{0, 0, 0};
+      if (authored) {
+        const Vec3 s{local[3 * i] * t.scale[0], local[3 * i + 1] * t.scale[1], local[3 * i + 2] * t.scale[2]};
+        p = rotate(t.rotation, s);
+        p = {p[0] + t.position[0], p[1] + t.position[1], p[2] + t.position[2]};
+        for (float c : p)
+          if (!std::isfinite(c)) fail(a.world, a.entity, std::string(field) + "[" + std::to_string(i) + "] is not finite");
+      }
+      m_.positions.push_back({p[0], p[1], p[2], inv_mass});
+      m_.velocities.push_back({0, 0, 0, 0});
+      m_.phases.push_back({kind, a.object, a.env, (authored ? shader::PARTICLE_ACTIVE : 0u) | flags});
+    }
+    return count;
+  }
+
+  void constraint(ConstraintSet& s, std::initializer_list<uint32_t> ids, float rest, float compliance, float z = 0) {
+    ParticleConstraint c{};
+    uint32_t p[4] = {NONE, NONE, NONE, NONE};
+    int k = 0;
+    for (uint32_t i : ids) p[k++] = i;
+    c.particles = {p[0], p[1], p[2], p[3]};
+    c.params = {rest, compliance, z, 0};
+    s.records.push_back(c);
+  }
+
+  void distance(uint32_t i, uint32_t j, float compliance) {
+    const float l = dist(m_.positions[i], m_.positions[j]);
+    if (l > 1e-9f) constraint(set("distance"), {i, j}, l, compliance);
+  }
+
+  void fix(const Adding& a, const std::vector<uint32_t>& fixed, uint32_t count, const char* field) {
+    for (uint32_t i : fixed) {
+      if (i >= count) fail(a.world, a.entity, std::string(field) + " names particle " + std::to_string(i) + " of " + std::to_string(count));
+      m_.positions[a.first + i].w = 0;
+    }
+  }
+
+  void soft_body(const Adding& a, const scene::SoftBody& sb) {
+    const uint32_t n = uint32_t(sb.positions.size() / 3);
+    if (n == 0) fail(a.world, a.entity, "SoftBody.positions is empty");
+    if (!(sb.mass > 0)) fail(a.world, a.entity, "SoftBody.mass must be positive");
+    if (!(sb.radius > 0)) fail(a.world, a.entity, "SoftBody.radius must be positive");
+    if (sb.distance_compliance < 0 || sb.volume_compliance < 0) fail(a.world, a.entity, "SoftBody compliances must be >= 0");
+    if (sb.tets.size() % 4) fail(a.world, a.entity, "SoftBody.tets needs 4 indices per tet");
+    if (sb.triangles.size() % 3) fail(a.world, a.entity, "SoftBody.triangles needs 3 indices per triangle");
+    add_particles(a, sb.positions, n, 1 / sb.mass, shader::PARTICLE_SOLID,
+                  sb.self_collision ? shader::PARTICLE_SELF_COLLIDE : 0u, "SoftBody.positions");
+    fix(a, sb.fixed, n, "SoftBody.fixed");
+    for (uint32_t v : sb.tets)
+      if (v >= n) fail(a.world, a.entity, "SoftBody.tets names particle " + std::to_string(v) + " of " + std::to_string(n));
+    for (uint32_t v : sb.triangles)
+      if (v >= n) fail(a.world, a.entity, "SoftBody.triangles names particle " + std::to_string(v) + " of " + std::to_string(n));
+    if (!sb.tets.empty()) {
+      // every tet edge once, and every tet's volume
+      std::set<std::pair<uint32_t, uint32_t>> edges;
+      for (size_t t = 0; t < sb.tets.size(); t += 4)
+        for (int i = 0; i < 4; ++i)
+          for (int j = i + 1; j < 4; ++j) edges.insert(std::minmax(sb.tets[t + i], sb.tets[t + j]));
+      for (auto [i, j] : edges) distance(a.first + i, a.first + j, sb.distance_compliance);
+      for (size_t t = 0; t < sb.tets.size(); t += 4) {
+        const uint32_t q[4] = {a.first + sb.tets[t], a.first + sb.tets[t + 1], a.first + sb.tets[t + 2], a.first + sb.tets[t + 3]};
+        const float4 &x0 = m_.positions[q[0]], &x1 = m_.positions[q[1]], &x2 = m_.positions[q[2]], &x3 = m_.positions[q[3]];
+        const Vec3 e1{x1.x - x0.x, x1.y - x0.y, x1.z - x0.z}, e2{x2.x - x0.x, x2.y - x0.y, x2.z - x0.z},
+            e3{x3.x - x0.x, x3.y - x0.y, x3.z - x0.z};
+        const float vol = (e1[0] * (e2[1] * e3[2] - e2[2] * e3[1]) - e1[1] * (e2[0] * e3[2] - e2[2] * e3[0]) +
+                           e1[2] * (e2[0] * e3[1] - e2[1] * e3[0])) / 6;
+        if (std::abs(vol) < 1e-15f) fail(a.world, a.entity, "SoftBody.tets[" + std::to_string(t / 4) + "] has no volume");
+        if (vol > 0) constraint(set("volume"), {q[0], q[1], q[2], q[3]}, vol, sb.volume_compliance);
+        else constraint(set("volume"), {q[0], q[1], q[3], q[2]}, -vol, sb.volume_compliance);
+      }
+    } else {
+      // meshfree: k nearest neighbours (each pair once)
+      if (sb.neighbors < 1) fail(a.world, a.entity, "SoftBody.neighbors must be at least 1 for a meshfree body");
+      std::set<std::pair<uint32_t, uint32_t>> pairs;
+      std::vector<std::pair<float, uint32_t>> d(n);
+      for (uint32_t i = 0; i < n; ++i) {
+        for (uint32_t j = 0; j < n; ++j) d[j] = {i == j ? INFINITY : dist(m_.positions[a.first + i], m_.positions[a.first + j]), j};
+        const uint32_t k = std::min(sb.neighbors, n - 1);
+        std::partial_sort(d.begin(), d.begin() + k, d.end());
+        for (uint32_t r = 0; r < k; ++r) pairs.insert(std::minmax(i, d[r].second));
+      }
+      for (auto [i, j] : pairs) distance(a.first + i, a.first + j, sb.distance_compliance);
+    }
+    surface(sb.triangles, a.first);
+  }
+
+  void fluid(const Adding& a, const scene::Fluid& f) {
+    const uint32_t active = uint32_t(f.positions.size() / 3), budget = f.budget ? f.budget : active;
+    if (budget == 0) fail(a.world, a.entity, "Fluid has no particles (give positions or a budget)");
+    if (active > budget) fail(a.world, a.entity, "Fluid.budget " + std::to_string(budget) + " is below its " + std::to_string(active) + " positions");
+    if (!(f.radius > 0)) fail(a.world, a.entity, "Fluid.radius must be positive");
+    if (!(f.rest_density > 0)) fail(a.world, a.entity, "Fluid.rest_density must be positive");
+    add_particles(a, f.positions, budget, 1 / fluid_particle_mass(f.radius, f.rest_density), shader::PARTICLE_FLUID, 0,
+                  "Fluid.positions");
+    m_.has_fluid = true;
+  }
+
+  void strand(const Adding& a, const scene::Strand& s) {
+    const uint32_t n = uint32_t(s.points.size() / 3);
+    if (n < 2) fail(a.world, a.entity, "Strand.points needs at least 2 points");
+    if (!(s.mass > 0)) fail(a.world, a.entity, "Strand.mass must be positive");
+    if (!(s.radius > 0)) fail(a.world, a.entity, "Strand.radius must be positive");
+    add_particles(a, s.points, n, 1 / s.mass, shader::PARTICLE_STRAND, s.self_collision ? shader::PARTICLE_SELF_COLLIDE : 0u,
+                  "Strand.points");
+    fix(a, s.fixed, n, "Strand.fixed");
+    for (uint32_t i = 0; i + 1 < n; ++i) distance(a.first + i, a.first + i + 1, s.stretch_compliance);
+    // bending toward straight (threads and cables rest straight, whatever their authored path)
+    for (uint32_t i = 0; i + 2 < n; ++i) {
+      const uint32_t p = a.first + i;
+      const float seg = 0.5f * (dist(m_.positions[p], m_.positions[p + 1]) + dist(m_.positions[p + 1], m_.positions[p + 2]));
+      constraint(set("bend"), {p, p + 1, p + 2}, 0, s.bend_compliance, seg);
+    }
+    // segment frames: z along the segment, turned about it by the initial twist; ids after the particles
+    const uint32_t first_edge = uint32_t(m_.orientations.size());
+    for (uint32_t i = 0; i + 1 < n; ++i) {
+      const uint32_t p = a.first + i;
+      const float4 &x0 = m_.positions[p], &x1 = m_.positions[p + 1];
+      const float l = dist(x0, x1);
+      if (l < 1e-9f) fail(a.world, a.entity, "Strand.points[" + std::to_string(i) + "] and the next coincide");
+      const Vec3 d{(x1.x - x0.x) / l, (x1.y - x0.y) / l, (x1.z - x0.z) / l};
+      const float twist = n > 2 ? s.initial_twist * float(i) / float(n - 2) : 0;
+      m_.orientations.push_back(mul(axis_angle(d, twist), from_z_to(d)));
+      // a thin rod's inertia about its axis, m r^2 / 2
+      m_.orientation_weights.push_back(2 / (s.mass * s.radius * s.radius));
+      m_.edge_particles.push_back(p);
+      frames_.push_back({p, p + 1, first_edge + i, l});
+    }
+    for (uint32_t i = 0; i + 2 < n; ++i) pairs_.push_back({first_edge + i, first_edge + i + 1, s.bend_compliance, s.twist_compliance});
+  }
+
+  // records that name frames can be made once the particle count is known
+  void frame_constraints() {
+    const uint32_t np = uint32_t(m_.size());
+    for (auto& f : frames_) constraint(set("stretch_shear"), {f.p0, f.p1, np + f.edge}, f.length, 0);
+    for (auto& b : pairs_) constraint(set("bend_twist"), {np + b.e0, np + b.e1}, b.bend, b.twist);
+  }
+
+  void surface(const std::vector<uint32_t>& tris, uint32_t first) {
+    for (uint32_t v : tris) m_.surface.push_back(first + v);
+  }
+
+ private:
+  struct Frame { uint32_t p0, p1, edge; float length; };
+  struct FramePair { uint32_t e0, e1; float bend, twist; };
+  ParticleModel& m_;
+  std::vector<Frame> frames_;
+  std::vector<FramePair> pairs_;
+};
+
+// greedy colouring: each constraint takes the lowest colour none of its particles has yet;
+// records are then grouped by colour (stable, so objects and envs keep their order inside one)
+void colour(ConstraintSet& s, size_t particles) {
+  std::vector<std::vector<bool>> used(particles);
+  std::vector<uint32_t> colour_of(s.records.size());
+  uint32_t colours = 0;
+  for (size_t c = 0; c < s.records.size(); ++c) {
+    const uint32_t* p = &s.records[c].particles.x;
+    uint32_t k = 0;
+    auto taken = [&](uint32_t k) {
+      for (int i = 0; i < 4; ++i)
+        if (p[i] != NONE && k < used[p[i]].size() && used[p[i]][k]) return true;
+      return false;
+    };
+    while (taken(k)) ++k;
+    for (int i = 0; i < 4; ++i)
+      if (p[i] != NONE) {
+        if (used[p[i]].size() <= k) used[p[i]].resize(k + 1, false);
+        used[p[i]][k] = true;
+      }
+    colour_of[c] = k;
+    colours = std::max(colours, k + 1);
+  }
+  s.colour_count.assign(colours, 0);
+  for (uint32_t k : colour_of) ++s.colour_count[k];
+  s.colour_offset.assign(colours, 0);
+  for (uint32_t k = 1; k < colours; ++k) s.colour_offset[k] = s.colour_offset[k - 1] + s.colour_count[k - 1];
+  std::vector<ParticleConstraint> sorted(s.records.size());
+  std::vector<uint32_t> cursor = s.colour_offset;
+  for (size_t c = 0; c < s.records.size(); ++c) sorted[cursor[colour_of[c]]++] = s.records[c];
+  s.records = std::move(sorted);
+}
+
+float poly6(float r, float h) {
+  if (r >= h) return 0;
+  const float x = h * h - r * r;
+  return 315.f / (64.f * std::numbers::pi_v<float> * std::pow(h, 9.f)) * x * x * x;
+}
+
+}  // namespace
+
+float fluid_support(float radius) { return 4 * radius; }
+
+// the mass that gives a particle on the rest lattice (spacing 2r) exactly the rest density
+float fluid_particle_mass(float radius, float rest_density) {
+  const float d = 2 * radius, h = fluid_support(radius);
+  double sum = 0;
+  for (int i = -3; i <= 3; ++i)
+    for (int j = -3; j <= 3; ++j)
+      for (int k = -3; k <= 3; ++k) sum += poly6(d * std::sqrt(float(i * i + j * j + k * k)), h);
+  return float(rest_density / sum);
+}
+
+const ConstraintSet* ParticleModel::set(const std::string& name) const {
+  for (auto& s : sets)
+    if (s.name == name) return &s;
+  return nullptr;
+}
+
+ParticleModel build_particle_model(const scene::World& world, const scene::LayoutMapping& mapping) {
+  ParticleModel m;
+  Builder b(m);
+  m.env_ranges.resize(mapping.num_envs);
+  float max_radius = 0, max_support = 0;
+  for (uint32_t env = 0; env < mapping.num_envs; ++env) {
+    auto& range = m.env_ranges[env].range;
+    range.x = uint32_t(m.size());
+    range.z = uint32_t(m.objects.size());
+    for (uint32_t row = mapping.env_offset[env]; row < mapping.env_offset[env] + mapping.env_count[env]; ++row) {
+      const scene::EntityId e = mapping.row_entity[row];
+      auto begin = [&](uint32_t kind) {
+        shader::ParticleObject o{};
+        o.range = {uint32_t(m.size()), 0, env, kind};
+        o.ids = {row, 0, 0, 0};
+        m.objects.push_back(o);
+        m.object_entity.push_back(e);
+        m.surface_offset.push_back(uint32_t(m.surface.size() / 3));
+        return Adding{world, e, env, uint32_t(m.objects.size() - 1), uint32_t(m.size())};
+      };
+      auto end = [&]() {
+        auto& o = m.objects.back();
+        o.range.y = uint32_t(m.size()) - o.range.x;
+        m.surface_count.push_back(uint32_t(m.surface.size() / 3) - m.surface_offset.back());
+      };
+      if (world.has<scene::SoftBody>(e)) {
+        const auto& sb = world.get<scene::SoftBody>(e);
+        b.soft_body(begin(shader::PARTICLE_SOLID), sb);
+        auto& o = m.objects.back();
+        o.ids.y = sb.self_collision ? shader::PARTICLE_SELF_COLLIDE : 0u;
+        o.material = {sb.radius, sb.friction, sb.damping, 0};
+        max_radius = std::max(max_radius, sb.radius);
+        end();
+      }
+      if (world.has<scene::Fluid>(e)) {
+        const auto& f = world.get<scene::Fluid>(e);
+        b.fluid(begin(shader::PARTICLE_FLUID), f);
+        auto& o = m.objects.back();
+        o.ids.z = uint32_t(m.size()) - o.range.x;
+        o.ids.w = uint32_t(f.positions.size() / 3);
+        o.material = {f.radius, f.friction, f.damping, f.rest_density};
+        o.fluid = {f.viscosity, f.cohesion, f.surface_tension, f.vorticity};
+        if (f.emit_rate > 0) {
+          if (f.emit_width < 1) fail(world, e, "Fluid.emit_width must be at least 1");
+          const scene::Transform t = world.has<scene::Transform>(e) ? world.get<scene::Transform>(e) : scene::Transform{};
+          const Vec3 local{f.emit_origin[0] * t.scale[0], f.emit_origin[1] * t.scale[1], f.emit_origin[2] * t.scale[2]};
+          const Vec3 c = rotate(t.rotation, local);
+          const Vec3& v = f.emit_velocity;
+          if (!(v[0] * v[0] + v[1] * v[1] + v[2] * v[2] > 0)) fail(world, e, "Fluid.emit_velocity must not be zero");
+          o.emitter = {c[0] + t.position[0], c[1] + t.position[1], c[2] + t.position[2], float(f.emit_rate)};
+          o.emit_velocity = {v[0], v[1], v[2], float(f.emit_width)};
+          m.has_emitters = true;
+        }
+        max_radius = std::max(max_radius, f.radius);
+        max_support = std::max(max_support, fluid_support(f.radius));
+        end();
+      }
+      if (world.has<scene::Strand>(e)) {
+        const auto& s = world.get<scene::Strand>(e);
+        b.strand(begin(shader::PARTICLE_STRAND), s);
+        auto& o = m.objects.back();
+        o.ids.y = s.self_collision ? shader::PARTICLE_SELF_COLLIDE : 0u;
+        o.material = {s.radius, s.friction, s.damping, 0};
+        max_radius = std::max(max_radius, s.radius);
+        end();
+      }
+    }
+    range.y = uint32_t(m.size()) - range.x;
+    range.w = uint32_t(m.objects.size()) - range.z;
+  }
+  b.frame_constraints();
+  // constraints per object: a record belongs to its first particle's object (or its first frame's strand)
+  for (auto& s : m.sets) {
+    s.object_count.assign(m.objects.size(), 0);
+    for (auto& c : s.records) {
+      const uint32_t p = c.particles.x < m.size() ? c.particles.x : m.edge_particles[c.particles.x - m.size()];
+      ++s.object_count[m.phases[p].y];
+    }
+  }
+  m.cell_size = std::max(max_support, 2 * max_radius);
+  // particles of different objects (or of a self-colliding one) touch: the grid is needed
+  for (auto& r : m.env_ranges) m.has_contacts = m.has_contacts || r.range.w > 1;
+  for (auto& o : m.objects) m.has_contacts = m.has_contacts || (o.ids.y & shader::PARTICLE_SELF_COLLIDE);
+
+  for (auto& s : m.sets) colour(s, m.size() + m.orientations.size());
+  return m;
+}
+
+}  // namespace cressim::physics

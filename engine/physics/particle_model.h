@@ -1,0 +1,55 @@
+// prepare() for particles: SoftBody / Fluid / Strand components flattened into one particle
+// array (envs contiguous, objects in entity order within an env), the per-object and per-env
+// ranges, the constraint sets of every family grouped by colour, and the surface
+// triangles kept for rendering.
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "cressim/particle.h"
+#include "scene/layout_mapping.h"
+#include "scene/world.h"
+
+namespace cressim::physics {
+
+// One constraint family's records and the pass that projects them (shaders/<shader>.comp.hlsl,
+// one colour per dispatch; see particle_distance.comp.hlsl). Records are grouped by colour; a
+// record's object is the object of its first particle (particles.phases[i].y).
+struct ConstraintSet {
+  std::string name;    // buffer key particles.<name>_constraints
+  std::string shader;  // built-in pass
+  std::vector<shader::ParticleConstraint> records;
+  std::vector<uint32_t> colour_offset, colour_count;  // each colour's slice of records
+  std::vector<uint32_t> object_count;  // constraints of each object
+};
+
+struct ParticleModel {
+  std::vector<shader::float4> positions;   // xyz, w inverse mass
+  std::vector<shader::float4> velocities;
+  std::vector<shader::uint4> phases;       // x kind, y object, z env, w flags
+  // strand segments: material frame (quaternion whose z is the segment), inverse inertia, first particle
+  std::vector<shader::float4> orientations;
+  std::vector<float> orientation_weights;
+  std::vector<uint32_t> edge_particles;
+  std::vector<shader::ParticleObject> objects;
+  std::vector<uint32_t> object_entity;
+  std::vector<shader::ParticleEnvRange> env_ranges;
+  std::vector<ConstraintSet> sets;
+  std::vector<uint32_t> surface;           // 3 global particle indices per triangle
+  std::vector<uint32_t> surface_offset, surface_count;  // each object's triangles
+  float cell_size = 0;                     // neighbour grid: max of fluid kernel support and contact reach
+  bool has_fluid = false, has_contacts = false, has_emitters = false;
+
+  size_t size() const { return positions.size(); }
+  bool empty() const { return positions.empty(); }
+  const ConstraintSet* set(const std::string& name) const;
+};
+
+ParticleModel build_particle_model(const scene::World& world, const scene::LayoutMapping& mapping);
+
+// fluid kernels (shared with the passes in particle_fluid.hlsli): support = 4 x radius, spacing = 2 x radius
+float fluid_support(float radius);
+float fluid_particle_mass(float radius, float rest_density);
+
+}  // namespace cressim::physics

@@ -1,0 +1,270 @@
+#include "physics/particle_system.h"
+
+#include <algorithm>
+#include <cstddef>
+#include <cstring>
+
+#include "gpu/commands.h"
+#include "cressim/layout.h"
+#include "gpu/context.h"
+
+namespace cressim::physics {
+namespace {
+
+using compute::DType;
+using shader::float4;
+using shader::uint4;
+
+constexpr uint32_t kScanBlock = 256;  // particle_scan_*.comp.hlsl group size
+constexpr uint32_t kGroup = shader::CRESSIM_GROUP_SIZE;
+
+template <class T>
+std::vector<uint32_t> words(const std::vector<T>& v) {
+  std::vector<uint32_t> w(v.size() * sizeof(T) / 4);
+  if (!v.empty()) std::memcpy(w.data(), v.data(), w.size() * 4);
+  return w;
+}
+
+uint32_t next_pow2(uint64_t n) {
+  uint32_t p = 1;
+  while (p < n) p <<= 1;
+  return p;
+}
+
+}  // namespace
+
+ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel model, const PhysicsSettings& settings,
+                               uint64_t generation, BufferMap& internal, BufferMap& control, const BufferMap& scene,
+                               bool has_rigid, bool dynamic_bodies)
+    : ctx_(ctx), model_(std::move(model)), settings_(settings), has_rigid_(has_rigid),
+      attachments_per_env_(settings.max_particle_attachments_per_env) {
+  const auto n = int64_t(model_.size()), no = int64_t(model_.objects.size()), ne = int64_t(model_.env_ranges.size());
+  const bool exportable = ctx->external_memory_fd && !ctx->unified_memory;
+  // a few buckets per particle keeps buckets short; at least one scan block
+  table_size_ = next_pow2(std::max<uint64_t>(2 * uint64_t(n), kScanBlock));
+  blocks_ = table_size_ / kScanBlock;
+
+  auto make = [&](BufferMap& into, const std::string& key, const void* data, size_t bytes, std::vector<int64_t> shape,
+                  DType t, bool read_only, bool exp) {
+    auto b = compute::make_typed_buffer(ctx, key, std::move(shape), t, read_only, exp);
+    b->generation = generation;
+    if (data && bytes) gpu::upload(*ctx, b->storage->buffer, data, bytes);
+    else gpu::fill(*ctx, b->storage->buffer, 0);
+    into[key] = b;
+    return b;
+  };
+  // internal buffer `key`, bound in the passes as `hlsl`
+  auto in = [&](const std::string& hlsl, const std::string& key, const auto& data, std::vector<int64_t> shape, DType t,
+                bool exp = false) {
+    using V = std::decay_t<decltype(data)>;
+    const void* p = data.empty() ? nullptr : static_cast<const void*>(data.data());
+    auto b = make(internal, key, p, data.size() * sizeof(typename V::value_type), std::move(shape), t, true, exp);
+    if (!hlsl.empty()) bindings_[hlsl] = b;
+    return b;
+  };
+  auto scratch = [&](const std::string& hlsl, const std::string& key, std::vector<int64_t> shape, DType t) {
+    auto b = make(internal, key, nullptr, 0, std::move(shape), t, true, false);
+    bindings_[hlsl] = b;
+    return b;
+  };
+  const std::vector<uint32_t> none;
+
+  // state and model (read-only to custom passes)
+  in("positions", "particles.positions", model_.positions, {n, 4}, DType::FLOAT32, exportable);
+  in("velocities", "particles.velocities", model_.velocities, {n, 4}, DType::FLOAT32, exportable);
+  in("phases", "particles.phases", model_.phases, {n, 4}, DType::UINT32, exportable);
+  in("initial_positions", "particles.initial_positions", model_.positions, {n, 4}, DType::FLOAT32);
+  in("initial_velocities", "particles.initial_velocities", model_.velocities, {n, 4}, DType::FLOAT32);
+  in("initial_phases", "particles.initial_phases", model_.phases, {n, 4}, DType::UINT32);
+  in("objects", "particles.objects", words(model_.objects), {no, int64_t(sizeof(shader::ParticleObject) / 4)}, DType::UINT32);
+  in("env_ranges", "particles.env_ranges", words(model_.env_ranges), {ne, 4}, DType::UINT32);
+  const auto ne_ = int64_t(model_.orientations.size());
+  in("orientations", "particles.orientations", model_.orientations, {ne_, 4}, DType::FLOAT32, exportable);
+  in("initial_orientations", "particles.initial_orientations", model_.orientations, {ne_, 4}, DType::FLOAT32);
+  in("orientation_weights", "particles.orientation_weights", model_.orientation_weights, {ne_}, DType::FLOAT32);
+  in("edge_particles", "particles.edge_particles", model_.edge_particles, {ne_}, DType::UINT32);
+  scratch("prev_orientations", "particles.prev_orientations", {ne_, 4}, DType::FLOAT32);
+  scratch("angular_velocities", "particles.angular_velocities", {ne_, 4}, DType::FLOAT32);
+  std::vector<uint32_t> active(static_cast<size_t>(no), 0u);
+  for (size_t o = 0; o < active.size(); ++o) active[o] = model_.objects[o].range.w == shader::PARTICLE_FLUID ? model_.objects[o].ids.w : model_.objects[o].range.y;
+  in("emitted", "particles.emitted", active, {no}, DType::UINT32);
+  in("", "particles.surface", model_.surface, {int64_t(model_.surface.size() / 3), 3}, DType::UINT32);
+  scratch("densities", "particles.densities", {n}, DType::FLOAT32);
+  // scratch
+  scratch("prev_positions", "particles.prev_positions", {n, 4}, DType::FLOAT32);
+  scratch("deltas", "particles.deltas", {n, 4}, DType::FLOAT32);
+  scratch("fluid_lambdas", "particles.fluid_lambdas", {n}, DType::FLOAT32);
+  scratch("vorticities", "particles.vorticities", {n, 4}, DType::FLOAT32);
+  scratch("normals", "particles.normals", {n, 4}, DType::FLOAT32);
+  scratch("velocity_copies", "particles.velocity_copies", {n, 4}, DType::FLOAT32);
+  scratch("rigid_pushes", "particles.rigid_pushes", {n, 4}, DType::FLOAT32);
+  scratch("rigid_contacts", "particles.rigid_contacts", {n, 4}, DType::FLOAT32);
+  scratch("cells", "particles.cells", {n, 4}, DType::INT32);
+  scratch("buckets", "particles.buckets", {n}, DType::UINT32);
+  scratch("sorted", "particles.sorted", {n}, DType::UINT32);
+  auto counts = scratch("cell_counts", "particles.cell_counts", {int64_t(table_size_)}, DType::UINT32);
+  scratch("cell_starts", "particles.cell_starts", {int64_t(table_size_)}, DType::UINT32);
+  auto fill = scratch("cell_fill", "particles.cell_fill", {int64_t(table_size_)}, DType::UINT32);
+  scratch("block_sums", "particles.block_sums", {int64_t(blocks_)}, DType::UINT32);
+  const bool grid = model_.has_fluid || model_.has_contacts;
+  if (grid) per_substep_clears_ = {counts->storage->buffer.buffer, fill->storage->buffer.buffer};
+
+  // control: attachment slots, all free
+  const int64_t na = ne * int64_t(attachments_per_env_);
+  std::vector<shader::ParticleAttachment> att(size_t(na), shader::ParticleAttachment{});
+  for (int64_t a = 0; a < na; ++a) att[size_t(a)].ids = {0, 0, shader::ATTACH_FREE, uint32_t(a / std::max<uint32_t>(attachments_per_env_, 1))};
+  bindings_["attachments"] = make(control, "control.particle_attachments", att.data(), att.size() * sizeof(att[0]),
+                                  {na, int64_t(sizeof(shader::ParticleAttachment) / 4)}, DType::UINT32, false, exportable);
+
+  // env flags, shared with the rigid solver; made here when there is none
+  for (const char* k : {"env.reset_mask", "env.health", "env.health_events"})
+    if (scene.count(k)) bindings_[k + 4] = scene.at(k);
+  if (!bindings_.count("health")) bindings_["health"] = make(internal, "env.health", nullptr, 0, {ne}, DType::UINT32, true, exportable);
+  if (!bindings_.count("health_events")) {
+    auto events = compute::make_typed_buffer(ctx, "env.health_events", {1}, DType::UINT32, true, false, gpu::Memory::READBACK);
+    events->generation = generation;
+    gpu::fill(*ctx, events->storage->buffer, 0);
+    internal["env.health_events"] = events;
+    bindings_["health_events"] = events;
+  }
+  // rigid colliders and bodies, or one-element stand-ins
+  const std::pair<const char*, const char*> rigid[] = {
+      {"env_rigid_ranges", "rigid.env_ranges"}, {"colliders", "rigid.colliders"}, {"body_positions", "rigid.positions"},
+      {"body_rotations", "rigid.rotations"}, {"body_linear_velocities", "rigid.linear_velocities"},
+      {"body_angular_velocities", "rigid.angular_velocities"}, {"bodies", "rigid.bodies"}};
+  for (auto [hlsl, key] : rigid) {
+    if (has_rigid_) bindings_[hlsl] = scene.at(key);
+    else bindings_[hlsl] = compute::make_typed_buffer(ctx, std::string("particles.no_") + hlsl, {1, 12}, DType::UINT32, true);
+  }
+
+  // passes
+  integrate_ = pass("physics/particle_integrate", uint64_t(n));
+  if (grid) {
+    grid_count_ = pass("physics/particle_grid_count", uint64_t(n));
+    scan_local_ = pass("physics/particle_scan_local", table_size_);
+    scan_blocks_ = pass("physics/particle_scan_blocks", 1);
+    scan_add_ = pass("physics/particle_scan_add", table_size_);
+    scatter_ = pass("physics/particle_grid_scatter", uint64_t(n));
+    sort_ = pass("physics/particle_grid_sort", table_size_);
+    neighbors_ = pass("physics/particle_neighbors", uint64_t(n));
+  }
+  if (model_.has_fluid) {
+    fluid_lambda_ = pass("physics/particle_fluid_lambda", uint64_t(n));
+    vorticity_ = pass("physics/particle_fluid_vorticity", uint64_t(n));
+    fluid_velocity_ = pass("physics/particle_fluid_velocity", uint64_t(n));
+  }
+  for (auto& s : model_.sets) {
+    const auto c = int64_t(s.records.size());
+    auto cb = in("", "particles." + s.name + "_constraints", words(s.records),
+                 {c, int64_t(sizeof(shader::ParticleConstraint) / 4)}, DType::UINT32);
+    auto lb = make(internal, "particles." + s.name + "_lambdas", nullptr, 0, {c}, DType::FLOAT32, true, false);
+    if (c == 0) continue;
+    auto b = bindings_;
+    b["constraints"] = cb;
+    b["lambdas"] = lb;
+    auto p = compute::create_builtin_pass(ctx, s.shader, b);
+    all_.push_back(p);
+    families_.push_back({p, &s});
+    per_substep_clears_.push_back(lb->storage->buffer.buffer);
+  }
+  gather_ = pass("physics/particle_gather", uint64_t(n));
+  if (na > 0) attach_ = pass("physics/particle_attach", uint64_t(na));
+  velocity_ = pass("physics/particle_velocity", uint64_t(n));
+  // two-way coupling, where an env has dynamic bodies for particles to push
+  if (has_rigid_ && dynamic_bodies) rigid_push_ = pass("physics/particle_rigid_push", uint64_t(ne));
+  health_ = pass("physics/particle_health", uint64_t(ne));
+  reset_ = pass("physics/particle_reset", uint64_t(std::max({n, na, no, ne_})));
+  if (ne_ > 0) {
+    orient_integrate_ = pass("physics/particle_orient_integrate", uint64_t(ne_));
+    orient_velocity_ = pass("physics/particle_orient_velocity", uint64_t(ne_));
+  }
+  if (model_.has_emitters) emit_ = pass("physics/particle_emit", uint64_t(no));
+  set_settings(settings);
+}
+
+std::shared_ptr<compute::ComputePass> ParticleSystem::pass(const std::string& shader, uint64_t threads) {
+  auto p = compute::create_builtin_pass(ctx_, shader, bindings_);
+  p->set_threads({std::max<uint64_t>(threads, 1), 1, 1});
+  all_.push_back(p);
+  return p;
+}
+
+void ParticleSystem::set_settings(const PhysicsSettings& s) {
+  s.validate();
+  if (s.max_particle_attachments_per_env != attachments_per_env_)
+    throw std::invalid_argument("PhysicsSettings.max_particle_attachments_per_env sizes the attachment buffer: set it "
+                                "before upload_world() (or call upload_world() again)");
+  settings_ = s;
+  set_constants(s);
+}
+
+void ParticleSystem::set_constants(const PhysicsSettings& s) {
+  for (auto& p : all_) {
+    shader::ParticleConstants c{};
+    c.gravity = {s.gravity[0], s.gravity[1], s.gravity[2], s.dt / float(s.substeps)};
+    c.grid = {model_.cell_size, 1, s.max_speed, float(s.substeps)};
+    c.particle_count = uint32_t(model_.size());
+    c.table_size = table_size_;
+    c.env_count = uint32_t(model_.env_ranges.size());
+    c.has_rigid = has_rigid_;
+    c.owns_health = !has_rigid_;
+    c.attachment_count = c.env_count * attachments_per_env_;
+    c.edge_count = uint32_t(model_.orientations.size());
+    c.item_count = p == scan_blocks_ ? blocks_ : (p == emit_ || p == reset_) ? uint32_t(model_.objects.size()) : 0;
+    if (p->constants.size() != sizeof(c)) throw std::logic_error("ParticleConstants does not match " + p->name);
+    std::memcpy(p->constants.data(), &c, sizeof(c));
+  }
+}
+
+void ParticleSystem::record_step(VkCommandBuffer cmd) const {
+  auto run = [&](const std::shared_ptr<compute::ComputePass>& p) {
+    if (p) {
+      p->record(cmd);
+      gpu::compute_barrier(cmd);
+    }
+  };
+  const uint32_t substeps = settings_.substeps;
+  run(emit_);
+  for (uint32_t s = 0; s < substeps; ++s) {
+    // passes that look at moving bodies see them where they are at the end of this substep
+    const float done = float(s + 1) / float(substeps);
+    for (auto* p : {gather_.get(), attach_.get()})
+      if (p) std::memcpy(p->constants.data() + offsetof(shader::ParticleConstants, grid) + 4, &done, 4);
+    for (VkBuffer b : per_substep_clears_) vkCmdFillBuffer(cmd, b, 0, VK_WHOLE_SIZE, 0);
+    run(integrate_);
+    run(orient_integrate_);
+    if (grid_count_) {
+      for (auto& p : {grid_count_, scan_local_, scan_blocks_, scan_add_, scatter_, sort_}) run(p);
+    }
+    for (uint32_t it = 0; it < settings_.particle_iterations; ++it) {
+      run(fluid_lambda_);
+      // each family colour by colour (Gauss-Seidel between colours), then neighbours and colliders
+      for (auto& [p, set] : families_)
+        for (size_t k = 0; k < set->colour_count.size(); ++k) {
+          const uint32_t range[2] = {set->colour_offset[k], set->colour_count[k]};
+          std::memcpy(p->constants.data() + offsetof(shader::ParticleConstants, item_offset), &range[0], 4);
+          std::memcpy(p->constants.data() + offsetof(shader::ParticleConstants, item_count), &range[1], 4);
+          p->groups = {(range[1] + kGroup - 1) / kGroup, 1, 1};
+          run(p);
+        }
+      run(neighbors_);
+      run(gather_);
+      run(rigid_push_);
+      run(attach_);
+    }
+    run(velocity_);
+    run(orient_velocity_);
+    run(vorticity_);
+    run(fluid_velocity_);
+  }
+  health_->record(cmd);
+}
+
+void ParticleSystem::record_reset(VkCommandBuffer cmd) const { reset_->record(cmd); }
+
+uint64_t ParticleSystem::health_events(const BufferMap& internal) const {
+  const auto& b = internal.at("env.health_events")->storage->buffer;
+  return b.mapped ? *static_cast<const volatile uint32_t*>(b.mapped) : 0;
+}
+
+}  // namespace cressim::physics

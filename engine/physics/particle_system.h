@@ -1,0 +1,60 @@
+// The particle system on the GPU (soft bodies, fluids, strands, batched over envs): its buffers
+// (keys particles.* and control.particle_attachments), the substep loop recorded into
+// step_physics after the rigid solver, and the per-env reset.
+//
+// Per frame first: fluid emitters activate inactive slots.
+// Per substep: integrate; neighbour grid keyed on (env, cell) (count, prefix sum, scatter, sort
+// each bucket); `particle_iterations` times: fluid densities, every constraint family colour by
+// colour, neighbour corrections (fluid density, particle contacts), the gather (those
+// corrections + rigid collider contacts with friction), dynamic bodies' share of those contacts
+// (two-way coupling) and attachments; then velocities and the
+// fluid velocity terms. At the frame's end, env health.
+#pragma once
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "compute/compute_pass.h"
+#include "physics/particle_model.h"
+#include "physics/rigid_system.h"
+#include "physics/settings.h"
+
+namespace cressim::physics {
+
+class ParticleSystem {
+ public:
+  // internal: read-only engine buffers (keys added); control: writable ones (keys added);
+  // scene: env flags, and the rigid system's buffers when there is one (has_rigid); particles
+  // push dynamic bodies back when there are any (dynamic_bodies).
+  ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel model, const PhysicsSettings& settings,
+                 uint64_t generation, BufferMap& internal, BufferMap& control, const BufferMap& scene, bool has_rigid,
+                 bool dynamic_bodies);
+
+  // max_particle_attachments_per_env sizes a buffer: it can change only with a new upload_world()
+  void set_settings(const PhysicsSettings& s);
+  void record_step(VkCommandBuffer cmd) const;
+  void record_reset(VkCommandBuffer cmd) const;
+  const ParticleModel& model() const { return model_; }
+  uint32_t attachments_per_env() const { return attachments_per_env_; }
+  uint64_t health_events(const BufferMap& internal) const;
+
+ private:
+  std::shared_ptr<compute::ComputePass> pass(const std::string& shader, uint64_t threads);
+  void set_constants(const PhysicsSettings& s);
+
+  std::shared_ptr<gpu::Context> ctx_;
+  ParticleModel model_;
+  PhysicsSettings settings_;
+  bool has_rigid_ = false;
+  uint32_t table_size_ = 0, blocks_ = 0, attachments_per_env_ = 0;
+  std::map<std::string, std::shared_ptr<compute::TypedBuffer>> bindings_;  // HLSL name -> buffer
+  std::vector<VkBuffer> per_substep_clears_;  // zeroed at each substep start (grid counters, lambdas)
+  std::vector<std::shared_ptr<compute::ComputePass>> all_;
+  std::shared_ptr<compute::ComputePass> emit_, integrate_, orient_integrate_, orient_velocity_, grid_count_, scan_local_, scan_blocks_, scan_add_, scatter_, sort_,
+      fluid_lambda_, neighbors_, gather_, rigid_push_, attach_, velocity_, vorticity_, fluid_velocity_, health_, reset_;
+  // one pass per non-empty constraint set, dispatched once per colour
+  std::vector<std::pair<std::shared_ptr<compute::ComputePass>, const ConstraintSet*>> families_;
+};
+
+}  // namespace cressim::physics

@@ -1,0 +1,212 @@
+// Particle objects (SoftBody, Fluid, Strand), tet meshes, and the engine's particle layout
+// mapping and attachments.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include "physics/tet_mesh.h"
+#include "python/bindings.h"
+#include "python/entity.h"
+#include "runtime/engine.h"
+
+namespace py = pybind11;
+
+namespace cressim::python {
+namespace {
+
+using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
+using IndexArray = py::array_t<int64_t, py::array::c_style | py::array::forcecast>;
+
+// an (n, 3) array of points as a flat list; `what` names the argument in errors
+std::vector<float> points(py::handle o, const char* what) {
+  auto a = FloatArray::ensure(o);
+  if (!a || (a.size() && (a.ndim() != 2 || a.shape(1) != 3)))
+    throw py::value_error(std::string(what) + ": give an (n, 3) array of points");
+  return {a.data(), a.data() + a.size()};
+}
+
+// an (n, k) array of indices as a flat list
+std::vector<uint32_t> indices(py::handle o, size_t k, const char* what) {
+  if (o.is_none()) return {};
+  auto a = IndexArray::ensure(o);
+  if (!a || (a.size() && k > 1 && (a.ndim() != 2 || size_t(a.shape(1)) != k)))
+    throw py::value_error(std::string(what) + ": give an (n, " + std::to_string(k) + ") array of indices");
+  std::vector<uint32_t> v;
+  for (py::ssize_t i = 0; i < a.size(); ++i) {
+    if (a.data()[i] < 0) throw py::value_error(std::string(what) + ": negative index");
+    v.push_back(uint32_t(a.data()[i]));
+  }
+  return v;
+}
+
+template <class T>
+py::array_t<T> array(const std::vector<T>& v, std::vector<py::ssize_t> shape) {
+  py::array_t<T> a(shape);
+  std::copy(v.begin(), v.end(), a.mutable_data());
+  return a;
+}
+
+py::array_t<float> points_of(const std::vector<float>& v) { return array(v, {py::ssize_t(v.size() / 3), 3}); }
+
+template <class C>
+Entity add(Entity& e, const C& c) {
+  e.world->add(e.id, c);
+  return e;
+}
+
+}  // namespace
+
+void bind_particles(py::module_& m) {
+  using physics::TetMesh;
+  py::class_<TetMesh>(m, "TetMesh", "A tetrahedral mesh for SoftBody: vertices, tets and its boundary triangles.")
+      .def_static("box", &physics::tetrahedralize_box, py::arg("half_extents"), py::arg("cells"),
+                  "A box centred at the origin, cells=(nx, ny, nz) cubes of 6 tets each.")
+      .def_static("cylinder", &physics::tetrahedralize_cylinder, py::arg("radius"), py::arg("half_height"),
+                  py::arg("cells_across") = 6, py::arg("cells_along") = 6, "A cylinder along z centred at the origin.")
+      .def_static("load", &physics::load_msh, py::arg("path"), "Reads a Gmsh .msh file (ASCII 2.2 or 4.1).")
+      .def_property_readonly("positions", [](const TetMesh& t) { return points_of(t.positions); })
+      .def_property_readonly("tets", [](const TetMesh& t) { return array(t.tets, {py::ssize_t(t.tet_count()), 4}); })
+      .def_property_readonly("triangles", [](const TetMesh& t) {
+        return array(t.triangles, {py::ssize_t(t.triangles.size() / 3), 3});
+      })
+      .def("__repr__", [](const TetMesh& t) {
+        return "<TetMesh " + std::to_string(t.vertex_count()) + " vertices, " + std::to_string(t.tet_count()) + " tets>";
+      });
+
+  py::class_<scene::SoftBody>(m, "SoftBody")
+      .def(py::init([](py::object shape, py::object tets, py::object triangles, py::object fixed, float mass,
+                       float distance_compliance, float volume_compliance, uint32_t neighbors, float damping, float radius,
+                       float friction, bool self_collision) {
+             scene::SoftBody s;
+             if (py::isinstance<TetMesh>(shape)) {
+               const auto& t = shape.cast<const TetMesh&>();
+               s.positions = t.positions, s.tets = t.tets, s.triangles = t.triangles;
+             } else {
+               s.positions = points(shape, "SoftBody positions");
+               s.tets = indices(tets, 4, "SoftBody tets");
+               s.triangles = indices(triangles, 3, "SoftBody triangles");
+             }
+             s.fixed = indices(fixed, 1, "SoftBody fixed");
+             s.mass = mass, s.distance_compliance = distance_compliance, s.volume_compliance = volume_compliance;
+             s.neighbors = neighbors, s.damping = damping, s.radius = radius, s.friction = friction;
+             s.self_collision = self_collision;
+             return s;
+           }),
+           py::arg("shape"), py::arg("tets") = py::none(), py::arg("triangles") = py::none(), py::kw_only(),
+           py::arg("fixed") = py::none(), py::arg("mass") = 0.01f, py::arg("distance_compliance") = 1e-4f,
+           py::arg("volume_compliance") = 1e-4f, py::arg("neighbors") = 8u, py::arg("damping") = 0.f,
+           py::arg("radius") = 0.02f, py::arg("friction") = 0.5f, py::arg("self_collision") = false,
+           "A soft body: shape is a TetMesh, or an (n, 3) array of particle positions (entity frame) with tets "
+           "(m, 4) and surface triangles (k, 3), or without tets a meshfree body tied to its `neighbors` nearest "
+           "particles. fixed: particle indices clamped in place. Compliances are XPBD compliances of the strain "
+           "constraints |d|/L - 1 and V/V0 - 1.")
+      .def_property_readonly("particle_count", [](const scene::SoftBody& s) { return s.positions.size() / 3; })
+      .def_property_readonly("positions", [](const scene::SoftBody& s) { return points_of(s.positions); })
+      .def_readonly("mass", &scene::SoftBody::mass)
+      .def_readonly("radius", &scene::SoftBody::radius);
+
+  py::class_<scene::Fluid>(m, "Fluid")
+      .def(py::init([](py::object positions, uint32_t budget, float radius, float rest_density, float viscosity,
+                       float cohesion, float surface_tension, float vorticity, float friction, float damping,
+                       uint32_t emit_rate, uint32_t emit_width, scene::Vec3 emit_origin, scene::Vec3 emit_velocity) {
+             scene::Fluid f;
+             f.positions = points(positions, "Fluid positions");
+             f.budget = budget, f.radius = radius, f.rest_density = rest_density, f.viscosity = viscosity;
+             f.cohesion = cohesion, f.surface_tension = surface_tension, f.vorticity = vorticity;
+             f.friction = friction, f.damping = damping;
+             f.emit_rate = emit_rate, f.emit_width = emit_width, f.emit_origin = emit_origin;
+             f.emit_velocity = emit_velocity;
+             return f;
+           }),
+           py::arg("positions"), py::kw_only(), py::arg("budget") = 0u, py::arg("radius") = 0.05f,
+           py::arg("rest_density") = 1000.f, py::arg("viscosity") = 0.01f, py::arg("cohesion") = 0.f,
+           py::arg("surface_tension") = 0.f, py::arg("vorticity") = 0.f, py::arg("friction") = 0.1f,
+           py::arg("damping") = 0.f, py::arg("emit_rate") = 0u, py::arg("emit_width") = 4u,
+           py::arg("emit_origin") = scene::Vec3{0, 0, 0}, py::arg("emit_velocity") = scene::Vec3{0, 0, -1},
+           "Position-based fluid: `positions` (n, 3) start active, `budget` slots in all (0: n), the rest "
+           "inactive until emitted: each frame up to `emit_rate` slots start on a square nozzle of "
+           "`emit_width` x `emit_width` lattice points at `emit_origin` (entity frame), moving at "
+           "`emit_velocity`. Rest spacing 2 x radius, kernel support 4 x radius.")
+      .def_readonly("radius", &scene::Fluid::radius)
+      .def_readonly("rest_density", &scene::Fluid::rest_density)
+      .def_readonly("budget", &scene::Fluid::budget);
+
+  py::class_<scene::Strand>(m, "Strand")
+      .def(py::init([](py::object pts, py::object fixed, float mass, float radius, float stretch, float bend,
+                       float twist, float initial_twist, float damping, float friction, bool self_collision) {
+             scene::Strand s;
+             s.points = points(pts, "Strand points");
+             s.fixed = indices(fixed, 1, "Strand fixed");
+             s.mass = mass, s.radius = radius, s.stretch_compliance = stretch, s.bend_compliance = bend;
+             s.twist_compliance = twist, s.initial_twist = initial_twist;
+             s.damping = damping, s.friction = friction, s.self_collision = self_collision;
+             return s;
+           }),
+           py::arg("points"), py::kw_only(), py::arg("fixed") = py::none(), py::arg("mass") = 0.001f,
+           py::arg("radius") = 0.005f, py::arg("stretch_compliance") = 0.f, py::arg("bend_compliance") = 1e-3f,
+           py::arg("twist_compliance") = 1e-3f, py::arg("initial_twist") = 0.f, py::arg("damping") = 0.f,
+           py::arg("friction") = 0.3f, py::arg("self_collision") = false,
+           "A thread or cable through `points` (n, 3), a Cosserat rod: segment distance, stretch-shear, bend "
+           "and twist constraints (rest straight and untwisted; initial_twist radians spread along it); "
+           "self-collision off unless asked.")
+      .def_readonly("mass", &scene::Strand::mass);
+
+  auto entity = py::reinterpret_borrow<py::class_<Entity>>(m.attr("Entity"));
+  entity.def("add", &add<scene::SoftBody>, py::arg("component"))
+      .def("add", &add<scene::Fluid>, py::arg("component"))
+      .def("add", &add<scene::Strand>, py::arg("component"));
+
+  auto engine = py::reinterpret_borrow<py::class_<runtime::Engine>>(m.attr("Engine"));
+  engine
+      .def_property_readonly("particle_mapping", [](const runtime::Engine& e) {
+        e.mapping();  // prepared?
+        py::dict d;
+        const physics::ParticleSystem* ps = e.particles();
+        physics::ParticleModel empty;
+        const auto& pm = ps ? ps->model() : empty;
+        std::vector<uint32_t> entity = pm.object_entity, env, kind, offset, count, budget, env_offset, env_count;
+        for (auto& o : pm.objects) {
+          offset.push_back(o.range.x), count.push_back(o.range.y), env.push_back(o.range.z), kind.push_back(o.range.w);
+          budget.push_back(o.ids.z);
+        }
+        for (auto& r : pm.env_ranges) env_offset.push_back(r.range.x), env_count.push_back(r.range.y);
+        auto v = [](const std::vector<uint32_t>& x) { return array(x, {py::ssize_t(x.size())}); };
+        d["object_entity"] = v(entity);
+        d["object_env"] = v(env);
+        d["object_kind"] = v(kind);
+        d["object_offset"] = v(offset);
+        d["object_count"] = v(count);
+        d["env_offset"] = v(env_offset);
+        d["env_count"] = v(env_count);
+        d["surface"] = array(pm.surface, {py::ssize_t(pm.surface.size() / 3), 3});
+        d["surface_offset"] = v(pm.surface_offset);
+        d["surface_count"] = v(pm.surface_count);
+        py::dict sets;
+        for (auto& s : pm.sets) {
+          py::dict r;
+          r["colour_offset"] = v(s.colour_offset);
+          r["colour_count"] = v(s.colour_count);
+          r["object_count"] = v(s.object_count);
+          sets[py::str(s.name)] = r;
+        }
+        d["constraints"] = sets;
+        d["kinds"] = py::dict(py::arg("solid") = shader::PARTICLE_SOLID, py::arg("fluid") = shader::PARTICLE_FLUID,
+                              py::arg("strand") = shader::PARTICLE_STRAND);
+        return d;
+      },
+      "Particle objects (entity, env, kind, first particle, count), each env's particle range, the surface "
+      "triangles (global particle indices, each object's slice), and each constraint set's colour ranges of "
+      "particles.<name>_constraints rows (a row's object is its first particle's) and constraints per object.")
+      .def("attach_particle",
+           [](runtime::Engine& e, uint32_t env, uint32_t slot, uint32_t particle, py::object body, float compliance) {
+             const uint32_t id = py::isinstance<Entity>(body) ? body.cast<Entity>().id : body.cast<uint32_t>();
+             e.attach_particle(env, slot, particle, id, compliance);
+           },
+           py::arg("env"), py::arg("slot"), py::arg("particle"),
+           py::arg("body"), py::arg("compliance") = 0.f,
+           "Ties particle (global index) to the rigid body of entity `body` where both are at the next step, in "
+           "attachment slot `slot` of `env` (no reallocation).")
+      .def("release_particle", &runtime::Engine::release_particle, py::arg("env"), py::arg("slot"));
+}
+
+}  // namespace cressim::python

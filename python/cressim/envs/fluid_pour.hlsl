@@ -1,0 +1,103 @@
+// FluidPour task logic, one thread per env (apply_action, evaluate, observe). The source
+// container is body `env` (one rigid body per env); the fluid is the env's particle range.
+#include "cressim/layout.h"
+#include "cressim/quat.h"
+
+struct Params {
+  uint envs;
+  uint max_steps;
+  uint reset_all;
+  float move_step, tilt_step, max_tilt;  // per step and unit action
+  float min_x, max_x;                    // source x range
+  float target_x, target_y, target_floor;
+  float inner_x, inner_y, inner_height;  // target's inner half extents and height
+  float spill_penalty;
+  float success;
+};
+[[vk::push_constant]] ConstantBuffer<Params> pc;
+
+StructuredBuffer<float4> particle_positions;
+StructuredBuffer<uint4> particle_env_ranges;
+StructuredBuffer<float4> body_positions;
+StructuredBuffer<float4> body_rotations;
+RWStructuredBuffer<float4> target_positions;
+RWStructuredBuffer<float4> target_rotations;
+RWStructuredBuffer<float> actions;  // (envs, 2)
+RWStructuredBuffer<uint> reset_mask;
+RWStructuredBuffer<float> observations;  // (envs, 6)
+RWStructuredBuffer<float> rewards;
+RWStructuredBuffer<uint> terminated;
+RWStructuredBuffer<uint> truncated;
+RWStructuredBuffer<uint> episode_length;
+RWStructuredBuffer<float> finished_length;
+
+// tilt about +y (pouring toward +x) of a rotation that has only that
+float tilt_of(float4 q) { return 2 * atan2(q.y, q.w); }
+
+struct FluidState {
+  float2 mean_xz;  // x, height
+  float caught;
+  float spilled;
+};
+
+FluidState fluid_state(uint env) {
+  const uint4 r = particle_env_ranges[env];
+  FluidState s;
+  s.mean_xz = float2(0, 0);
+  uint caught = 0, spilled = 0;
+  for (uint i = r.x; i < r.x + r.y; ++i) {
+    const float3 x = particle_positions[i].xyz;
+    s.mean_xz += x.xz;
+    const bool in_target = abs(x.x - pc.target_x) <= pc.inner_x && abs(x.y - pc.target_y) <= pc.inner_y &&
+                           x.z >= pc.target_floor && x.z <= pc.target_floor + pc.inner_height;
+    if (in_target) caught += 1;
+    else if (x.z < pc.target_floor) spilled += 1;  // on the ground outside the target
+  }
+  const float n = max(float(r.y), 1.0);
+  s.mean_xz /= n;
+  s.caught = float(caught) / n;
+  s.spilled = float(spilled) / n;
+  return s;
+}
+
+[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
+void apply_action(uint3 id : SV_DispatchThreadID) {
+  const uint env = id.x;
+  if (env >= pc.envs) return;
+  const float2 a = clamp(float2(actions[2 * env], actions[2 * env + 1]), -1.0, 1.0);
+  float4 t = target_positions[env];
+  t.x = clamp(body_positions[env].x + a.x * pc.move_step, pc.min_x, pc.max_x);
+  target_positions[env] = t;
+  const float tilt = clamp(tilt_of(body_rotations[env]) + a.y * pc.tilt_step, 0.0, pc.max_tilt);
+  target_rotations[env] = quat_axis_angle(float3(0, 1, 0), tilt);
+}
+
+[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
+void evaluate(uint3 id : SV_DispatchThreadID) {
+  const uint env = id.x;
+  if (env >= pc.envs) return;
+  const FluidState s = fluid_state(env);
+  const uint steps = episode_length[env] + 1;
+  const bool success = s.caught >= pc.success, failed = reset_mask[env] != 0;
+  const bool over = steps >= pc.max_steps;
+  const bool done = pc.reset_all != 0 || success || failed || over;
+  rewards[env] = pc.reset_all != 0 ? 0.0 : s.caught - pc.spill_penalty * s.spilled;
+  terminated[env] = pc.reset_all == 0 && (success || failed) ? 1 : 0;
+  truncated[env] = pc.reset_all == 0 && over && !(success || failed) ? 1 : 0;
+  finished_length[env] = done && pc.reset_all == 0 ? float(steps) : 0.0;
+  episode_length[env] = done ? 0 : steps;
+  if (done) reset_mask[env] = 1;
+}
+
+[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
+void observe(uint3 id : SV_DispatchThreadID) {
+  const uint env = id.x;
+  if (env >= pc.envs) return;
+  const FluidState s = fluid_state(env);
+  observations[6 * env + 0] = body_positions[env].x;
+  observations[6 * env + 1] = tilt_of(body_rotations[env]);
+  observations[6 * env + 2] = s.mean_xz.x;
+  observations[6 * env + 3] = s.mean_xz.y;
+  observations[6 * env + 4] = s.caught;
+  observations[6 * env + 5] = s.spilled;
+}

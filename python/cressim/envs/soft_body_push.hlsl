@@ -1,0 +1,83 @@
+// SoftBodyPush task logic, one thread per env (apply_action, evaluate, observe). The pusher is
+// body `env` (one rigid body per env); the cube is the env's particle range.
+#include "cressim/layout.h"
+
+struct Params {
+  uint envs;
+  uint max_steps;
+  uint reset_all;
+  float step_length;  // pusher travel per step and unit action (m)
+  float target_x, target_y, target_half_x, target_half_y, target_height;
+  float success;      // occupancy that ends an episode
+  float limit_x, limit_y;  // the pusher stays over the ground
+};
+[[vk::push_constant]] ConstantBuffer<Params> pc;
+
+StructuredBuffer<float4> particle_positions;  // particles.positions
+StructuredBuffer<uint4> particle_env_ranges;  // particles.env_ranges: x first, y count
+StructuredBuffer<float4> body_positions;      // rigid.positions
+RWStructuredBuffer<float4> target_positions;  // control.body_target_positions
+RWStructuredBuffer<float> actions;            // (envs, 2)
+RWStructuredBuffer<uint> reset_mask;
+RWStructuredBuffer<float> observations;       // (envs, 5)
+RWStructuredBuffer<float> rewards;
+RWStructuredBuffer<uint> terminated;
+RWStructuredBuffer<uint> truncated;
+RWStructuredBuffer<uint> episode_length;
+RWStructuredBuffer<float> finished_length;
+
+// centroid (xy) and the fraction of particles inside the target box
+float3 cube_state(uint env) {
+  const uint4 r = particle_env_ranges[env];
+  float2 sum = float2(0, 0);
+  uint inside = 0;
+  for (uint i = r.x; i < r.x + r.y; ++i) {
+    const float3 x = particle_positions[i].xyz;
+    sum += x.xy;
+    if (abs(x.x - pc.target_x) <= pc.target_half_x && abs(x.y - pc.target_y) <= pc.target_half_y && x.z <= pc.target_height)
+      inside += 1;
+  }
+  const float n = max(float(r.y), 1.0);
+  return float3(sum / n, float(inside) / n);
+}
+
+[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
+void apply_action(uint3 id : SV_DispatchThreadID) {
+  const uint env = id.x;
+  if (env >= pc.envs) return;
+  const float2 a = clamp(float2(actions[2 * env], actions[2 * env + 1]), -1.0, 1.0);
+  float4 t = target_positions[env];
+  t.xy = clamp(body_positions[env].xy + a * pc.step_length, -float2(pc.limit_x, pc.limit_y), float2(pc.limit_x, pc.limit_y));
+  target_positions[env] = t;
+}
+
+[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
+void evaluate(uint3 id : SV_DispatchThreadID) {
+  const uint env = id.x;
+  if (env >= pc.envs) return;
+  const float3 s = cube_state(env);
+  const float distance = length(s.xy - float2(pc.target_x, pc.target_y));
+  const uint steps = episode_length[env] + 1;
+  const bool success = s.z >= pc.success, failed = reset_mask[env] != 0;  // flagged unhealthy this frame
+  const bool over = steps >= pc.max_steps;
+  const bool done = pc.reset_all != 0 || success || failed || over;
+  rewards[env] = pc.reset_all != 0 ? 0.0 : s.z + 0.25 * max(0.0, 1.0 - 2.0 * distance);
+  terminated[env] = pc.reset_all == 0 && (success || failed) ? 1 : 0;
+  truncated[env] = pc.reset_all == 0 && over && !(success || failed) ? 1 : 0;
+  finished_length[env] = done && pc.reset_all == 0 ? float(steps) : 0.0;
+  episode_length[env] = done ? 0 : steps;
+  if (done) reset_mask[env] = 1;  // the engine puts the cube and the pusher back
+}
+
+[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
+void observe(uint3 id : SV_DispatchThreadID) {
+  const uint env = id.x;
+  if (env >= pc.envs) return;
+  const float3 s = cube_state(env);
+  const float3 p = body_positions[env].xyz;
+  observations[5 * env + 0] = p.x;
+  observations[5 * env + 1] = p.y - pc.target_y;
+  observations[5 * env + 2] = s.x;
+  observations[5 * env + 3] = s.y - pc.target_y;
+  observations[5 * env + 4] = s.z;
+}

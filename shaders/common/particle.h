@@ -1,0 +1,74 @@
+// Particle system layouts shared by the engine and shaders/physics/particle_*: one set of flat
+// particle buffers for every kind (soft bodies, fluids, strands) and env, constraint records of a
+// common shape, and the per-env / per-object ranges. Every struct is whole 16-byte vectors.
+#ifndef CRESSIM_PARTICLE_H
+#define CRESSIM_PARTICLE_H
+#include "cressim/types.h"
+
+CRESSIM_SHADER_BEGIN
+
+// particle kinds (phase.x)
+static const uint PARTICLE_SOLID = 1;   // soft bodies (tetrahedral or meshfree)
+static const uint PARTICLE_FLUID = 2;   // position-based fluids
+static const uint PARTICLE_STRAND = 3;  // threads and cables
+
+// phase.w flags
+static const uint PARTICLE_ACTIVE = 1;        // inactive slots (fluid budget) neither move nor collide
+static const uint PARTICLE_SELF_COLLIDE = 2;  // collides with particles of its own object
+
+// Every constraint family stores records of this shape: up to 4 particles and family-specific
+// parameters. Records are grouped by colour (no two constraints of a colour share a particle),
+// and the family's pass projects one colour per dispatch straight onto the positions: Gauss-Seidel
+// between colours, parallel within one, the same for every env. A new family is a record builder
+// and a pass; the solver core only walks the table of sets.
+struct ParticleConstraint {
+  uint4 particles;  // global particle indices (CRESSIM_NONE when unused)
+  float4 params;    // x rest value, y compliance, zw family-specific
+};
+
+struct ParticleObject {
+  uint4 range;      // x first particle, y count, z env, w kind
+  uint4 ids;        // x entity row, y flags (PARTICLE_SELF_COLLIDE), z budget (fluid), w slots active at start
+  float4 material;  // x radius, y friction, z damping (1/s), w rest density (fluid)
+  float4 fluid;     // x viscosity (XSPH), y cohesion, z surface tension, w vorticity confinement
+  float4 emitter;   // fluid emitter: xyz nozzle centre (world), w particles per frame (0: none)
+  float4 emit_velocity;  // xyz velocity of emitted particles, w nozzle width (particles a side)
+};
+
+struct ParticleEnvRange {
+  uint4 range;  // x first particle, y count, z first object, w count
+};
+
+// A rigid-particle attachment slot (control.particle_attachments, max_particle_attachments_per_env
+// per env): state 0 free, 1 attached, 2 attach at the next step (local offset taken from the
+// poses then). Written by the host (Engine.attach_particle) or by task passes.
+static const uint ATTACH_FREE = 0;
+static const uint ATTACH_ACTIVE = 1;
+static const uint ATTACH_PENDING = 2;
+struct ParticleAttachment {
+  uint4 ids;     // x particle, y body (rigid body index), z state, w env
+  float4 local;  // xyz particle position in the body frame, w compliance (0: rigid)
+};
+
+// push constants of every particle pass
+struct ParticleConstants {
+  float4 gravity;     // xyz; w substep h
+  float4 grid;        // x cell size, y fraction of the frame done at the end of this substep, z max speed, w substeps
+  uint particle_count;
+  uint item_count;    // threads of this pass (constraints of one colour, blocks...)
+  uint table_size;    // hash buckets (power of two)
+  uint env_count;
+  uint has_rigid;     // rigid buffers are real (else one-element stand-ins)
+  uint owns_health;   // no rigid system: the particle health pass writes env.health itself
+  uint attachment_count;
+  uint item_offset;   // first constraint of the colour this dispatch projects
+  uint edge_count;    // strand segments (material frames)
+  uint pad0;
+  uint pad1;
+  uint pad2;
+};
+
+// Constraint records address a strand segment's frame as particle_count + segment.
+
+CRESSIM_SHADER_END
+#endif

@@ -1,0 +1,49 @@
+// Position-based fluids, per iteration: each fluid particle's SPH density and its constraint's
+// multiplier, C = max(rho / rho0 - 1, 0) (Macklin & Mueller 2013; unilateral, so the free
+// surface is not pulled together).
+#include "cressim/layout.h"
+#include "cressim/particle.h"
+
+[[vk::push_constant]] ConstantBuffer<ParticleConstants> pc;
+StructuredBuffer<ParticleObject> objects;
+StructuredBuffer<uint4> phases;
+StructuredBuffer<float4> positions;
+StructuredBuffer<int4> cells;
+StructuredBuffer<uint> cell_starts;
+StructuredBuffer<uint> cell_counts;
+StructuredBuffer<uint> sorted;
+RWStructuredBuffer<float> densities;
+RWStructuredBuffer<float> fluid_lambdas;
+
+#include "particle_grid.hlsli"
+#include "particle_fluid.hlsli"
+
+[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
+void main(uint3 id : SV_DispatchThreadID) {
+  const uint i = id.x;
+  if (i >= pc.particle_count) return;
+  const uint4 ph = phases[i];
+  if (ph.x != PARTICLE_FLUID || (ph.w & PARTICLE_ACTIVE) == 0) return;
+  const ParticleObject o = objects[ph.y];
+  const Kernel K = make_kernel(o.material.x);
+  const float rho0 = o.material.w;
+  const float3 xi = positions[i].xyz;
+  float density = 0, sum_squares = 0;
+  float3 grad_i = float3(0, 0, 0);
+  FOR_EACH_NEIGHBOR(i, j, {
+    if (phases[j].x == PARTICLE_FLUID) {
+      const float4 xj = positions[j];
+      const float3 r = xi - xj.xyz;
+      const float m = particle_mass(xj);
+      density += m * poly6(K, dot(r, r));
+      if (j != i) {
+        const float3 g = (m / rho0) * spiky_gradient(K, r);
+        grad_i += g;
+        sum_squares += dot(g, g);
+      }
+    }
+  })
+  const float C = max(density / rho0 - 1, 0.0);
+  densities[i] = density;
+  fluid_lambdas[i] = C > 0 ? -C / (sum_squares + dot(grad_i, grad_i) + 1e-6) : 0;
+}

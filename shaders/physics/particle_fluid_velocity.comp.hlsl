@@ -1,0 +1,50 @@
+// Fluid velocity terms, step 2 (Macklin & Mueller 2013, Akinci et al. 2013): XSPH viscosity,
+// vorticity confinement, cohesion and surface tension (curvature), as velocity changes.
+#include "cressim/layout.h"
+#include "cressim/particle.h"
+
+[[vk::push_constant]] ConstantBuffer<ParticleConstants> pc;
+StructuredBuffer<ParticleObject> objects;
+StructuredBuffer<uint4> phases;
+StructuredBuffer<float4> positions;
+StructuredBuffer<float4> velocity_copies;
+StructuredBuffer<float> densities;
+StructuredBuffer<float4> vorticities;
+StructuredBuffer<float4> normals;
+StructuredBuffer<int4> cells;
+StructuredBuffer<uint> cell_starts;
+StructuredBuffer<uint> cell_counts;
+StructuredBuffer<uint> sorted;
+RWStructuredBuffer<float4> velocities;
+
+#include "particle_grid.hlsli"
+#include "particle_fluid.hlsli"
+
+[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
+void main(uint3 id : SV_DispatchThreadID) {
+  const uint i = id.x;
+  if (i >= pc.particle_count) return;
+  const uint4 ph = phases[i];
+  if (ph.x != PARTICLE_FLUID || (ph.w & PARTICLE_ACTIVE) == 0 || positions[i].w <= 0) return;
+  const ParticleObject o = objects[ph.y];
+  const Kernel K = make_kernel(o.material.x);
+  const float rho0 = o.material.w, dt = pc.gravity.w;
+  const float3 xi = positions[i].xyz, vi = velocity_copies[i].xyz, omega = vorticities[i].xyz, ni = normals[i].xyz;
+  const float rho_i = max(densities[i], 1e-6);
+  float3 xsph = float3(0, 0, 0), eta = float3(0, 0, 0), accel = float3(0, 0, 0);
+  FOR_EACH_NEIGHBOR(i, j, {
+    if (j != i && phases[j].x == PARTICLE_FLUID) {
+      const float3 r = xi - positions[j].xyz;
+      const float len = length(r), mj = particle_mass(positions[j]), rho_j = max(densities[j], 1e-6);
+      xsph += (mj / rho_j) * (velocity_copies[j].xyz - vi) * poly6(K, len * len);
+      eta += (mj / rho_j) * (length(vorticities[j].xyz) - length(omega)) * spiky_gradient(K, r);
+      const float k = 2 * rho0 / (rho_i + rho_j);
+      if (len > 1e-9) accel += k * (-o.fluid.y * mj * cohesion_spline(K, len) * (r / len) - o.fluid.z * (ni - normals[j].xyz));
+    }
+  })
+  float3 v = vi + o.fluid.x * xsph + dt * accel;
+  // eta = grad |omega| points toward stronger vorticity
+  const float eta_len = length(eta);
+  if (o.fluid.w > 0 && eta_len > 1e-9) v += dt * o.fluid.w * cross(eta / eta_len, omega);
+  velocities[i].xyz = v;
+}

@@ -1,0 +1,35 @@
+// Frame end, one thread per env: NaN/Inf or a speed beyond the bound flags the env in
+// env.health; a flagged env is reset at the next frame and counted in env.health_events. With a
+// rigid system the flags add to the rigid solver's (which already counted the env if it flagged it).
+#include "cressim/layout.h"
+#include "cressim/particle.h"
+#include "cressim/rigid.h"
+
+[[vk::push_constant]] ConstantBuffer<ParticleConstants> pc;
+StructuredBuffer<ParticleEnvRange> env_ranges;
+StructuredBuffer<uint4> phases;
+StructuredBuffer<float4> positions;
+StructuredBuffer<float4> velocities;
+RWStructuredBuffer<uint> health;
+RWStructuredBuffer<uint> reset_mask;
+RWStructuredBuffer<uint> health_events;
+
+[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
+void main(uint3 id : SV_DispatchThreadID) {
+  const uint env = id.x;
+  if (env >= pc.env_count) return;
+  const uint4 r = env_ranges[env].range;
+  uint flags = 0;
+  for (uint i = r.x; i < r.x + r.y; ++i) {
+    if ((phases[i].w & PARTICLE_ACTIVE) == 0) continue;
+    const float4 x = positions[i], v = velocities[i];
+    if (any(isnan(x)) || any(isinf(x)) || any(isnan(v)) || any(isinf(v))) flags |= HEALTH_NAN;
+    else if (length(v.xyz) > pc.grid.z) flags |= HEALTH_SPEED;
+  }
+  const uint before = pc.owns_health != 0 ? 0 : health[env];
+  health[env] = before | flags;
+  if (flags != 0 && before == 0) {
+    reset_mask[env] = 1;
+    InterlockedAdd(health_events[0], 1u);
+  }
+}

@@ -1,0 +1,61 @@
+// Per iteration, the corrections that come from neighbours: the fluid density correction
+// between fluid particles, Delta x_i = 1/rho0 sum_j m_j (lambda_i + lambda_j) grad W_ij, and
+// contacts (overlap of radii, split by inverse mass, averaged over the particle's contacts)
+// between particles of different objects, or of one self-colliding object. Each particle
+// writes only its own delta.
+#include "cressim/layout.h"
+#include "cressim/particle.h"
+
+[[vk::push_constant]] ConstantBuffer<ParticleConstants> pc;
+StructuredBuffer<ParticleObject> objects;
+StructuredBuffer<uint4> phases;
+StructuredBuffer<float4> positions;
+StructuredBuffer<int4> cells;
+StructuredBuffer<uint> cell_starts;
+StructuredBuffer<uint> cell_counts;
+StructuredBuffer<uint> sorted;
+StructuredBuffer<float> fluid_lambdas;
+RWStructuredBuffer<float4> deltas;
+
+#include "particle_grid.hlsli"
+#include "particle_fluid.hlsli"
+
+[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
+void main(uint3 id : SV_DispatchThreadID) {
+  const uint i = id.x;
+  if (i >= pc.particle_count) return;
+  const uint4 ph = phases[i];
+  const float4 xi = positions[i];
+  if ((ph.w & PARTICLE_ACTIVE) == 0 || xi.w <= 0) {
+    deltas[i] = float4(0, 0, 0, 0);
+    return;
+  }
+  const ParticleObject oi = objects[ph.y];
+  const bool fluid = ph.x == PARTICLE_FLUID;
+  const Kernel K = make_kernel(oi.material.x);
+  const float rho0 = oi.material.w, lambda_i = fluid ? fluid_lambdas[i] : 0;
+  float3 density_delta = float3(0, 0, 0), contact = float3(0, 0, 0);
+  float contacts = 0;
+  FOR_EACH_NEIGHBOR(i, j, {
+    if (j != i) {
+      const uint4 pj = phases[j];
+      const float4 xj = positions[j];
+      const float3 r = xi.xyz - xj.xyz;
+      if (fluid && pj.x == PARTICLE_FLUID) {
+        density_delta += particle_mass(xj) * (lambda_i + fluid_lambdas[j]) * spiky_gradient(K, r);
+      } else if (pj.y != ph.y || ((ph.w & PARTICLE_SELF_COLLIDE) != 0 &&
+                                  // a strand's own neighbours along it overlap by construction
+                                  !(ph.x == PARTICLE_STRAND && abs(int(j) - int(i)) <= 2))) {
+        const float reach = oi.material.x + objects[pj.y].material.x, d = length(r);
+        const float w = xi.w + xj.w;
+        if (d < reach && d > 1e-9 && w > 0) {
+          contact += (reach - d) * (xi.w / w) * (r / d);
+          contacts += 1;
+        }
+      }
+    }
+  })
+  float3 delta = density_delta / max(rho0, 1e-9);
+  if (contacts > 0) delta += contact / contacts;
+  deltas[i] = float4(delta, 0);
+}
