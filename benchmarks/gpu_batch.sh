@@ -2,7 +2,8 @@
 # The GPU machine's whole session in stages (device time is scarce: one call per stage or two).
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh setup tests      # build, ctest, pytest
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-a           # CartPole, rendering
-#   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-b           # ultrasound, particles, twin
+#   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-b           # ultrasound, twin
+#   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-p           # SoftBodyPush, FluidPour
 # Results (text and JSON) go to $OUT (default out/gpu). Each command has its own time limit, so
 # one slow run cannot eat the stage. `setup` also installs the pure-Python wheels the twin's
 # kinematics need (.gpu-wheels, made on the development machine: benchmarks/README.md) into
@@ -65,6 +66,12 @@ for stage in "$@"; do
       run ultrasound_sensor 120 python3 benchmarks/bench_ultrasound.py --envs 1,32,256,1024,4096 \
         --json "$OUT/ultrasound_sensor.json"
       run twin 240 python3 benchmarks/bench_twin.py --envs 1,64,1024,4096 --ticks 50 --json "$OUT/twin.json"
+      ;;
+    bench-p)
+      mkdir -p "$OUT/softbodypush" "$OUT/fluidpour"
+      run softbodypush 180 python3 -m cressim bench SoftBodyPush --envs 128,256,512,1024,2048 --mode step \
+        --out "$OUT/softbodypush"
+      run fluidpour 150 python3 -m cressim bench FluidPour --envs 64,128,256,512,1024 --mode step --out "$OUT/fluidpour"
       ;;
     *) echo "unknown stage $stage" >&2; exit 2 ;;
   esac
