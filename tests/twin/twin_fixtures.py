@@ -2,9 +2,26 @@
 from cressim_ros.twin_process import Twin
 
 
-# Twins in tests render small images at 10 Hz (lavapipe renders on the test machine's CPU); a test's own
+# Twins in tests render small images at 2 Hz (lavapipe renders on the test machine's CPU); a test's own
 # camera_* parameters come later on the command line and win.
-TEST_CAMERA = ("camera_width:=64", "camera_height:=48", "camera_rate:=10.0")
+TEST_CAMERA = ("camera_width:=64", "camera_height:=48", "camera_rate:=2.0")
+
+
+# "Keeps publishing at its rate" is checked against the rate the same twin reached before the
+# test's commands, on the same machine, not against a wall-clock number: on 2 loaded cores
+# lavapipe, DDS and the client share the CPU and the absolute rate varies (the brief: no test
+# asserts a timing).
+KEEP_RATE = 0.8
+
+
+def baseline_rate(arm, window: float = 2.0) -> float:
+    """measured_js rate over `window` s of quiet publishing (after waiting that long)."""
+    import time
+
+    time.sleep(window)
+    rate = arm.measured_js_rate(window)
+    assert rate > 0, "the twin does not publish measured_js"
+    return rate
 
 
 def module_twin(request, tmp_path_factory, domain, *params):
