@@ -64,4 +64,15 @@ std::shared_ptr<TypedBuffer> make_typed_buffer(std::shared_ptr<gpu::Context> ctx
   return b;
 }
 
+std::shared_ptr<TypedBuffer> make_keyed_buffer(std::shared_ptr<gpu::Context> ctx, BufferMap& into, const std::string& key,
+                                               const void* data, size_t bytes, std::vector<int64_t> shape, DType dtype,
+                                               bool read_only, uint64_t generation, bool exportable) {
+  auto b = make_typed_buffer(ctx, key, std::move(shape), dtype, read_only, exportable);
+  b->generation = generation;
+  if (data && bytes) gpu::upload(*ctx, b->storage->buffer, data, bytes);
+  else gpu::fill(*ctx, b->storage->buffer, 0);
+  into[key] = b;
+  return b;
+}
+
 }  // namespace cressim::compute

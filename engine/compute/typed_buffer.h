@@ -2,6 +2,7 @@
 // custom passes) and the engine's internal buffers (read-only there) are both this.
 #pragma once
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -42,5 +43,22 @@ struct TypedBuffer {
 std::shared_ptr<TypedBuffer> make_typed_buffer(std::shared_ptr<gpu::Context> ctx, std::string key,
                                                std::vector<int64_t> shape, DType dtype, bool read_only,
                                                bool exportable = false, gpu::Memory memory = gpu::Memory::DEVICE);
+
+// The engine's buffers by key ("rigid.positions", "camera0.rgb", ...).
+using BufferMap = std::map<std::string, std::shared_ptr<TypedBuffer>>;
+
+// How every system makes its buffers: `key` in `into`, `bytes` of `data` uploaded (zeros
+// without data), tagged with the upload_world() generation it belongs to.
+std::shared_ptr<TypedBuffer> make_keyed_buffer(std::shared_ptr<gpu::Context> ctx, BufferMap& into, const std::string& key,
+                                               const void* data, size_t bytes, std::vector<int64_t> shape, DType dtype,
+                                               bool read_only, uint64_t generation, bool exportable = false);
+
+template <class T>
+std::shared_ptr<TypedBuffer> make_keyed_buffer(std::shared_ptr<gpu::Context> ctx, BufferMap& into, const std::string& key,
+                                               const std::vector<T>& data, std::vector<int64_t> shape, DType dtype,
+                                               bool read_only, uint64_t generation, bool exportable = false) {
+  return make_keyed_buffer(std::move(ctx), into, key, data.empty() ? nullptr : data.data(), data.size() * sizeof(T),
+                           std::move(shape), dtype, read_only, generation, exportable);
+}
 
 }  // namespace cressim::compute

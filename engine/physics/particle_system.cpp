@@ -46,12 +46,7 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
 
   auto make = [&](BufferMap& into, const std::string& key, const void* data, size_t bytes, std::vector<int64_t> shape,
                   DType t, bool read_only, bool exp) {
-    auto b = compute::make_typed_buffer(ctx, key, std::move(shape), t, read_only, exp);
-    b->generation = generation;
-    if (data && bytes) gpu::upload(*ctx, b->storage->buffer, data, bytes);
-    else gpu::fill(*ctx, b->storage->buffer, 0);
-    into[key] = b;
-    return b;
+    return compute::make_keyed_buffer(ctx, into, key, data, bytes, std::move(shape), t, read_only, generation, exp);
   };
   // internal buffer `key`, bound in the passes as `hlsl`
   auto in = [&](const std::string& hlsl, const std::string& key, const auto& data, std::vector<int64_t> shape, DType t,

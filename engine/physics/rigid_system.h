@@ -11,7 +11,7 @@
 
 namespace cressim::physics {
 
-using BufferMap = std::map<std::string, std::shared_ptr<compute::TypedBuffer>>;
+using BufferMap = compute::BufferMap;
 
 class RigidSystem {
  public:

@@ -19,7 +19,7 @@
 
 namespace cressim::render {
 
-using BufferMap = std::map<std::string, std::shared_ptr<compute::TypedBuffer>>;
+using BufferMap = compute::BufferMap;
 
 class Renderer {
  public:

@@ -15,12 +15,7 @@ template <class T>
 std::shared_ptr<compute::TypedBuffer> make(std::shared_ptr<gpu::Context> ctx, BufferMap& into, const std::string& key,
                                            const std::vector<T>& data, std::vector<int64_t> shape, DType t,
                                            uint64_t generation, bool exportable = false) {
-  auto b = compute::make_typed_buffer(ctx, key, std::move(shape), t, true, exportable);
-  b->generation = generation;
-  if (!data.empty()) gpu::upload(*ctx, b->storage->buffer, data.data(), data.size() * sizeof(T));
-  else gpu::fill(*ctx, b->storage->buffer, 0);
-  into[key] = b;
-  return b;
+  return compute::make_keyed_buffer(std::move(ctx), into, key, data, std::move(shape), t, true, generation, exportable);
 }
 
 }  // namespace

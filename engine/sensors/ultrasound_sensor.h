@@ -14,7 +14,7 @@
 
 namespace cressim::sensors {
 
-using BufferMap = std::map<std::string, std::shared_ptr<compute::TypedBuffer>>;
+using BufferMap = compute::BufferMap;
 
 class UltrasoundSensor {
  public:
