@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <mutex>
 
 #include "gpu/error.h"
 
@@ -89,6 +90,19 @@ VkInstance create_instance(bool validation) {
   return instance;
 }
 
+// One VkInstance per process and validation setting, kept for the life of the process: the
+// NVIDIA driver (580, H100) fails vkCreateInstance with VK_ERROR_INCOMPATIBLE_DRIVER after 30
+// create/destroy cycles in one process, whatever is destroyed in between. Engines differ in
+// their devices, which are theirs alone.
+VkInstance shared_instance(bool validation) {
+  static std::mutex mutex;
+  static VkInstance instances[2] = {VK_NULL_HANDLE, VK_NULL_HANDLE};
+  std::lock_guard<std::mutex> lock(mutex);
+  VkInstance& instance = instances[validation ? 1 : 0];
+  if (!instance) instance = create_instance(validation);
+  return instance;
+}
+
 std::vector<VkPhysicalDevice> physical_devices(VkInstance instance) {
   uint32_t n = 0;
   check(vkEnumeratePhysicalDevices(instance, &n, nullptr), "vkEnumeratePhysicalDevices");
@@ -159,7 +173,7 @@ Context::~Context() {
         vkGetInstanceProcAddr(instance, "vkDestroyDebugUtilsMessengerEXT"));
     if (destroy) destroy(instance, messenger, nullptr);
   }
-  if (instance) vkDestroyInstance(instance, nullptr);
+  // the instance is shared (shared_instance) and outlives every context
 }
 
 ContextOptions options_from_environment() {
@@ -172,18 +186,16 @@ ContextOptions options_from_environment() {
 }
 
 std::vector<DeviceInfo> list_devices() {
-  VkInstance instance = create_instance(false);
   std::vector<DeviceInfo> out;
-  auto devices = physical_devices(instance);
+  auto devices = physical_devices(shared_instance(false));
   for (uint32_t i = 0; i < devices.size(); ++i) out.push_back(describe(devices[i], i));
-  vkDestroyInstance(instance, nullptr);
   return out;
 }
 
 std::shared_ptr<Context> create_context(const ContextOptions& options) {
   auto ctx = std::make_shared<Context>();
   ctx->validation = options.validation;
-  ctx->instance = create_instance(options.validation);
+  ctx->instance = shared_instance(options.validation);
 
   if (options.validation) {
     VkDebugUtilsMessengerCreateInfoEXT mi{VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT};
