@@ -133,6 +133,6 @@ def test_dvrk_client_session(session):
     # --- what the session saw: stamps never zero, no errors, data kept flowing
     assert all(stamp_s(m.header) > 0 for m in arm.states_since(0.0))
     assert arm.errors.count == 0, [m.data for m in arm.errors.history]
-    assert arm.measured_js_rate(1.0) > KEEP_RATE * baseline, (arm.measured_js_rate(1.0), baseline)
+    assert arm.measured_js_rate(1.0) > 0.5 * baseline, (arm.measured_js_rate(1.0), baseline)  # still flowing
     assert twin.alive()
     print(f"twin start-up {twin.startup_s:.1f} s, client session {time.monotonic() - t0:.1f} s")
