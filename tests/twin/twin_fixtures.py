@@ -11,7 +11,7 @@ TEST_CAMERA = ("camera_width:=64", "camera_height:=48", "camera_rate:=2.0")
 # test's commands, on the same machine, not against a wall-clock number: on 2 loaded cores
 # lavapipe, DDS and the client share the CPU and the absolute rate varies (the brief: no test
 # asserts a timing).
-KEEP_RATE = 0.8
+KEEP_RATE = 0.7
 
 
 def baseline_rate(arm, window: float = 2.0) -> float:
