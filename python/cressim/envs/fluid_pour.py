@@ -22,7 +22,8 @@ import numpy as np
 
 import cressim
 
-from .vector_env import Space, VectorEnv
+from .particle_task import ParticleTask
+from .vector_env import Space
 
 INNER = (1.15, 0.80, 0.95)  # half extents x, y, and half height
 WALL = 0.12  # half thickness
@@ -43,12 +44,11 @@ def open_box_shapes():
             cressim.Shape.box((ix, w, ih), position=(0, -iy - w, ih))]
 
 
-class FluidPour(VectorEnv):
+class FluidPour(ParticleTask):
     hlsl = Path(__file__).with_name("fluid_pour.hlsl")
     observation_space = Space((6,))
     action_space = Space((2,), -1.0, 1.0)
     max_episode_steps = 240
-    substeps = 4
     particle_iterations = 4
     spill_penalty = 1.0
     success_fraction = 0.40
@@ -78,16 +78,8 @@ class FluidPour(VectorEnv):
         self.particles_per_env = len(block)
         return world
 
-    def physics_settings(self) -> cressim.PhysicsSettings:
-        # no attachments in this task: no attachment pass
-        return cressim.PhysicsSettings(dt=1 / 60, substeps=self.substeps, particle_iterations=self.particle_iterations,
-                                       max_particle_attachments_per_env=0)
-
     def task_bindings(self) -> dict:
-        assert (self.engine.buffer("rigid.body_env").read() == np.arange(self.num_envs)).all(), "unexpected body layout"
-        return {"particle_positions": "particles.positions", "particle_env_ranges": "particles.env_ranges",
-                "body_positions": "rigid.positions", "body_rotations": "rigid.rotations",
-                "target_positions": "control.body_target_positions",
+        return {**super().task_bindings(), "body_rotations": "rigid.rotations",
                 "target_rotations": "control.body_target_rotations"}
 
     def task_constants(self, reset_all: bool) -> dict:

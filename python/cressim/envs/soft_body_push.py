@@ -20,11 +20,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
 import cressim
 
-from .vector_env import Space, VectorEnv
+from .particle_task import ParticleTask
+from .vector_env import Space
 
 GROUND = (1.25, 0.85, 0.05)
 CUBE_HALF = 0.225
@@ -32,12 +31,11 @@ PUSHER = (0.10, 0.18)  # radius, half height
 TARGET = (0.45, 0.0, 0.18, 0.18, 0.3)  # centre x, y; half extents x, y, z
 
 
-class SoftBodyPush(VectorEnv):
+class SoftBodyPush(ParticleTask):
     hlsl = Path(__file__).with_name("soft_body_push.hlsl")
     observation_space = Space((5,))
     action_space = Space((2,), -1.0, 1.0)
     max_episode_steps = 180
-    substeps = 4
     particle_iterations = 32
     cells = 6  # per axis: 7 particles an axis
     pusher_speed = 1.0  # m/s per unit action
@@ -61,17 +59,6 @@ class SoftBodyPush(VectorEnv):
             cube.add(cressim.SoftBody(mesh, mass=0.01, radius=0.04, distance_compliance=8e-4, volume_compliance=8e-4,
                                       damping=0.35, self_collision=True))
         return world
-
-    def physics_settings(self) -> cressim.PhysicsSettings:
-        # no attachments in this task: no attachment pass
-        return cressim.PhysicsSettings(dt=1 / 60, substeps=self.substeps, particle_iterations=self.particle_iterations,
-                                       max_particle_attachments_per_env=0)
-
-    def task_bindings(self) -> dict:
-        # one rigid body per env (the pusher), in env order
-        assert (self.engine.buffer("rigid.body_env").read() == np.arange(self.num_envs)).all(), "unexpected body layout"
-        return {"particle_positions": "particles.positions", "particle_env_ranges": "particles.env_ranges",
-                "body_positions": "rigid.positions", "target_positions": "control.body_target_positions"}
 
     def task_constants(self, reset_all: bool) -> dict:
         return {"envs": self.num_envs, "max_steps": self.max_episode_steps, "reset_all": int(reset_all),

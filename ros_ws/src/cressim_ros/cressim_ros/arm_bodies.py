@@ -54,7 +54,7 @@ from pytorch_kinematics.transforms import matrix_to_quaternion
 import cressim
 from cressim.robots import PSM_DH, dh_forward_kinematics
 
-from .scenery import ArmVisuals, CameraSpec, Scenery, UltrasoundSpec
+from .scenery import ArmVisuals, CameraSpec, Scenery, UltrasoundSpec, rotation_xyzw
 
 ARM_GROUP = 2  # collision group of arm links; they do not collide with each other (mask below)
 DYNAMICS = ("kinematic", "dynamic")
@@ -94,13 +94,8 @@ MIN_MASS, MIN_INERTIA = 1e-3, 1e-6
 RIGID_TOLERANCE = 1e-6  # link pose relative to a DH frame constant within this: it rides on that frame
 
 
-def _rotation_xyzw(R) -> tuple:
-    q = matrix_to_quaternion(torch.as_tensor(np.asarray(R), dtype=torch.float64))  # w, x, y, z
-    return (float(q[1]), float(q[2]), float(q[3]), float(q[0]))
-
-
 def _shape(geometry, origin: np.ndarray):
-    position, rotation = tuple(float(v) for v in origin[:3, 3]), _rotation_xyzw(origin[:3, :3])
+    position, rotation = tuple(float(v) for v in origin[:3, 3]), rotation_xyzw(origin[:3, :3])
     if geometry.box is not None:
         return cressim.Shape.box(tuple(float(s) / 2 for s in geometry.box.size), position=position, rotation=rotation)
     if geometry.cylinder is not None:  # a capsule as long as the cylinder, both along z
@@ -211,7 +206,7 @@ class ArmBodies:
             for k, b in enumerate(bodies):
                 e = world.create_entity(env=env, name=b.name)
                 e.add(cressim.Transform(position=tuple(float(v) for v in b.pose[:3, 3]),
-                                        rotation=_rotation_xyzw(b.pose[:3, :3])))
+                                        rotation=rotation_xyzw(b.pose[:3, :3])))
                 if b.frame == 0:
                     e.add(cressim.RigidBody(mass=0.1, kinematic=True))
                 else:

@@ -23,7 +23,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import torch
 import trimesh
+from pytorch_kinematics.transforms import matrix_to_quaternion
 
 import cressim
 
@@ -81,15 +83,13 @@ def look_at_rotation(position, target, up=(0.0, 0.0, 1.0)) -> tuple:
         x = np.cross(z, (0.0, 1.0, 0.0))
     x /= np.linalg.norm(x)
     y = np.cross(z, x)
-    return _xyzw(np.stack([x, y, z], axis=1))
+    return rotation_xyzw(np.stack([x, y, z], axis=1))
 
 
-def _xyzw(R) -> tuple:
-    w = np.sqrt(max(0.0, 1 + R[0, 0] + R[1, 1] + R[2, 2])) / 2
-    x = np.copysign(np.sqrt(max(0.0, 1 + R[0, 0] - R[1, 1] - R[2, 2])) / 2, R[2, 1] - R[1, 2])
-    y = np.copysign(np.sqrt(max(0.0, 1 - R[0, 0] + R[1, 1] - R[2, 2])) / 2, R[0, 2] - R[2, 0])
-    z = np.copysign(np.sqrt(max(0.0, 1 - R[0, 0] - R[1, 1] + R[2, 2])) / 2, R[1, 0] - R[0, 1])
-    return (float(x), float(y), float(z), float(w))
+def rotation_xyzw(R) -> tuple:
+    """x, y, z, w of a 3x3 rotation matrix (the engine's quaternion order)."""
+    q = matrix_to_quaternion(torch.as_tensor(np.asarray(R), dtype=torch.float64))  # w, x, y, z
+    return (float(q[1]), float(q[2]), float(q[3]), float(q[0]))
 
 
 def _geometry_mesh(geometry, urdf_dir: Path):
@@ -206,4 +206,4 @@ class Scenery:
         probe.add(u.probe())
 
 
-__all__ = ["ArmVisuals", "CameraSpec", "Scenery", "UltrasoundSpec", "engine_mesh", "look_at_rotation"]
+__all__ = ["ArmVisuals", "CameraSpec", "Scenery", "UltrasoundSpec", "engine_mesh", "look_at_rotation", "rotation_xyzw"]
