@@ -102,6 +102,9 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   auto fill = scratch("cell_fill", "particles.cell_fill", {int64_t(table_size_)}, DType::UINT32);
   scratch("block_sums", "particles.block_sums", {int64_t(blocks_)}, DType::UINT32);
   const bool grid = model_.has_fluid || model_.has_contacts;
+  scratch("neighbor_counts", "particles.neighbor_counts", {n}, DType::UINT32);
+  scratch("neighbor_lists", "particles.neighbor_lists", {grid ? int64_t(shader::PARTICLE_MAX_NEIGHBORS) : 1, n},
+          DType::UINT32);
   if (grid) per_substep_clears_ = {counts->storage->buffer.buffer, fill->storage->buffer.buffer};
 
   // control: attachment slots, all free
@@ -141,6 +144,7 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
     scan_add_ = pass("physics/particle_scan_add", table_size_);
     scatter_ = pass("physics/particle_grid_scatter", uint64_t(n));
     sort_ = pass("physics/particle_grid_sort", table_size_);
+    neighbor_list_ = pass("physics/particle_neighbor_list", uint64_t(n));
     neighbors_ = pass("physics/particle_neighbors", uint64_t(n));
   }
   if (model_.has_fluid) {
@@ -148,6 +152,8 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
     vorticity_ = pass("physics/particle_fluid_vorticity", uint64_t(n));
     fluid_velocity_ = pass("physics/particle_fluid_velocity", uint64_t(n));
   }
+  for (uint32_t e = 0; e < uint32_t(ne); ++e)
+    if (model_.env_ranges[e].range.y > largest_env_) largest_env_ = model_.env_ranges[e].range.y, largest_env_index_ = e;
   for (auto& s : model_.sets) {
     const auto c = int64_t(s.records.size());
     auto cb = in("", "particles." + s.name + "_constraints", words(s.records),
@@ -159,7 +165,15 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
     b["lambdas"] = lb;
     auto p = compute::create_builtin_pass(ctx, s.shader, b);
     all_.push_back(p);
-    families_.push_back({p, &s});
+    Family f{p, nullptr, &s};
+    if (s.positional && largest_env_ <= shader::PARTICLE_BLOCK_CAPACITY) {
+      b["env_colours"] = in("", "particles." + s.name + "_env_colours", s.env_colours,
+                            {int64_t(s.env_colours.size() / 2), 2}, DType::UINT32);
+      f.per_env = compute::create_builtin_pass(ctx, s.shader + ".block", b);
+      f.per_env->groups = {uint32_t(ne), 1, 1};
+      all_.push_back(f.per_env);
+    }
+    families_.push_back(f);
     per_substep_clears_.push_back(lb->storage->buffer.buffer);
   }
   gather_ = pass("physics/particle_gather", uint64_t(n));
@@ -189,8 +203,40 @@ void ParticleSystem::set_settings(const PhysicsSettings& s) {
   if (s.max_particle_attachments_per_env != attachments_per_env_)
     throw std::invalid_argument("PhysicsSettings.max_particle_attachments_per_env sizes the attachment buffer: set it "
                                 "before upload_world() (or call upload_world() again)");
+  if (s.particle_solver == "workgroup" && largest_env_ > shader::PARTICLE_BLOCK_CAPACITY)
+    throw std::invalid_argument("PhysicsSettings.particle_solver 'workgroup' needs every env to have at most " +
+                                std::to_string(shader::PARTICLE_BLOCK_CAPACITY) + " particles; env " +
+                                std::to_string(largest_env_index_) + " has " + std::to_string(largest_env_) +
+                                " (use 'auto' or 'dispatch')");
   settings_ = s;
   set_constants(s);
+}
+
+bool ParticleSystem::workgroup_solve() const {
+  return settings_.particle_solver != "dispatch" && largest_env_ <= shader::PARTICLE_BLOCK_CAPACITY;
+}
+
+// every constraint family `passes` times over (Gauss-Seidel between colours and families)
+void ParticleSystem::record_families(VkCommandBuffer cmd, uint32_t passes) const {
+  auto put = [](compute::ComputePass& p, uint32_t offset, uint32_t count) {
+    std::memcpy(p.constants.data() + offsetof(shader::ParticleConstants, item_offset), &offset, 4);
+    std::memcpy(p.constants.data() + offsetof(shader::ParticleConstants, item_count), &count, 4);
+  };
+  for (auto& f : families_) {
+    if (f.per_env && workgroup_solve()) {
+      put(*f.per_env, passes, uint32_t(f.set->colour_count.size()));
+      f.per_env->record(cmd);
+      gpu::compute_barrier(cmd);
+      continue;
+    }
+    for (uint32_t pass = 0; pass < passes; ++pass)
+      for (size_t k = 0; k < f.set->colour_count.size(); ++k) {
+        put(*f.per_colour, f.set->colour_offset[k], f.set->colour_count[k]);
+        f.per_colour->groups = {(f.set->colour_count[k] + kGroup - 1) / kGroup, 1, 1};
+        f.per_colour->record(cmd);
+        gpu::compute_barrier(cmd);
+      }
+  }
 }
 
 void ParticleSystem::set_constants(const PhysicsSettings& s) {
@@ -229,19 +275,15 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
     run(integrate_);
     run(orient_integrate_);
     if (grid_count_) {
-      for (auto& p : {grid_count_, scan_local_, scan_blocks_, scan_add_, scatter_, sort_}) run(p);
+      for (auto& p : {grid_count_, scan_local_, scan_blocks_, scan_add_, scatter_, sort_, neighbor_list_}) run(p);
     }
-    for (uint32_t it = 0; it < settings_.particle_iterations; ++it) {
+    // the constraint families every iteration, contacts in `contacts` of them spread evenly:
+    // contact iteration k follows the families' iterations up to floor((k + 1) I / C)
+    const uint32_t iterations = settings_.particle_iterations;
+    const uint32_t contacts = settings_.particle_contact_iterations ? settings_.particle_contact_iterations : iterations;
+    for (uint32_t k = 0; k < contacts; ++k) {
       run(fluid_lambda_);
-      // each family colour by colour (Gauss-Seidel between colours), then neighbours and colliders
-      for (auto& [p, set] : families_)
-        for (size_t k = 0; k < set->colour_count.size(); ++k) {
-          const uint32_t range[2] = {set->colour_offset[k], set->colour_count[k]};
-          std::memcpy(p->constants.data() + offsetof(shader::ParticleConstants, item_offset), &range[0], 4);
-          std::memcpy(p->constants.data() + offsetof(shader::ParticleConstants, item_count), &range[1], 4);
-          p->groups = {(range[1] + kGroup - 1) / kGroup, 1, 1};
-          run(p);
-        }
+      record_families(cmd, (k + 1) * iterations / contacts - k * iterations / contacts);
       run(neighbors_);
       run(gather_);
       run(rigid_push_);

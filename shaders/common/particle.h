@@ -13,6 +13,12 @@ static const uint PARTICLE_FLUID = 2;   // position-based fluids
 static const uint PARTICLE_STRAND = 3;  // threads and cables
 
 // phase.w flags
+// the most particles one env may have for the one-workgroup-per-env constraint solve (group memory)
+static const uint PARTICLE_BLOCK_CAPACITY = 1024;
+
+// neighbour list entries per particle (particles.neighbor_lists), taken once per substep
+static const uint PARTICLE_MAX_NEIGHBORS = 64;
+
 static const uint PARTICLE_ACTIVE = 1;        // inactive slots (fluid budget) neither move nor collide
 static const uint PARTICLE_SELF_COLLIDE = 2;  // collides with particles of its own object
 
