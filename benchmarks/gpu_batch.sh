@@ -27,7 +27,7 @@ run() {  # run NAME SECONDS CMD...: output to $OUT/NAME.txt, a line per run to $
 for stage in "$@"; do
   case $stage in
     setup)
-      run build 400 env CRESSIM_TESTS=ON bash benchmarks/gpu_build.sh
+      run build 400 env CRESSIM_TESTS=${CRESSIM_TESTS:-ON} bash benchmarks/gpu_build.sh
       [ -d .gpu-wheels ] && run wheels 120 python3 -m pip install -q --no-index --no-deps --target .gpu-py .gpu-wheels/*.whl
       run info 60 python3 -m cressim info
       ;;
@@ -69,9 +69,10 @@ for stage in "$@"; do
       ;;
     bench-p)
       mkdir -p "$OUT/softbodypush" "$OUT/fluidpour"
-      run softbodypush 180 python3 -m cressim bench SoftBodyPush --envs 128,256,512,1024,2048 --mode step \
-        --out "$OUT/softbodypush"
-      run fluidpour 150 python3 -m cressim bench FluidPour --envs 64,128,256,512,1024 --mode step --out "$OUT/fluidpour"
+      run softbodypush 240 python3 -m cressim bench SoftBodyPush --envs ${SOFT_ENVS:-128,256,512,1024,2048,4096,8192} \
+        --mode step --out "$OUT/softbodypush"
+      run fluidpour 200 python3 -m cressim bench FluidPour --envs ${FLUID_ENVS:-64,128,256,512,1024,2048,4096} \
+        --mode step --out "$OUT/fluidpour"
       ;;
     *) echo "unknown stage $stage" >&2; exit 2 ;;
   esac

@@ -36,17 +36,20 @@ void main(uint3 id : SV_DispatchThreadID) {
 StructuredBuffer<ParticleEnvRange> env_ranges;
 StructuredBuffer<uint2> env_colours;  // (first, count) of this family's records per env and colour
 groupshared float4 block_x[PARTICLE_BLOCK_CAPACITY];
+// 16 KiB of group memory a workgroup: 128 threads keep an SM's warps full where 64 would leave
+// half of them idle (the group memory, not the threads, limits the workgroups per SM)
+static const uint BLOCK_THREADS = 128;
 
-[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
+[numthreads(BLOCK_THREADS, 1, 1)]
 void main(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
   const uint env = group.x, lane = thread.x, colours = pc.item_count;
   const uint first = env_ranges[env].range.x, count = env_ranges[env].range.y;
-  for (uint i = lane; i < count; i += CRESSIM_GROUP_SIZE) block_x[i] = positions[first + i];
+  for (uint i = lane; i < count; i += BLOCK_THREADS) block_x[i] = positions[first + i];
   GroupMemoryBarrierWithGroupSync();
   for (uint pass = 0; pass < pc.item_offset; ++pass) {
     for (uint k = 0; k < colours; ++k) {
       const uint2 r = env_colours[env * colours + k];
-      for (uint j = lane; j < r.y; j += CRESSIM_GROUP_SIZE) {
+      for (uint j = lane; j < r.y; j += BLOCK_THREADS) {
         const uint c = r.x + j;
         const ParticleConstraint rec = constraints[c];
         const uint ids[4] = {rec.particles.x, rec.particles.y, rec.particles.z, rec.particles.w};
@@ -66,7 +69,7 @@ void main(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
       GroupMemoryBarrierWithGroupSync();
     }
   }
-  for (uint i = lane; i < count; i += CRESSIM_GROUP_SIZE) positions[first + i] = block_x[i];
+  for (uint i = lane; i < count; i += BLOCK_THREADS) positions[first + i] = block_x[i];
 }
 
 #endif
