@@ -122,7 +122,7 @@ std::mt19937_64 seeded(const scene::UltrasoundTissue& t, scene::EntityId e) {
 }
 
 // rigid carrier: uniform in the region, in the entity frame, posed by the entity's row
-void generate(const scene::World& world, scene::EntityId e, uint32_t row, UltrasoundModel& m) {
+void generate(const scene::World& world, scene::EntityId e, uint32_t row, uint32_t tissue, UltrasoundModel& m) {
   const auto& t = world.get<scene::UltrasoundTissue>(e);
   scene::Vec3 half = t.size;  // bounding box half extents of the region
   float volume = 0;
@@ -140,7 +140,6 @@ void generate(const scene::World& world, scene::EntityId e, uint32_t row, Ultras
   auto rng = seeded(t, e);
   std::uniform_real_distribution<float> uni(-1, 1);
   std::normal_distribution<float> amp(t.amplitude_mean, t.amplitude_std);
-  const uint32_t tissue = uint32_t(m.tissue_attenuation.size()) - 1;
   for (uint64_t made = 0; made < uint64_t(std::llround(wanted));) {
     const scene::Vec3 q{half[0] * uni(rng), half[1] * uni(rng), half[2] * uni(rng)};
     if (!inside(t, q)) continue;  // rejection keeps the density uniform in the region
@@ -157,7 +156,7 @@ void generate(const scene::World& world, scene::EntityId e, uint32_t row, Ultras
 // it by barycentric weights (sorted uniforms: uniform on the simplex); inclusions are judged
 // at the rest position in the entity frame, so they deform with the tets
 void generate_in_tets(const scene::World& world, scene::EntityId e, const physics::ParticleModel& particles,
-                      UltrasoundModel& m) {
+                      uint32_t tissue, UltrasoundModel& m) {
   const auto& t = world.get<scene::UltrasoundTissue>(e);
   const auto& sb = world.get<scene::SoftBody>(e);
   if (sb.tets.empty())
@@ -193,7 +192,6 @@ void generate_in_tets(const scene::World& world, scene::EntityId e, const physic
   auto rng = seeded(t, e);
   std::uniform_real_distribution<float> uni(0, 1);
   std::normal_distribution<float> amp(t.amplitude_mean, t.amplitude_std);
-  const uint32_t tissue = uint32_t(m.tissue_attenuation.size()) - 1;
   for (size_t k = 0; k < count; ++k) {
     const uint32_t* v = &sb.tets[4 * k];
     const uint32_t tet = uint32_t(m.tets.size());
@@ -229,10 +227,12 @@ UltrasoundModel build_ultrasound_model(const scene::World& world, const scene::L
     for (uint32_t row = mapping.env_offset[env]; row < mapping.env_offset[env] + mapping.env_count[env]; ++row) {
       const scene::EntityId e = mapping.row_entity[row];
       if (world.has<scene::UltrasoundTissue>(e)) {
-        check(world, e, world.get<scene::UltrasoundTissue>(e));
-        m.tissue_attenuation.push_back(world.get<scene::UltrasoundTissue>(e).attenuation);
-        if (world.has<scene::SoftBody>(e)) generate_in_tets(world, e, particles, m);
-        else generate(world, e, row, m);
+        const auto& t = world.get<scene::UltrasoundTissue>(e);
+        check(world, e, t);
+        const uint32_t tissue = uint32_t(m.tissue_attenuation.size());
+        m.tissue_attenuation.push_back(t.attenuation);
+        if (world.has<scene::SoftBody>(e)) generate_in_tets(world, e, particles, tissue, m);
+        else generate(world, e, row, tissue, m);
       }
       if (!world.has<scene::UltrasoundProbe>(e)) continue;
       uint32_t samples = 0;
