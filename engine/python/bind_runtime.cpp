@@ -208,6 +208,7 @@ void bind_runtime(py::module_& m) {
           entity = m.probe_entity;
           for (auto& p : m.probes) env.push_back(p.ids.y), layer.push_back(p.ids.w);
           scatterers = m.scatterers.size();
+          d["tets"] = m.tets.size();  // soft tissue tets carrying scatterers
           d["lines"] = m.lines, d["samples"] = m.samples, d["width"] = m.width, d["height"] = m.height;
         }
         d["entity"] = to_numpy(entity);
@@ -216,7 +217,7 @@ void bind_runtime(py::module_& m) {
         d["scatterers"] = scatterers;
         return d;
       }, "Each ultrasound probe's entity, env and layer of ultrasound0.image / ultrasound0.iq; the "
-         "scatterer count over all envs; scanlines, IQ samples per line and image size.")
+         "scatterer count over all envs (and the soft-tissue tets carrying them); scanlines, IQ samples per line and image size.")
       .def_property_readonly("health_events", &Engine::health_events,
                              "Envs flagged unhealthy (NaN/Inf, speed, penetration) and reset since upload_world().")
       .def_property_readonly("prepared", &Engine::prepared)

@@ -61,7 +61,7 @@ void Engine::prepare() {
   const auto& limits = ctx_->properties.limits;
   render_model_ = render::build_render_model(*world_, mapping_,
                                              std::min(limits.maxImageArrayLayers, limits.maxFramebufferLayers));
-  ultrasound_model_ = sensors::build_ultrasound_model(*world_, mapping_);
+  ultrasound_model_ = sensors::build_ultrasound_model(*world_, mapping_, particle_model_);
   prepared_ = true;
   uploaded_ = false;
 }
