@@ -41,13 +41,19 @@ struct ParticleEnvRange {
 
 // A rigid-particle attachment slot (control.particle_attachments, max_particle_attachments_per_env
 // per env): state 0 free, 1 attached, 2 attach at the next step (local offset taken from the
-// poses then). Written by the host (Engine.attach_particle) or by task passes.
+// poses then). Written by the host (Engine.attach_particle) or by task passes. A slot may also
+// hold a strand segment's material frame to the body's rotation (hold.x the segment), so
+// turning the body twists the strand.
 static const uint ATTACH_FREE = 0;
 static const uint ATTACH_ACTIVE = 1;
 static const uint ATTACH_PENDING = 2;
+static const uint HOLD_FRAME_CAPTURE = 0;  // hold.y: the frame offset is taken when the slot becomes active
+static const uint HOLD_FRAME_GIVEN = 1;    // hold.y: frame is the offset to keep
 struct ParticleAttachment {
   uint4 ids;     // x particle, y body (rigid body index), z state, w env
-  float4 local;  // xyz particle position in the body frame, w compliance (0: rigid)
+  float4 local;  // xyz particle position in the body frame, w compliance (0: rigid; frames too)
+  uint4 hold;    // x strand segment whose frame is held (CRESSIM_NONE: none), y HOLD_FRAME_*
+  float4 frame;  // the segment's frame in the body frame (xyzw): frame = body rotation * this
 };
 
 // push constants of every particle pass
