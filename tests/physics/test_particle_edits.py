@@ -25,6 +25,12 @@ def _about_x(angle):
     return (math.sin(angle / 2), 0.0, 0.0, math.cos(angle / 2))
 
 
+def _mul(a, b):
+    """Hamilton product of xyzw quaternions."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    return np.concatenate([a[3] * b[:3] + b[3] * a[:3] + np.cross(a[:3], b[:3]), [a[3] * b[3] - a[:3] @ b[:3]]])
+
+
 def _tool(world, env, name, x):
     tool = world.create_entity(env=env, name=name)
     tool.add(cressim.Transform(position=(x, 0, 1)))
@@ -39,26 +45,30 @@ N, LENGTH, TURN = 11, 0.2, math.pi / 2
 
 
 def _held_strands(make_engine):
-    """Three envs, a straight cable along x (no gravity) in each, turned at its x = LENGTH end by
+    """Four envs, a straight cable along x (no gravity) in each, turned at its x = LENGTH end by
     TURN about x: env 0 held at both ends with frames, env 1 held (with frame) at the turning end
-    only, env 2 held at both ends by position alone."""
-    world = cressim.World(cressim.SceneLayout(3))
+    only, env 2 held at both ends by position alone, env 3 like env 1 with a given frame offset:
+    the end frame turned by a further TURN / 2."""
+    world = cressim.World(cressim.SceneLayout(4))
     pts = np.stack([np.linspace(0, LENGTH, N), np.zeros(N), np.full(N, 1.0)], 1)
     tools = []
-    for env in range(3):
+    for env in range(4):
         world.create_entity(env=env, name="cable").add(cressim.Strand(
             pts, mass=0.001, radius=0.005, twist_compliance=1e-3, bend_compliance=1e-3, damping=2.0))
         tools.append((_tool(world, env, "holder", 0.0), _tool(world, env, "turner", LENGTH)))
     engine = start(world, make_engine, particle_iterations=8, gravity=(0, 0, 0))
     off = engine.particle_mapping["env_offset"]
+    end_frame = engine.buffer("particles.initial_orientations").read()[N - 2]
     for env, (holder, turner) in enumerate(tools):
-        if env != 1:
+        if env in (0, 2):
             engine.attach_particle(env=env, slot=0, particle=int(off[env]), body=holder, hold_frame=env == 0)
-        engine.attach_particle(env=env, slot=1, particle=int(off[env]) + N - 1, body=turner, hold_frame=env != 2)
+        offset = tuple(_mul(_about_x(TURN / 2), end_frame)) if env == 3 else None
+        engine.attach_particle(env=env, slot=1, particle=int(off[env]) + N - 1, body=turner, hold_frame=env != 2,
+                               frame_offset=offset)
     step(engine, 1)
     frames = 30
     for f in range(1, frames + 1):  # TURN over half a second, then rest
-        for env in range(3):
+        for env in range(4):
             tools[env][1].transform = cressim.Transform(position=(LENGTH, 0, 1), rotation=_about_x(TURN * f / frames))
         step(engine, 1)
     step(engine, 60)
@@ -67,8 +77,8 @@ def _held_strands(make_engine):
 
 def test_held_strand_frames_follow_the_turning_body(make_engine):
     engine = _held_strands(make_engine)
-    q = engine.buffer("particles.orientations").read().reshape(3, N - 1, 4)
-    q0 = engine.buffer("particles.initial_orientations").read().reshape(3, N - 1, 4)
+    q = engine.buffer("particles.orientations").read().reshape(4, N - 1, 4)
+    q0 = engine.buffer("particles.initial_orientations").read().reshape(4, N - 1, 4)
     segment_twists = lambda e: np.array([_twist(q[e, i], q[e, i + 1]) for i in range(N - 2)])  # noqa: E731
     # held at both ends: the twists of the 9 segment pairs add up to the turn (within 0.1 deg), all
     # the same way (frames turn monotonically from one end to the other; how evenly the pairs
@@ -81,6 +91,9 @@ def test_held_strand_frames_follow_the_turning_body(make_engine):
     assert np.abs(one - TURN).max() < math.radians(0.1)
     # held by position only, the turn does not reach the cable's frames
     assert abs(segment_twists(2).sum()) < math.radians(1)
+    # a given offset is kept instead of the one at attach time: 1.5 TURN in all
+    given = np.array([_twist(q0[3, i], q[3, i]) for i in range(N - 1)])
+    assert np.abs(given - 1.5 * TURN).max() < math.radians(0.1)
     # the centrelines stay straight along x
     p = positions(engine)
     assert np.abs(p[:, 1]).max() < 1e-3 and np.abs(p[:, 2] - 1).max() < 1e-3
