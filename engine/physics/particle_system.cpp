@@ -171,7 +171,6 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
     auto p = compute::create_builtin_pass(ctx, s.shader, b);
     all_.push_back(p);
     families_.push_back({p, &s});
-    b["constraints"] = cb;
     auto r = compute::create_builtin_pass(ctx, "physics/particle_cut_reset", b);
     r->set_threads({uint64_t(c), 1, 1});
     all_.push_back(r);

@@ -19,8 +19,10 @@ static const uint PARTICLE_SELF_COLLIDE = 2;  // collides with particles of its 
 // Every constraint family stores records of this shape: up to 4 particles and family-specific
 // parameters. Records are grouped by colour (no two constraints of a colour share a particle),
 // and the family's pass projects one colour per dispatch straight onto the positions: Gauss-Seidel
-// between colours, parallel within one, the same for every env. A new family is a record builder
-// and a pass; the solver core only walks the table of sets.
+// between colours, parallel within one, the same for every env. A new family is its name in
+// kConstraintFamilies, a record builder and a pass; the solver core only walks the table of sets
+// (docs/particles.md, "Adding a family"). Any record can be cut at run time (its flag in
+// control.particle_<family>_cut).
 struct ParticleConstraint {
   uint4 particles;  // global particle indices (CRESSIM_NONE when unused)
   float4 params;    // x rest value, y compliance, zw family-specific
