@@ -60,14 +60,18 @@ struct Adding {
   uint32_t env, object, first;
 };
 
+// The constraint families, in solve order. A family is its name here, the records its builder
+// below appends, and shaders/physics/particle_<name>.comp.hlsl; the solver (particle_system.cpp)
+// makes buffers, cut flags, passes and dispatches from the set table without naming any family.
+constexpr const char* kConstraintFamilies[] = {"distance", "volume", "bend", "stretch_shear", "bend_twist"};
+
 class Builder {
  public:
   Builder(ParticleModel& m) : m_(m) {
-    for (const char* name : {"distance", "volume", "bend", "stretch_shear", "bend_twist"}) {
+    for (const char* name : kConstraintFamilies) {
       ConstraintSet s;
       s.name = name;
       s.shader = std::string("physics/particle_") + name;
-      s.positional = s.name == "distance" || s.name == "volume" || s.name == "bend";
       m_.sets.push_back(s);
     }
   }

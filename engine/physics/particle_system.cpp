@@ -7,6 +7,7 @@
 #include "gpu/commands.h"
 #include "cressim/layout.h"
 #include "gpu/context.h"
+#include "gpu/embedded_shaders.h"
 
 namespace cressim::physics {
 namespace {
@@ -83,6 +84,7 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   std::vector<uint32_t> active(static_cast<size_t>(no), 0u);
   for (size_t o = 0; o < active.size(); ++o) active[o] = model_.objects[o].range.w == shader::PARTICLE_FLUID ? model_.objects[o].ids.w : model_.objects[o].range.y;
   in("emitted", "particles.emitted", active, {no}, DType::UINT32);
+  in("first_free", "particles.first_free", active, {no}, DType::UINT32);
   in("", "particles.surface", model_.surface, {int64_t(model_.surface.size() / 3), 3}, DType::UINT32);
   scratch("densities", "particles.densities", {n}, DType::FLOAT32);
   // scratch
@@ -113,6 +115,11 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   for (int64_t a = 0; a < na; ++a) att[size_t(a)].ids = {0, 0, shader::ATTACH_FREE, uint32_t(a / std::max<uint32_t>(attachments_per_env_, 1))};
   bindings_["attachments"] = make(control, "control.particle_attachments", att.data(), att.size() * sizeof(att[0]),
                                   {na, int64_t(sizeof(shader::ParticleAttachment) / 4)}, DType::UINT32, false, exportable);
+
+  // control: fluid removal flags, applied at the next step's start (particle_remove.comp.hlsl)
+  const std::vector<uint32_t> keep(size_t(n), 0u);
+  bindings_["remove_flags"] = make(control, "control.particle_remove", keep.data(), keep.size() * 4, {n}, DType::UINT32,
+                                   false, false);
 
   // env flags, shared with the rigid solver; made here when there is none
   for (const char* k : {"env.reset_mask", "env.health", "env.health_events"})
@@ -159,14 +166,21 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
     auto cb = in("", "particles." + s.name + "_constraints", words(s.records),
                  {c, int64_t(sizeof(shader::ParticleConstraint) / 4)}, DType::UINT32);
     auto lb = make(internal, "particles." + s.name + "_lambdas", nullptr, 0, {c}, DType::FLOAT32, true, false);
+    // cutting: a writable flag per record, read by constraint_index() in particle_constraint.hlsli
+    const std::vector<uint32_t> whole(size_t(c), 0u);
+    auto cut = make(control, "control.particle_" + s.name + "_cut", whole.data(), whole.size() * 4, {c}, DType::UINT32,
+                    false, false);
     if (c == 0) continue;
     auto b = bindings_;
     b["constraints"] = cb;
     b["lambdas"] = lb;
+    b["cut"] = cut;
     auto p = compute::create_builtin_pass(ctx, s.shader, b);
     all_.push_back(p);
     Family f{p, nullptr, &s};
-    if (s.positional && largest_env_ <= shader::PARTICLE_BLOCK_CAPACITY) {
+    // families built on particle_solve.hlsli have a one-workgroup-per-env build too
+    const auto names = gpu::embedded_shader_names();
+    if (largest_env_ <= shader::PARTICLE_BLOCK_CAPACITY && std::count(names.begin(), names.end(), s.shader + ".block")) {
       b["env_colours"] = in("", "particles." + s.name + "_env_colours", s.env_colours,
                             {int64_t(s.env_colours.size() / 2), 2}, DType::UINT32);
       f.per_env = compute::create_builtin_pass(ctx, s.shader + ".block", b);
@@ -174,6 +188,10 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
       all_.push_back(f.per_env);
     }
     families_.push_back(f);
+    auto r = compute::create_builtin_pass(ctx, "physics/particle_cut_reset", b);
+    r->set_threads({uint64_t(c), 1, 1});
+    all_.push_back(r);
+    cut_resets_.push_back({r, uint32_t(c)});
     per_substep_clears_.push_back(lb->storage->buffer.buffer);
   }
   gather_ = pass("physics/particle_gather", uint64_t(n));
@@ -188,6 +206,7 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
     orient_velocity_ = pass("physics/particle_orient_velocity", uint64_t(ne_));
   }
   if (model_.has_emitters) emit_ = pass("physics/particle_emit", uint64_t(no));
+  if (model_.has_fluid) remove_ = pass("physics/particle_remove", uint64_t(n));
   set_settings(settings);
 }
 
@@ -252,6 +271,8 @@ void ParticleSystem::set_constants(const PhysicsSettings& s) {
     c.attachment_count = c.env_count * attachments_per_env_;
     c.edge_count = uint32_t(model_.orientations.size());
     c.item_count = p == scan_blocks_ ? blocks_ : (p == emit_ || p == reset_) ? uint32_t(model_.objects.size()) : 0;
+    for (auto& [r, records] : cut_resets_)
+      if (p == r) c.item_count = records;
     if (p->constants.size() != sizeof(c)) throw std::logic_error("ParticleConstants does not match " + p->name);
     std::memcpy(p->constants.data(), &c, sizeof(c));
   }
@@ -265,6 +286,7 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
     }
   };
   const uint32_t substeps = settings_.substeps;
+  run(remove_);
   run(emit_);
   for (uint32_t s = 0; s < substeps; ++s) {
     // passes that look at moving bodies see them where they are at the end of this substep
@@ -297,7 +319,10 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
   health_->record(cmd);
 }
 
-void ParticleSystem::record_reset(VkCommandBuffer cmd) const { reset_->record(cmd); }
+void ParticleSystem::record_reset(VkCommandBuffer cmd) const {
+  reset_->record(cmd);
+  for (auto& [p, records] : cut_resets_) p->record(cmd);
+}
 
 uint64_t ParticleSystem::health_events(const BufferMap& internal) const {
   const auto& b = internal.at("env.health_events")->storage->buffer;

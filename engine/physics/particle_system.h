@@ -1,8 +1,10 @@
 // The particle system on the GPU (soft bodies, fluids, strands, batched over envs): its buffers
-// (keys particles.* and control.particle_attachments), the substep loop recorded into
+// (keys particles.*, control.particle_attachments, control.particle_remove and
+// control.particle_<family>_cut), the substep loop recorded into
 // step_physics after the rigid solver, and the per-env reset.
 //
-// Per frame first: fluid emitters activate inactive slots.
+// Per frame first: fluid removals (control.particle_remove) make slots inactive, then fluid
+// emitters activate inactive slots.
 // Per substep: integrate; neighbour grid keyed on (env, cell) (count, prefix sum, scatter, sort
 // each bucket, list each particle's neighbours); `particle_iterations` times every constraint family colour by colour (one
 // dispatch per colour, or one workgroup per env for all colours), and in
@@ -56,7 +58,8 @@ class ParticleSystem {
   std::vector<VkBuffer> per_substep_clears_;  // zeroed at each substep start (grid counters, lambdas)
   std::vector<std::shared_ptr<compute::ComputePass>> all_;
   std::shared_ptr<compute::ComputePass> emit_, integrate_, orient_integrate_, orient_velocity_, grid_count_, scan_local_, scan_blocks_, scan_add_, scatter_, sort_, neighbor_list_,
-      fluid_lambda_, neighbors_, gather_, rigid_push_, attach_, velocity_, vorticity_, fluid_velocity_, health_, reset_;
+      fluid_lambda_, neighbors_, gather_, rigid_push_, attach_, velocity_, vorticity_, fluid_velocity_, health_, reset_,
+      remove_;
   // a non-empty constraint set: its pass dispatched once per colour, and for positional
   // families whose envs fit in group memory the one-workgroup-per-env pass
   struct Family {
@@ -65,6 +68,8 @@ class ParticleSystem {
   };
   std::vector<Family> families_;
   uint32_t largest_env_ = 0, largest_env_index_ = 0;  // particles of the biggest env
+  // per family: the env reset of its cut flags, and its record count
+  std::vector<std::pair<std::shared_ptr<compute::ComputePass>, uint32_t>> cut_resets_;
 };
 
 }  // namespace cressim::physics

@@ -10,8 +10,16 @@ StructuredBuffer<ParticleConstraint> constraints;
 RWStructuredBuffer<float4> positions;
 RWStructuredBuffer<float> lambdas;
 
-// the constraint this thread projects, or CRESSIM_NONE
-uint constraint_index(uint thread) { return thread < pc.item_count ? pc.item_offset + thread : CRESSIM_NONE; }
+// control.particle_<family>_cut: nonzero switches a constraint off (cutting), set by the host
+// (Engine.cut_constraints) or a task pass; the colouring stays valid for any subset
+StructuredBuffer<uint> cut;
+
+// the constraint this thread projects, or CRESSIM_NONE (past the colour, or cut)
+uint constraint_index(uint thread) {
+  if (thread >= pc.item_count) return CRESSIM_NONE;
+  const uint c = pc.item_offset + thread;
+  return cut[c] == 0 ? c : CRESSIM_NONE;
+}
 
 // the multiplier change of constraint c with value C, gradients g[k] and inverse masses w[k]
 // of its n particles; the caller moves particle k by w[k] * dl * g[k]

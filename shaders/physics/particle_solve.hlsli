@@ -6,7 +6,7 @@
 // - by default one dispatch per colour: a thread per constraint, straight on `positions`;
 // - with CRESSIM_BLOCK (the `.block` pass) one workgroup per env: the env's particles go to group
 //   memory, every colour is projected in turn (a group barrier between colours) pc.item_offset
-//   times over, then written back. That is one dispatch where the first needs colours x passes,
+//   times over, then written back (cut records skipped in both). That is one dispatch where the first needs colours x passes,
 //   and dispatches, not arithmetic, bound small soft bodies in many envs.
 
 #ifndef CRESSIM_BLOCK
@@ -51,6 +51,7 @@ void main(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
       const uint2 r = env_colours[env * colours + k];
       for (uint j = lane; j < r.y; j += BLOCK_THREADS) {
         const uint c = r.x + j;
+        if (cut[c] != 0) continue;
         const ParticleConstraint rec = constraints[c];
         const uint ids[4] = {rec.particles.x, rec.particles.y, rec.particles.z, rec.particles.w};
         float3 x[4];
