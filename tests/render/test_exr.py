@@ -12,7 +12,8 @@ OpenEXR = pytest.importorskip("OpenEXR")
 
 def read(path):
     with OpenEXR.File(str(path)) as f:
-        return f.header(), {k: np.array(v.pixels) for k, v in f.channels().items()}
+        header = {k: v for k, v in f.header().items()}
+        return header, {k: np.array(v.pixels) for k, v in f.channels().items()}
 
 
 @pytest.mark.parametrize("compress", [True, False])
