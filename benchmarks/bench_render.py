@@ -6,7 +6,9 @@ segments = 2,304 triangles; 6 gives 144), --shadows (a 256^2 shadow map per env 
 --point-lights N (extra point lights per env), --products rgb (what cameras write),
 --raster graphics|compute|both (CRESSIM_RASTER: graphics pipelines or the compute rasterizer),
 --objects N (N more small boxes per env, scattered over 20 x 20 m: most outside the camera's
-view) with --culling on|off|both (CRESSIM_CULLING: frustum culling of the draw list)."""
+view) with --culling on|off|both (CRESSIM_CULLING: frustum culling of the graphics path's draw
+list; the compute rasterizer tests each tile either way, so there only the counts change),
+--ibl (image-based lighting from a 256 x 128 environment map instead of the hemisphere)."""
 from __future__ import annotations
 
 import argparse
@@ -15,16 +17,26 @@ import math
 import os
 import time
 
+import numpy as np
+
 import cressim
 
 
 def build(envs: int, size: int, rings: int = 24, shadows: bool = False, point_lights: int = 0,
-          products=("rgb", "depth", "segmentation"), objects: int = 0) -> cressim.Engine:
+          products=("rgb", "depth", "segmentation"), objects: int = 0, ibl: bool = False) -> cressim.Engine:
     world = cressim.World(cressim.SceneLayout(envs, max_lights_per_env=1 + point_lights,
                                               max_renderables_per_env=max(16, 3 + objects)))
     cube, ball, plane = (world.add_mesh(cressim.Mesh.box((0.1, 0.1, 0.1))),
                          world.add_mesh(cressim.Mesh.sphere(0.08, rings, 2 * rings)), world.add_mesh(cressim.Mesh.plane(2.0)))
+    if ibl:  # a sky gradient over a brown ground with a bright sun
+        rows = np.linspace(0, 1, 128)[:, None, None]
+        sky = np.where(rows < 0.5, 255 * (0.4 + 0.5 * rows) * np.array([0.5, 0.7, 1.0]), [110, 80, 50])
+        sky = np.broadcast_to(sky, (128, 256, 3)).copy()
+        sky[20:24, 60:64] = 255
+        env_map = world.add_texture(cressim.Texture(np.dstack([sky, np.full((128, 256), 255)]).astype(np.uint8)))
     for env in range(envs):
+        if ibl:
+            world.create_entity(env=env, name="environment").add(cressim.EnvironmentLight(map=env_map, intensity=1.2))
         for mesh, pos, color in ((plane, (0, 0, 0), (0.5, 0.5, 0.5, 1)), (cube, (0.2 * math.sin(env), 0, 0.1), (0.9, 0.2, 0.1, 1)),
                                  (ball, (-0.2, 0.1, 0.08), (0.1, 0.3, 0.9, 1))):
             e = world.create_entity(env=env)
@@ -56,7 +68,7 @@ def measure(raster: str, size: int, envs: int, args, culling: str = "on") -> dic
     os.environ["CRESSIM_RASTER"] = raster  # both read when the renderer is built (upload_world)
     os.environ["CRESSIM_CULLING"] = "1" if culling == "on" else "0"
     engine = build(envs, size, args.sphere_rings, args.shadows, args.point_lights, args.products.split(","),
-                   args.objects)
+                   args.objects, args.ibl)
     for _ in range(10):
         engine.step_visual_sensors()
         engine.end_frame()
@@ -76,7 +88,7 @@ def measure(raster: str, size: int, envs: int, args, culling: str = "on") -> dic
             "gpu_ms_per_frame": gpu_ms, "output_bytes_per_camera": mem, "device": engine.device["name"],
             "sphere_rings": args.sphere_rings, "shadows": args.shadows, "point_lights": args.point_lights,
             "products": args.products, "objects": args.objects, "culling": culling,
-            "visible_per_camera": visible / envs, "culled_per_camera": culled / envs}
+            "ibl": args.ibl, "visible_per_camera": visible / envs, "culled_per_camera": culled / envs}
 
 
 def main() -> None:
@@ -91,6 +103,7 @@ def main() -> None:
     ap.add_argument("--products", default="rgb,depth,segmentation", help="what each camera writes, e.g. rgb")
     ap.add_argument("--objects", type=int, default=0, help="more small boxes per env, scattered over 20 x 20 m")
     ap.add_argument("--culling", default="on", choices=("on", "off", "both"), help="CRESSIM_CULLING")
+    ap.add_argument("--ibl", action="store_true", help="image-based lighting from an environment map")
     ap.add_argument("--json")
     args = ap.parse_args()
     rasters = ("graphics", "compute") if args.raster == "both" else (args.raster,)
