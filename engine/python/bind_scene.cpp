@@ -291,13 +291,19 @@ void bind_render_components(py::module_& m) {
       .def_readonly("shadows", &scene::Light::shadows);
 
   py::class_<scene::EnvironmentLight>(m, "EnvironmentLight")
-      .def(py::init([](Vec3 sky, Vec3 ground, float intensity) { return scene::EnvironmentLight{sky, ground, intensity}; }),
+      .def(py::init([](Vec3 sky, Vec3 ground, float intensity, int32_t map) {
+             return scene::EnvironmentLight{sky, ground, intensity, map};
+           }),
            py::kw_only(), py::arg("sky") = Vec3{0.2f, 0.2f, 0.2f}, py::arg("ground") = Vec3{0.2f, 0.2f, 0.2f},
-           py::arg("intensity") = 1.f,
-           "The env's ambient light (one per env): a hemisphere, `sky` from +z and `ground` from -z.")
+           py::arg("intensity") = 1.f, py::arg("map") = -1,
+           "The env's ambient light (one per env): a hemisphere, `sky` from +z and `ground` from -z; or, with "
+           "map (a world.add_texture index of an equirectangular image: rows from +z at the top to -z, columns "
+           "from azimuth -180 deg to 180 deg, +x in the middle; sRGB texels), image-based lighting: radiance = "
+           "the map's linear texels x intensity, filtered on the GPU (diffuse and specular).")
       .def_readonly("sky", &scene::EnvironmentLight::sky)
       .def_readonly("ground", &scene::EnvironmentLight::ground)
-      .def_readonly("intensity", &scene::EnvironmentLight::intensity);
+      .def_readonly("intensity", &scene::EnvironmentLight::intensity)
+      .def_readonly("map", &scene::EnvironmentLight::map);
 }
 
 // keyword-only construction of a component with many fields: each keyword sets the field of

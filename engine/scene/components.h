@@ -117,11 +117,14 @@ struct Light {
   uint32_t shadow_resolution = 256;
 };
 
-// The env's ambient light: a hemisphere, `sky` from +z and `ground` from -z (per env).
+// The env's ambient light: a hemisphere, `sky` from +z and `ground` from -z (per env); or,
+// with `map` (a World texture, equirectangular), image-based lighting from that map
+// (render/environment_map.h).
 struct EnvironmentLight {
   Vec3 sky{0.2f, 0.2f, 0.2f};
   Vec3 ground{0.2f, 0.2f, 0.2f};
   float intensity = 1;
+  int32_t map = -1;  // texture index, -1: none (the hemisphere)
 };
 
 
