@@ -6,8 +6,9 @@
 // - by default one dispatch per colour: a thread per constraint, straight on `positions`;
 // - with CRESSIM_BLOCK (the `.block` pass) one workgroup per env: the env's particles go to group
 //   memory, every colour is projected in turn (a group barrier between colours) pc.item_offset
-//   times over, then written back (cut records skipped in both). That is one dispatch where the first needs colours x passes,
-//   and dispatches, not arithmetic, bound small soft bodies in many envs.
+//   times over, then written back. That is one dispatch where the first needs colours x
+//   passes, and dispatches, not arithmetic, bound small soft bodies in many envs.
+// Both skip cut records (control.particle_<family>_cut).
 
 #ifndef CRESSIM_BLOCK
 
@@ -27,7 +28,8 @@ void main(uint3 id : SV_DispatchThreadID) {
   float C;
   float3 g[4];
   const uint n = evaluate(rec, x, C, g);
-  const float dl = xpbd_step(c, rec, n, C, g, w);
+  const float dl = xpbd_delta(rec, n, C, g, w, lambdas[c]);
+  lambdas[c] += dl;
   for (uint k = 0; k < n; ++k) positions[ids[k]].xyz += w[k] * dl * g[k];
 }
 
@@ -51,8 +53,11 @@ void main(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
       const uint2 r = env_colours[env * colours + k];
       for (uint j = lane; j < r.y; j += BLOCK_THREADS) {
         const uint c = r.x + j;
-        if (cut[c] != 0) continue;
+        // the flag, record and multiplier loaded together: testing the flag first puts a whole
+        // memory round trip in front of every projection
+        const bool on = cut[c] == 0;
         const ParticleConstraint rec = constraints[c];
+        const float lambda = lambdas[c];
         const uint ids[4] = {rec.particles.x, rec.particles.y, rec.particles.z, rec.particles.w};
         float3 x[4];
         float w[4];
@@ -64,8 +69,11 @@ void main(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
         float C;
         float3 g[4];
         const uint n = evaluate(rec, x, C, g);
-        const float dl = xpbd_step(c, rec, n, C, g, w);
-        for (uint m = 0; m < n; ++m) block_x[ids[m] - first].xyz += w[m] * dl * g[m];
+        if (on) {
+          const float dl = xpbd_delta(rec, n, C, g, w, lambda);
+          lambdas[c] = lambda + dl;
+          for (uint m = 0; m < n; ++m) block_x[ids[m] - first].xyz += w[m] * dl * g[m];
+        }
       }
       GroupMemoryBarrierWithGroupSync();
     }
