@@ -15,6 +15,7 @@
 #include "compute/typed_buffer.h"
 #include "gpu/image.h"
 #include "gpu/pipeline.h"
+#include "render/particle_draw.h"
 #include "render/render_model.h"
 
 namespace cressim::render {
@@ -39,6 +40,7 @@ class Renderer {
   struct Targets {
     gpu::Image color, depth, segmentation, z_buffer;
     std::shared_ptr<compute::TypedBuffer> rgb_out, depth_out, segmentation_out;
+    std::shared_ptr<compute::TypedBuffer> scene_depth;  // depth_out, or a stand-in the fluid passes need
   };
   std::shared_ptr<gpu::Context> ctx_;
   RenderModel model_;
@@ -55,6 +57,7 @@ class Renderer {
   std::vector<VertexSource> vertex_sources_;
   VkBuffer vertex_positions_ = VK_NULL_HANDLE;
   std::shared_ptr<compute::TypedBuffer> shadow_maps_;
+  std::unique_ptr<ParticleDraw> particles_;
 };
 
 }  // namespace cressim::render

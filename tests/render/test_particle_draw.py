@@ -1,0 +1,103 @@
+"""Particles drawn by the rasterizer straight from the physics buffers (both rasterizers):
+soft-body surfaces, strand tubes and screen-space fluids against the geometry they come from.
+Camera: 64x64, fov 50, at y = -1 looking along +y (particle_render_scenes.py)."""
+import numpy as np
+import pytest
+
+import cressim
+
+from .particle_render_scenes import F, S, fluid_block, lattice, project, render, soft_cube, start, world_with_camera
+
+pytestmark = pytest.mark.usefixtures("raster")
+
+
+def test_soft_cube_projects_to_its_front_face(make_engine):
+    # the surface runs through the particle centres: a 0.2 m cube whose front face is 0.9 m away
+    world = world_with_camera()
+    cube = soft_cube(world)
+    engine = start(world, make_engine)
+    rgb, depth, seg = render(engine)
+    mask = seg[0] == cube.id + 1
+    half = F * 0.1 / 0.9  # pixels; the face is centred on the image
+    centres = np.arange(S) + 0.5
+    inside = np.abs(centres - S / 2) <= half
+    expected = inside[:, None] & inside[None, :]  # pixel centres inside the projected face
+    assert (mask != expected).sum() <= 2 and expected.sum() == 256
+    assert abs(depth[0, S // 2, S // 2] - 0.9) < 1e-3  # metres, at the centre
+    assert rgb[0][mask][:, :3].mean() > 20  # lit, not black
+
+
+def test_soft_body_image_follows_its_particles_as_it_falls(make_engine):
+    world = world_with_camera()
+    cube = soft_cube(world, centre=(0, 0, 0.35), cells=2)
+    engine = start(world, make_engine, substeps=4, particle_iterations=8)
+    _, _, before = render(engine)
+    _, _, after = render(engine, physics_frames=30)  # falls and lands on the ground
+    assert (before != after).any()
+    # the drawn silhouette's box matches the projected particles' box within 1.5 pixels
+    uv, _ = project(engine.buffer("particles.positions").read()[:, :3])
+    rows, cols = np.nonzero(after[0] == cube.id + 1)
+    assert abs(rows.min() - uv[:, 1].min()) < 1.5 and abs(rows.max() + 1 - uv[:, 1].max()) < 1.5
+    assert abs(cols.min() - uv[:, 0].min()) < 1.5 and abs(cols.max() + 1 - uv[:, 0].max()) < 1.5
+    assert rows.mean() > np.nonzero(before[0] == cube.id + 1)[0].mean() + 5  # lower in the image
+
+
+def test_soft_bodies_stay_in_their_env_and_take_their_material(make_engine):
+    world = world_with_camera(envs=2)
+    soft_cube(world, env=0, color=(0.1, 0.1, 0.9, 1.0), segmentation_id=42)
+    engine = start(world, make_engine)
+    rgb, _, seg = render(engine)
+    assert (seg[0] == 42).sum() > 100 and (seg[1] == 42).sum() == 0
+    blue = rgb[0][seg[0] == 42][:, :3].mean(0)
+    assert blue[2] > 2 * blue[0]
+
+
+def test_fluid_surface_depth_within_a_particle_radius(make_engine):
+    # a block of fluid particles (r 2 cm, spacing 4 cm) at rest; its front surface is the front
+    # layer's centres minus r: y = -0.05 - 0.02, so 0.93 m from the eye
+    r = 0.02
+    world = world_with_camera(ground=False)
+    water = fluid_block(world, counts=(6, 3, 4), r=r, origin=(-0.1, -0.05, 0.02), budget=200)
+    engine = start(world, make_engine)
+    rgb, depth, seg = render(engine)
+    (u, v), _ = project([0.0, -0.07, 0.08])
+    u, v = int(u), int(v)
+    assert seg[0, v, u] == water.id + 1
+    assert abs(depth[0, v, u] - 0.93) < r
+    red = rgb[0][seg[0] == water.id + 1][:, :3].mean(0)
+    assert red[0] > 2 * red[1] and red[0] > 2 * red[2]  # blood by default
+    # the 128 inactive slots sit at the origin, which is in view: nothing is drawn there
+    (u0, v0), _ = project([0.0, 0.0, 0.0])
+    assert seg[0, int(v0) - 2, int(u0)] != water.id + 1 or depth[0, int(v0) - 2, int(u0)] < 1.0 - 0.05
+    fluid = seg[0] == water.id + 1
+    lo, _ = project([[-0.1 - r, -0.07, 0.14 + r], [0.1 + r, -0.07, 0.0]])
+    rows, cols = np.nonzero(fluid)
+    assert rows.max() < lo[1, 1] + 2 and cols.min() > lo[0, 0] - 2 and cols.max() < lo[1, 0] + 2
+
+
+def test_fluid_is_hidden_behind_nearer_surfaces(make_engine):
+    world = world_with_camera(ground=False)
+    water = fluid_block(world, counts=(4, 2, 4), origin=(-0.06, 0.2, 0.02))
+    cube = soft_cube(world, centre=(0, -0.2, 0.1))  # in front, covering the fluid
+    engine = start(world, make_engine)
+    _, _, seg = render(engine)
+    assert (seg[0] == cube.id + 1).sum() > 100 and (seg[0] == water.id + 1).sum() == 0
+
+
+def test_strand_pixels_follow_its_particles(make_engine):
+    world = world_with_camera()
+    points = lattice((11, 1, 1), 0.04, (-0.2, 0.0, 0.25))
+    thread = world.create_entity(env=0, name="thread")
+    thread.add(cressim.Strand(points, fixed=[0], radius=0.02, bend_compliance=1e2, damping=5.0))
+    engine = start(world, make_engine, substeps=4, particle_iterations=8)
+    _, _, seg = render(engine)
+    uv, z = project(points)
+    # straight: its width on screen is the tube's diameter, 2 r F / z, within 1.5 pixels
+    assert abs((seg[0] == thread.id + 1)[:, int(uv[5, 0])].sum() - 2 * 0.02 * F / z[5]) < 1.5
+    for frames in (0, 20):  # then swinging down from its fixed end
+        _, _, seg = render(engine, physics_frames=frames)
+        uv, _ = project(engine.buffer("particles.positions").read()[:, :3])
+        mask = seg[0] == thread.id + 1
+        for k in range(1, 11):  # each particle's pixel is the thread's
+            assert mask[int(uv[k, 1]), int(uv[k, 0])], (frames, k)
+    assert uv[10, 1] - project(points)[0][10, 1] > 5  # it did swing
