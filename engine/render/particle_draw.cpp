@@ -73,22 +73,38 @@ void ParticleDraw::add_group(uint32_t group, const BufferMap& outputs, uint32_t 
                                                   {int64_t(grp.layers)}, DType::UINT32, true, generation_);
   b["fluid_depth"] = f.depth;
   b["fluid_thickness"] = f.thickness;
-  b["fluid_smoothed"] = compute::make_keyed_buffer(ctx_, internal_, prefix + "smoothed", std::vector<float>{}, pixels,
-                                                   DType::FLOAT32, true, generation_);
+  auto pixel_buffer = [&](const std::string& name) {
+    return compute::make_keyed_buffer(ctx_, internal_, prefix + name, std::vector<uint32_t>{}, pixels, DType::UINT32,
+                                      true, generation_);
+  };
+  // the separable filter: along rows into "blurred", along columns into "smoothed"
+  b["fluid_smoothed"] = pixel_buffer("smoothed");
+  b["fluid_smoothed_thickness"] = pixel_buffer("smoothed_thickness");
+  BufferMap by_rows = b, by_columns = b;
+  by_rows["depth_in"] = f.depth;
+  by_rows["thickness_in"] = f.thickness;
+  by_rows["depth_out"] = by_columns["depth_in"] = pixel_buffer("blurred");
+  by_rows["thickness_out"] = by_columns["thickness_in"] = pixel_buffer("blurred_thickness");
+  by_columns["depth_out"] = b["fluid_smoothed"];
+  by_columns["thickness_out"] = b["fluid_smoothed_thickness"];
   const uint32_t particles = uint32_t(bound_.at("particle_positions")->shape[0]);
   f.splat = compute::create_builtin_pass(ctx_, "render/fluid_splat", b);
-  f.smooth = compute::create_builtin_pass(ctx_, "render/fluid_smooth", b);
+  f.smooth_rows = compute::create_builtin_pass(ctx_, "render/fluid_smooth", by_rows);
+  f.smooth_columns = compute::create_builtin_pass(ctx_, "render/fluid_smooth", by_columns);
   f.shade = compute::create_builtin_pass(ctx_, "render/fluid_shade", b);
-  for (auto& pass : {f.splat, f.smooth, f.shade}) {
+  for (auto& pass : {f.splat, f.smooth_rows, f.smooth_columns, f.shade}) {
     pass->set_constant_bits("width", &grp.width, 4);
     pass->set_constant_bits("height", &grp.height, 4);
     pass->set_constant_bits("layers", &grp.layers, 4);
   }
+  const uint32_t along_rows = 0, along_columns = 1;
+  f.smooth_rows->set_constant_bits("axis", &along_rows, 4);
+  f.smooth_columns->set_constant_bits("axis", &along_columns, 4);
   f.splat->set_constant_bits("particle_count", &particles, 4);
-  f.smooth->set_constant_bits("particle_count", &particles, 4);
   f.shade->set_constant_bits("products", &products, 4);
   f.splat->set_threads({particles, 1, 1});
-  f.smooth->set_threads({grp.width, grp.height, grp.layers});
+  f.smooth_rows->set_threads({grp.width, grp.height, grp.layers});
+  f.smooth_columns->set_threads({grp.width, grp.height, grp.layers});
   f.shade->set_threads({grp.width, grp.height, grp.layers});
 }
 
@@ -107,7 +123,9 @@ void ParticleDraw::record_fluid(VkCommandBuffer cmd, uint32_t group) const {
   gpu::compute_barrier(cmd);
   f.splat->record(cmd);
   gpu::compute_barrier(cmd);
-  f.smooth->record(cmd);
+  f.smooth_rows->record(cmd);
+  gpu::compute_barrier(cmd);
+  f.smooth_columns->record(cmd);
   gpu::compute_barrier(cmd);
   f.shade->record(cmd);
 }

@@ -28,7 +28,7 @@ class ParticleDraw {
  private:
   struct FluidGroup {
     std::shared_ptr<compute::TypedBuffer> depth, thickness;
-    std::shared_ptr<compute::ComputePass> splat, smooth, shade;
+    std::shared_ptr<compute::ComputePass> splat, smooth_rows, smooth_columns, shade;
   };
   std::shared_ptr<gpu::Context> ctx_;
   const RenderModel& model_;

@@ -13,8 +13,8 @@
 
 [[vk::binding(15)]] StructuredBuffer<uint> group_cameras;
 [[vk::binding(16)]] StructuredBuffer<RenderableData> fluid_looks;
-[[vk::binding(17)]] StructuredBuffer<float> fluid_smoothed;
-[[vk::binding(18)]] StructuredBuffer<uint> fluid_thickness;
+[[vk::binding(17)]] StructuredBuffer<uint> fluid_smoothed;  // float bits, FLUID_NONE: no fluid
+[[vk::binding(18)]] StructuredBuffer<uint> fluid_smoothed_thickness;
 [[vk::binding(19)]] RWStructuredBuffer<float> scene_depth;  // the group's depth (or a stand-in)
 [[vk::binding(20)]] RWStructuredBuffer<uint> out_rgb;
 [[vk::binding(21)]] RWStructuredBuffer<uint> out_segmentation;
@@ -40,8 +40,9 @@ float3 flatter_step(CameraData c, uint plane, int2 px, int2 axis, float3 here) {
   for (int s = -1; s <= 1; s += 2) {
     const int2 q = px + s * axis;
     if (any(q < 0) || q.x >= int(pc.width) || q.y >= int(pc.height)) continue;
-    const float z = fluid_smoothed[plane + uint(q.y) * pc.width + uint(q.x)];
-    if (z <= 0 || abs(z - here.z) >= best_dz) continue;
+    const uint bits = fluid_smoothed[plane + uint(q.y) * pc.width + uint(q.x)];
+    const float z = asfloat(bits);
+    if (bits == FLUID_NONE || abs(z - here.z) >= best_dz) continue;
     best_dz = abs(z - here.z);
     best = float(s) * (camera_point(c, q, z) - here);
   }
@@ -53,8 +54,9 @@ void main(uint3 id : SV_DispatchThreadID) {
   const uint layer = id.z;
   if (id.x >= pc.width || id.y >= pc.height) return;
   const uint plane = layer * pc.height * pc.width, at = plane + id.y * pc.width + id.x;
-  const float z = fluid_smoothed[at], behind = scene_depth[at];
-  if (z <= 0 || (behind > 0 && z >= behind)) return;
+  const uint bits = fluid_smoothed[at];
+  const float z = asfloat(bits), behind = scene_depth[at];
+  if (bits == FLUID_NONE || (behind > 0 && z >= behind)) return;
   const CameraData c = cameras[group_cameras[layer]];
   const RenderableData look = fluid_looks[c.ids.y];
   const int2 px = int2(id.xy);
@@ -67,7 +69,7 @@ void main(uint3 id : SV_DispatchThreadID) {
   const float3 eye = positions[c.ids.x].xyz, world = eye + quat_rotate(eye_q, here);
   const float3 wn = quat_rotate(eye_q, n);
   if (pc.products & 1) {
-    const float thickness = float(fluid_thickness[at]) * FLUID_THICKNESS_UNIT;
+    const float thickness = float(fluid_smoothed_thickness[at]) * FLUID_THICKNESS_UNIT;
     const float3 transmit = pow(max(look.color.rgb, 1e-3), thickness / REFERENCE_THICKNESS);
     const uint w = out_rgb[at];
     const float3 scene = pow(float3(w & 0xff, (w >> 8) & 0xff, (w >> 16) & 0xff) / 255.0, 2.2);
