@@ -5,6 +5,9 @@ import numpy as np
 import pytest
 
 import cressim
+from cressim import io
+from cressim.render_scene import render as render_file
+from cressim.scene_file import load_scene
 
 from .particle_render_scenes import F, S, fluid_block, lattice, project, render, soft_cube, start, world_with_camera
 
@@ -101,3 +104,36 @@ def test_strand_pixels_follow_its_particles(make_engine):
         for k in range(1, 11):  # each particle's pixel is the thread's
             assert mask[int(uv[k, 1]), int(uv[k, 0])], (frames, k)
     assert uv[10, 1] - project(points)[0][10, 1] > 5  # it did swing
+
+
+PARTICLE_SCENE = """\
+materials:
+  wet: {color: [0.7, 0.3, 0.3], roughness: 0.3}
+entities:
+  - name: ground
+    collider: {shapes: [{plane: {}}]}
+  - name: tissue
+    transform: {position: [-0.1, 0.0, 0.1]}
+    soft_body: {box: {half_extents: [0.06, 0.06, 0.06], cells: [2, 2, 2]}, radius: 0.02}
+    material: wet
+  - name: blood
+    fluid: {block: {counts: [4, 3, 2], spacing: 0.04, origin: [0.05, -0.05, 0.02]}, radius: 0.02}
+    material: {color: [0.4, 0.02, 0.02], segmentation_id: 9}
+  - name: thread
+    strand: {line: {start: [-0.2, 0.0, 0.3], end: [0.2, 0.0, 0.3], count: 9}, radius: 0.01, fixed: [0, 8]}
+  - name: camera
+    transform: {position: [0, -1, 0.1], look_at: [0, 0, 0.1]}
+    camera: {width: 64, height: 64, fov_y: 50}
+"""
+
+
+def test_scene_file_particles_render(tmp_path):
+    # soft_body / fluid / strand / material entries of a scene file, through `cressim render`
+    scene = tmp_path / "particles.yaml"
+    scene.write_text(PARTICLE_SCENE)
+    render_file(scene, tmp_path, steps=2)
+    seg = io.read_png(tmp_path / "env0_camera_segmentation.png")[..., :3]
+    assert len(np.unique(seg.reshape(-1, 3), axis=0)) == 4  # background, tissue, blood, thread
+    scene.write_text(PARTICLE_SCENE.replace(", cells: [2, 2, 2]", ""))
+    with pytest.raises(ValueError, match=r"particles.yaml:8: entities\[1\].soft_body.box: box needs 'cells'"):
+        load_scene(scene)
