@@ -113,6 +113,9 @@ RenderModel build_render_model(const scene::World& world, const scene::LayoutMap
           env_renderables[env].push_back(uint32_t(m.renderables.size()));
           m.renderables.push_back(d);
           m.renderables.back().ids.y = uint32_t(particle_meshes.object_mesh[o]);
+          if (env_renderables[env].size() > layout.max_renderables_per_env)
+            fail(world, e, "env " + std::to_string(env) + " has more renderables (particle objects count) than "
+                           "SceneLayout.max_renderables_per_env = " + std::to_string(layout.max_renderables_per_env));
         }
       }
       if (world.has<scene::Camera>(e)) {
