@@ -15,7 +15,7 @@ int64_t rows(size_t n) { return std::max<int64_t>(int64_t(n), 1); }
 ParticleDraw::ParticleDraw(std::shared_ptr<gpu::Context> ctx, const RenderModel& model, uint64_t generation,
                            BufferMap& internal, const BufferMap& scene, const BufferMap& bound)
     : ctx_(std::move(ctx)), model_(model), generation_(generation), internal_(internal), bound_(bound) {
-  if (model_.particle_vertices.empty()) return;
+  if (!scene.count("particles.positions")) return;
   auto make = [&](const std::string& key, const auto& data, int64_t width, DType t) {
     std::vector<int64_t> shape{rows(data.size())};
     if (width > 1) shape.push_back(width);
@@ -31,6 +31,7 @@ ParticleDraw::ParticleDraw(std::shared_ptr<gpu::Context> ctx, const RenderModel&
   bound_["fluid_looks"] = make("render.fluid_looks", model_.fluid_looks, int64_t(sizeof(shader::RenderableData) / 4),
                                DType::UINT32);
   has_fluid_ = model_.has_fluid;
+  if (model_.particle_vertices.empty()) return;  // fluids only
   vertices_ = compute::create_builtin_pass(ctx_, "render/particle_vertices", bound_);
   const uint32_t count = uint32_t(model_.particle_vertices.size()), base = model_.particle_vertex_base;
   vertices_->set_constant_bits("count", &count, 4);

@@ -21,35 +21,42 @@ ParticleMeshes add_particle_meshes(RenderModel& m, const physics::ParticleModel&
   if (p.empty()) return out;
   m.particle_vertex_base = uint32_t(m.vertex_positions.size());
   const uint32_t n = uint32_t(p.size());
-  // surfaces: generated vertex i is particle i
-  m.particle_vertices.assign(n, {shader::PARTICLE_VERTEX_NONE, 0, 0, 0});
-  std::vector<std::vector<uint32_t>> around(n);
-  std::map<std::vector<uint32_t>, uint32_t> surface_mesh;  // by triangles relative to the first particle
+  // surfaces: a vertex per particle on an object's surface, in particle order (interior and
+  // fluid particles get none)
+  std::vector<std::vector<uint32_t>> around;  // per generated vertex: its triangles
+  std::map<std::vector<uint32_t>, uint32_t> surface_mesh;  // by triangles in the object's vertex numbering
   for (size_t o = 0; o < p.objects.size(); ++o) {
     const auto& obj = p.objects[o];
     if (obj.range.w != shader::PARTICLE_SOLID || p.surface_count[o] == 0) continue;
-    const uint32_t first = obj.range.x;
+    const uint32_t* tris = &p.surface[3 * size_t(p.surface_offset[o])];
+    const size_t corners = 3 * size_t(p.surface_count[o]);
+    std::map<uint32_t, uint32_t> slot;  // particle -> its vertex within the object's
+    for (size_t c = 0; c < corners; ++c) slot.emplace(tris[c], 0);
+    const uint32_t first = uint32_t(m.particle_vertices.size());
+    for (auto& [particle, s] : slot) {
+      s = uint32_t(m.particle_vertices.size()) - first;
+      m.particle_vertices.push_back({shader::PARTICLE_VERTEX_SURFACE, particle, 0, 0});
+      around.emplace_back();
+    }
     std::vector<uint32_t> local;
-    for (uint32_t t = p.surface_offset[o]; t < p.surface_offset[o] + p.surface_count[o]; ++t) {
-      const uint32_t* tri = &p.surface[3 * size_t(t)];
-      for (int j = 0; j < 3; ++j) {
-        local.push_back(tri[j] - first);
-        around[tri[j]].push_back(uint32_t(m.particle_triangles.size()));
+    for (size_t c = 0; c < corners; c += 3) {
+      for (size_t j = 0; j < 3; ++j) {
+        local.push_back(slot[tris[c + j]]);
+        around[first + local.back()].push_back(uint32_t(m.particle_triangles.size()));
       }
-      m.particle_triangles.push_back({tri[0], tri[1], tri[2], 0});
+      m.particle_triangles.push_back({tris[c], tris[c + 1], tris[c + 2], 0});
     }
     auto it = surface_mesh.find(local);
-    if (it == surface_mesh.end()) it = surface_mesh.emplace(local, add_mesh(m, local, obj.range.y)).first;
+    if (it == surface_mesh.end()) it = surface_mesh.emplace(local, add_mesh(m, local, uint32_t(slot.size()))).first;
     out.object_mesh[o] = int32_t(it->second);
     out.object_offset[o] = first;
   }
-  for (uint32_t i = 0; i < n; ++i) {
-    if (around[i].empty()) continue;
-    m.particle_vertices[i] = {shader::PARTICLE_VERTEX_SURFACE, i, uint32_t(m.particle_adjacency.size()),
-                              uint32_t(around[i].size())};
-    m.particle_adjacency.insert(m.particle_adjacency.end(), around[i].begin(), around[i].end());
+  for (size_t v = 0; v < around.size(); ++v) {
+    m.particle_vertices[v].z = uint32_t(m.particle_adjacency.size());
+    m.particle_vertices[v].w = uint32_t(around[v].size());
+    m.particle_adjacency.insert(m.particle_adjacency.end(), around[v].begin(), around[v].end());
   }
-  // strands: kTubeSides vertices around each particle, after the particles' vertices
+  // strands: kTubeSides vertices around each particle
   std::vector<uint32_t> segment_of(n, 0);  // the segment a particle starts
   for (uint32_t s = 0; s < p.edge_particles.size(); ++s) segment_of[p.edge_particles[s]] = s;
   std::map<uint32_t, uint32_t> tube_mesh;  // by particle count

@@ -1,5 +1,5 @@
 // prepare() for particles the rasterizer draws from the physics buffers: soft-body surfaces
-// (one vertex per particle) and strand tubes (a ring of vertices per particle) become meshes
+// (a vertex per surface particle) and strand tubes (a ring of vertices per particle) become meshes
 // whose vertices the particle vertex pass writes each frame (particle_draw.h). Objects of one
 // shape share a mesh, so every env's copy is one more instance of the same draw.
 #pragma once
