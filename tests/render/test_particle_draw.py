@@ -131,6 +131,8 @@ def test_scene_file_particles_render(tmp_path):
     # soft_body / fluid / strand / material entries of a scene file, through `cressim render`
     scene = tmp_path / "particles.yaml"
     scene.write_text(PARTICLE_SCENE)
+    world = load_scene(scene)
+    assert [world.entity(e).has(cressim.Material) for e in range(world.entity_count)] == [False, True, True, False, False]
     render_file(scene, tmp_path, steps=2)
     seg = io.read_png(tmp_path / "env0_camera_segmentation.png")[..., :3]
     assert len(np.unique(seg.reshape(-1, 3), axis=0)) == 4  # background, tissue, blood, thread
