@@ -26,12 +26,12 @@ def project(points):
     return np.stack([F * x / z + S / 2, F * y / z + S / 2], -1), z
 
 
-def world_with_camera(envs=1, width=S, height=S, ground=True, light=True):
+def world_with_camera(envs=1, width=S, height=S, ground=True, products=("rgb", "depth", "segmentation")):
     world = cressim.World(cressim.SceneLayout(envs))
     for env in range(envs):
         cam = world.create_entity(env=env, name="camera")
         cam.add(cressim.Transform(position=tuple(EYE), rotation=LOOK_ALONG_Y))
-        cam.add(cressim.Camera(width=width, height=height, fov_y=FOV))
+        cam.add(cressim.Camera(width=width, height=height, fov_y=FOV, products=list(products)))
         if ground:
             g = world.create_entity(env=env, name="ground")
             g.add(cressim.Transform())

@@ -78,6 +78,23 @@ def test_fluid_surface_depth_within_a_particle_radius(make_engine):
     assert rows.max() < lo[1, 1] + 2 and cols.min() > lo[0, 0] - 2 and cols.max() < lo[1, 0] + 2
 
 
+def test_fluid_stays_in_its_env_and_needs_no_depth_product(make_engine):
+    # env 0 has the fluid, env 1 none; a segmentation-only camera (the occlusion test then uses
+    # a depth stand-in) gives the same ids as a full one
+    segs = []
+    for products in (["rgb", "depth", "segmentation"], ["segmentation"]):
+        world = world_with_camera(envs=2, products=products)
+        water = fluid_block(world, env=0, counts=(4, 2, 3))
+        soft_cube(world, env=1, centre=(0.3, 0, 0.1), half=0.05)
+        engine = start(world, make_engine)
+        engine.step_visual_sensors()
+        engine.end_frame()
+        segs.append(engine.buffer("camera0.segmentation").read().copy())
+    full, only = segs
+    assert (full[0] == water.id + 1).sum() > 50 and not (full[1] == water.id + 1).any()
+    assert np.array_equal(full, only)
+
+
 def test_fluid_is_hidden_behind_nearer_surfaces(make_engine):
     world = world_with_camera(ground=False)
     water = fluid_block(world, counts=(4, 2, 4), origin=(-0.06, 0.2, 0.02))
