@@ -56,7 +56,7 @@ ParticleMeshes add_particle_meshes(RenderModel& m, const physics::ParticleModel&
     m.particle_vertices[v].w = uint32_t(around[v].size());
     m.particle_adjacency.insert(m.particle_adjacency.end(), around[v].begin(), around[v].end());
   }
-  // strands: kTubeSides vertices around each particle
+  // strands: kTubeSides vertices around each particle, and two cap centres
   std::vector<uint32_t> segment_of(n, 0);  // the segment a particle starts
   for (uint32_t s = 0; s < p.edge_particles.size(); ++s) segment_of[p.edge_particles[s]] = s;
   std::map<uint32_t, uint32_t> tube_mesh;  // by particle count
@@ -71,15 +71,23 @@ ParticleMeshes add_particle_meshes(RenderModel& m, const physics::ParticleModel&
       for (uint32_t k = 0; k < kTubeSides; ++k)
         m.particle_vertices.push_back({shader::PARTICLE_VERTEX_TUBE | (k << 4) | (kTubeSides << 12), first + i, a, b});
     }
+    // the end caps' centres: the end particles, normals along the end segments (out)
+    const uint32_t last = first + count - 1;
+    m.particle_vertices.push_back({shader::PARTICLE_VERTEX_CAP, first, segment_of[first], 0});
+    m.particle_vertices.push_back({shader::PARTICLE_VERTEX_CAP, last, segment_of[last - 1], 1});
     auto it = tube_mesh.find(count);
     if (it == tube_mesh.end()) {
       std::vector<uint32_t> idx;
-      for (uint32_t i = 0; i + 1 < count; ++i)
-        for (uint32_t k = 0; k < kTubeSides; ++k) {
-          const uint32_t a = i * kTubeSides + k, b = i * kTubeSides + (k + 1) % kTubeSides;
+      const uint32_t start_cap = count * kTubeSides, end_cap = start_cap + 1, end_ring = (count - 1) * kTubeSides;
+      for (uint32_t k = 0; k < kTubeSides; ++k) {
+        const uint32_t next = (k + 1) % kTubeSides;
+        for (uint32_t i = 0; i + 1 < count; ++i) {
+          const uint32_t a = i * kTubeSides + k, b = i * kTubeSides + next;
           idx.insert(idx.end(), {a, a + kTubeSides, b + kTubeSides, a, b + kTubeSides, b});
         }
-      it = tube_mesh.emplace(count, add_mesh(m, idx, count * kTubeSides)).first;
+        idx.insert(idx.end(), {start_cap, next, k, end_cap, end_ring + k, end_ring + next});
+      }
+      it = tube_mesh.emplace(count, add_mesh(m, idx, count * kTubeSides + 2)).first;
     }
     out.object_mesh[o] = int32_t(it->second);
   }

@@ -2,7 +2,8 @@
 // buffers, one thread per generated vertex: a soft-body surface vertex is its particle with the
 // area-weighted normal of the surface triangles around it (a gather: no atomics, the same sum
 // in the same order every frame); a strand tube vertex is its particle moved by the strand
-// radius along a ring direction of the averaged frames of the segments beside it.
+// radius along a ring direction of the averaged frames of the segments beside it; a tube's end
+// cap centre is its end particle, facing out along the end segment.
 #include "cressim/particle.h"
 #include "cressim/quat.h"
 #include "cressim/render.h"
@@ -48,6 +49,8 @@ void main(uint3 id : SV_DispatchThreadID) {
     const float angle = TWO_PI * float((r.x >> 4) & 0xff) / float((r.x >> 12) & 0xff);
     n = quat_rotate(q, float3(cos(angle), sin(angle), 0));
     p += particle_objects[particle_phases[particle].y].material.x * n;
+  } else if (kind == PARTICLE_VERTEX_CAP) {
+    n = quat_rotate(particle_orientations[r.z], float3(0, 0, r.w != 0 ? 1 : -1));  // frame z: along the strand
   } else {
     return;  // fluid particles: drawn in screen space (fluid_*.comp.hlsl)
   }

@@ -156,3 +156,18 @@ def test_scene_file_particles_render(tmp_path):
     scene.write_text(PARTICLE_SCENE.replace(", cells: [2, 2, 2]", ""))
     with pytest.raises(ValueError, match=r"particles.yaml:8: entities\[1\].soft_body.box: box needs 'cells'"):
         load_scene(scene)
+
+
+def test_strand_seen_end_on_shows_its_cap(make_engine):
+    # a tube along the optical axis: the centre ray would pass down an open tube; the cap closes
+    # it at the near end particle (0.8 m away), and the disc is the tube's cross-section
+    world = world_with_camera(ground=False)
+    points = lattice((1, 9, 1), 0.05, (0.0, -0.2, 0.1))
+    thread = world.create_entity(env=0, name="thread")
+    thread.add(cressim.Strand(points, radius=0.03))
+    engine = start(world, make_engine)
+    _, depth, seg = render(engine)
+    mask = seg[0] == thread.id + 1
+    assert mask[S // 2, S // 2] and abs(depth[0, S // 2, S // 2] - 0.8) < 1e-3
+    octagon = 2 * np.sqrt(2) * (0.03 * F / 0.8) ** 2  # area of the 8-sided ring, pixels
+    assert abs(mask.sum() / octagon - 1) < 0.15
