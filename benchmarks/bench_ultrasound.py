@@ -1,7 +1,8 @@
 """Ultrasound sensor throughput alone: the UltrasoundScan scene (paper's sizes: 130 x 160
 image, 96 scanlines 0.006 apart, 0.7 long, a 0.45 tissue cube with 1e6 scatterers per unit
-volume) for N envs, one step_simulation_sensors per frame, synchronised every frame; images/s,
-GPU ms per frame (engine timestamps) and the scatterer count. Writes JSON.
+volume, carried by the tets of a 343-particle soft body) for N envs, one step_simulation_sensors
+per frame, synchronised every frame; images/s, GPU ms per frame (engine timestamps), scatterers
+and particles per env. Writes JSON.
 Usage: PYTHONPATH=python python3 benchmarks/bench_ultrasound.py --envs 1,32,256,1024,4096"""
 from __future__ import annotations
 
@@ -46,9 +47,10 @@ def main() -> None:
         engine.end_frame()
         gpu_ms = sum(ms for _, ms in engine.last_timings)
         scatterers = int(engine.ultrasound_probes["scatterers"])
+        particles = engine.buffer("particles.positions").shape[0] / envs
         mem = sum(engine.buffer(k).nbytes for k in engine.internal_keys if k.startswith("ultrasound")) / envs
         rows.append({"envs": envs, "images_per_s": envs / dt, "frames_per_s": 1 / dt, "gpu_ms_per_frame": gpu_ms,
-                     "scatterers": scatterers, "scatterers_per_env": scatterers / envs,
+                     "scatterers": scatterers, "scatterers_per_env": scatterers / envs, "particles_per_env": particles,
                      "sensor_bytes_per_env": mem, "setup_s": setup, "device": engine.device["name"]})
         print(f"{envs:6d} envs: {envs / dt:12,.0f} images/s ({1 / dt:8.1f} frames/s, GPU {gpu_ms:7.3f} ms/frame), "
               f"{scatterers / envs:,.0f} scatterers/env, {mem / 2**20:.2f} MiB/env, setup {setup:.1f} s", flush=True)

@@ -4,6 +4,7 @@
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-a           # CartPole, rendering
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-b           # ultrasound, twin
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-p           # SoftBodyPush, FluidPour
+#   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-r bench-us  # render extras, ultrasound
 # Results (text and JSON) go to $OUT (default out/gpu). Each command has its own time limit, so
 # one slow run cannot eat the stage. `setup` also installs the pure-Python wheels the twin's
 # kinematics need (.gpu-wheels, made on the development machine: benchmarks/README.md) into
@@ -27,7 +28,7 @@ run() {  # run NAME SECONDS CMD...: output to $OUT/NAME.txt, a line per run to $
 for stage in "$@"; do
   case $stage in
     setup)
-      run build 400 env CRESSIM_TESTS=ON bash benchmarks/gpu_build.sh
+      run build 400 env CRESSIM_TESTS=${CRESSIM_TESTS:-ON} bash benchmarks/gpu_build.sh
       [ -d .gpu-wheels ] && run wheels 120 python3 -m pip install -q --no-index --no-deps --target .gpu-py .gpu-wheels/*.whl
       run info 60 python3 -m cressim info
       ;;
@@ -69,9 +70,29 @@ for stage in "$@"; do
       ;;
     bench-p)
       mkdir -p "$OUT/softbodypush" "$OUT/fluidpour"
-      run softbodypush 180 python3 -m cressim bench SoftBodyPush --envs 128,256,512,1024,2048 --mode step \
-        --out "$OUT/softbodypush"
-      run fluidpour 150 python3 -m cressim bench FluidPour --envs 64,128,256,512,1024 --mode step --out "$OUT/fluidpour"
+      run softbodypush 240 python3 -m cressim bench SoftBodyPush --envs ${SOFT_ENVS:-128,256,512,1024,2048,4096,8192} \
+        --mode step --out "$OUT/softbodypush"
+      run fluidpour 200 python3 -m cressim bench FluidPour --envs ${FLUID_ENVS:-64,128,256,512,1024,2048,4096} \
+        --mode step --out "$OUT/fluidpour"
+      mkdir -p "$OUT/softbodypush_ppo" "$OUT/fluidpour_ppo"
+      run softbodypush_ppo 150 python3 -m cressim bench SoftBodyPush --envs 512,2048 --mode both \
+        --out "$OUT/softbodypush_ppo"
+      run fluidpour_ppo 120 python3 -m cressim bench FluidPour --envs 128,1024 --mode both --out "$OUT/fluidpour_ppo"
+      ;;
+    bench-r)  # renderer extras: culling, image-based lighting; TargetCenter with PPO
+      run render_culling 150 python3 benchmarks/bench_render.py --envs 1024,4096 --sizes 64 --objects 200 \
+        --culling both --raster both --json "$OUT/render_culling.json"
+      run render_ibl 100 python3 benchmarks/bench_render.py --envs 1024,4096 --sizes 64,128 --raster both --ibl \
+        --json "$OUT/render_ibl.json"
+      mkdir -p "$OUT/targetcenter_ppo"
+      run targetcenter_ppo 150 python3 -m cressim bench TargetCenter --envs 256,1024 --mode both \
+        --out "$OUT/targetcenter_ppo"
+      ;;
+    bench-us)
+      mkdir -p "$OUT/ultrasound"
+      run ultrasound 200 python3 -m cressim bench UltrasoundScan --envs 1,8,32,64 --mode both --out "$OUT/ultrasound"
+      run ultrasound_sensor 120 python3 benchmarks/bench_ultrasound.py --envs 1,32,256,1024 \
+        --json "$OUT/ultrasound_sensor.json"
       ;;
     *) echo "unknown stage $stage" >&2; exit 2 ;;
   esac

@@ -25,22 +25,37 @@ foreach(src ${CRESSIM_SHADERS})
   else()
     string(REGEX REPLACE "\\.hlsl$" "" name ${rel})
   endif()
-  set(out ${CMAKE_BINARY_DIR}/spirv/${name}.inc)
-  get_filename_component(out_dir ${out} DIRECTORY)
-  # -g keeps OpName: pipelines bind buffers by their HLSL names, read back from the SPIR-V
-  add_custom_command(
-    OUTPUT ${out}
-    COMMAND ${CMAKE_COMMAND} -E make_directory ${out_dir}
-    COMMAND ${GLSLC} -fshader-stage=${stage} -x hlsl --target-env=vulkan1.3 --target-spv=spv1.3
-            -fauto-bind-uniforms -O -g -I ${CRESSIM_SHADER_INCLUDE} -mfmt=num -MD -MF ${out}.d -o ${out} ${src}
-    DEPENDS ${src} ${CRESSIM_SHADER_HEADERS}
-    DEPFILE ${out}.d
-    COMMENT "glslc ${rel}"
-    VERBATIM)
-  list(APPEND CRESSIM_SPIRV_INCS ${out})
-  string(APPEND table_arrays "static const std::vector<uint32_t> k_shader_${i} = {\n#include \"${out}\"\n};\n")
-  string(APPEND table_entries "    {\"${name}\", &k_shader_${i}},\n")
-  math(EXPR i "${i} + 1")
+  # positional constraint families also get a one-workgroup-per-env build (particle_solve.hlsli)
+  set(variants "${name}|")
+  file(STRINGS ${src} block_solve REGEX "#include \"particle_solve.hlsli\"")
+  if(block_solve)
+    list(APPEND variants "${name}.block|-DCRESSIM_BLOCK=1")
+  endif()
+  foreach(variant ${variants})
+    string(REPLACE "|" ";" parts "${variant}")
+    list(GET parts 0 vname)
+    list(LENGTH parts nparts)
+    set(defines "")
+    if(nparts GREATER 1)
+      list(GET parts 1 defines)
+    endif()
+    set(out ${CMAKE_BINARY_DIR}/spirv/${vname}.inc)
+    get_filename_component(out_dir ${out} DIRECTORY)
+    # -g keeps OpName: pipelines bind buffers by their HLSL names, read back from the SPIR-V
+    add_custom_command(
+      OUTPUT ${out}
+      COMMAND ${CMAKE_COMMAND} -E make_directory ${out_dir}
+      COMMAND ${GLSLC} -fshader-stage=${stage} -x hlsl --target-env=vulkan1.3 --target-spv=spv1.3
+              -fauto-bind-uniforms -O -g ${defines} -I ${CRESSIM_SHADER_INCLUDE} -mfmt=num -MD -MF ${out}.d -o ${out} ${src}
+      DEPENDS ${src} ${CRESSIM_SHADER_HEADERS}
+      DEPFILE ${out}.d
+      COMMENT "glslc ${rel} ${defines}"
+      VERBATIM)
+    list(APPEND CRESSIM_SPIRV_INCS ${out})
+    string(APPEND table_arrays "static const std::vector<uint32_t> k_shader_${i} = {\n#include \"${out}\"\n};\n")
+    string(APPEND table_entries "    {\"${vname}\", &k_shader_${i}},\n")
+    math(EXPR i "${i} + 1")
+  endforeach()
 endforeach()
 
 set(header_entries "")

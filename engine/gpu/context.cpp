@@ -277,6 +277,9 @@ std::shared_ptr<Context> create_context(const ContextOptions& options) {
   e12.shaderOutputViewportIndex = output_layer;
   e2.features.shaderFloat64 = f2.features.shaderFloat64;
   e2.features.shaderInt64 = f2.features.shaderInt64;
+  // the rasterizer's culled draw lists (render/culling.h) where the device has them
+  e2.features.drawIndirectFirstInstance = f2.features.drawIndirectFirstInstance;
+  e2.features.multiDrawIndirect = f2.features.multiDrawIndirect;
 
   float priority = 1.0f;
   VkDeviceQueueCreateInfo qi{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};

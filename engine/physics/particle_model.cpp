@@ -60,10 +60,15 @@ struct Adding {
   uint32_t env, object, first;
 };
 
+// The constraint families, in solve order. A family is its name here, the records its builder
+// below appends, and shaders/physics/particle_<name>.comp.hlsl; the solver (particle_system.cpp)
+// makes buffers, cut flags, passes and dispatches from the set table without naming any family.
+constexpr const char* kConstraintFamilies[] = {"distance", "volume", "bend", "stretch_shear", "bend_twist"};
+
 class Builder {
  public:
   Builder(ParticleModel& m) : m_(m) {
-    for (const char* name : {"distance", "volume", "bend", "stretch_shear", "bend_twist"}) {
+    for (const char* name : kConstraintFamilies) {
       ConstraintSet s;
       s.name = name;
       s.shader = std::string("physics/particle_") + name;
@@ -265,6 +270,25 @@ void colour(ConstraintSet& s, size_t particles) {
   s.records = std::move(sorted);
 }
 
+// each env's slice of each colour: records are built env by env and the colouring is stable
+void env_colours(ConstraintSet& s, const ParticleModel& m) {
+  const size_t envs = m.env_ranges.size(), colours = s.colour_count.size();
+  s.env_colours.assign(envs * colours * 2, 0);
+  for (size_t k = 0; k < colours; ++k) {
+    uint32_t last_env = 0;
+    for (uint32_t c = s.colour_offset[k]; c < s.colour_offset[k] + s.colour_count[k]; ++c) {
+      const uint32_t p = s.records[c].particles.x < m.size() ? s.records[c].particles.x
+                                                                 : m.edge_particles[s.records[c].particles.x - m.size()];
+      const uint32_t env = m.phases[p].z;
+      if (env < last_env) throw std::logic_error("particle constraints of " + s.name + " are not in env order");
+      last_env = env;
+      uint32_t* r = &s.env_colours[(env * colours + k) * 2];
+      if (r[1] == 0) r[0] = c;
+      ++r[1];
+    }
+  }
+}
+
 float poly6(float r, float h) {
   if (r >= h) return 0;
   const float x = h * h - r * r;
@@ -375,7 +399,10 @@ ParticleModel build_particle_model(const scene::World& world, const scene::Layou
   for (auto& r : m.env_ranges) m.has_contacts = m.has_contacts || r.range.w > 1;
   for (auto& o : m.objects) m.has_contacts = m.has_contacts || (o.ids.y & shader::PARTICLE_SELF_COLLIDE);
 
-  for (auto& s : m.sets) colour(s, m.size() + m.orientations.size());
+  for (auto& s : m.sets) {
+    colour(s, m.size() + m.orientations.size());
+    env_colours(s, m);
+  }
   return m;
 }
 

@@ -14,13 +14,16 @@
 namespace cressim::physics {
 
 // One constraint family's records and the pass that projects them (shaders/<shader>.comp.hlsl,
-// one colour per dispatch; see particle_distance.comp.hlsl). Records are grouped by colour; a
-// record's object is the object of its first particle (particles.phases[i].y).
+// one colour per dispatch; see particle_distance.comp.hlsl). Records are grouped by colour and,
+// inside a colour, by env; a record's object is the object of its first particle
+// (particles.phases[i].y). Families that move positions only also have a `<shader>.block` pass:
+// one workgroup per env projects all colours (particle_solve.hlsli).
 struct ConstraintSet {
   std::string name;    // buffer key particles.<name>_constraints
   std::string shader;  // built-in pass
   std::vector<shader::ParticleConstraint> records;
   std::vector<uint32_t> colour_offset, colour_count;  // each colour's slice of records
+  std::vector<uint32_t> env_colours;   // (first, count) of each env's records per colour, env-major
   std::vector<uint32_t> object_count;  // constraints of each object
 };
 

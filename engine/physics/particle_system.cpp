@@ -7,6 +7,7 @@
 #include "gpu/commands.h"
 #include "cressim/layout.h"
 #include "gpu/context.h"
+#include "gpu/embedded_shaders.h"
 
 namespace cressim::physics {
 namespace {
@@ -83,6 +84,7 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   std::vector<uint32_t> active(static_cast<size_t>(no), 0u);
   for (size_t o = 0; o < active.size(); ++o) active[o] = model_.objects[o].range.w == shader::PARTICLE_FLUID ? model_.objects[o].ids.w : model_.objects[o].range.y;
   in("emitted", "particles.emitted", active, {no}, DType::UINT32);
+  in("first_free", "particles.first_free", active, {no}, DType::UINT32);
   in("", "particles.surface", model_.surface, {int64_t(model_.surface.size() / 3), 3}, DType::UINT32);
   scratch("densities", "particles.densities", {n}, DType::FLOAT32);
   // scratch
@@ -102,6 +104,9 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   auto fill = scratch("cell_fill", "particles.cell_fill", {int64_t(table_size_)}, DType::UINT32);
   scratch("block_sums", "particles.block_sums", {int64_t(blocks_)}, DType::UINT32);
   const bool grid = model_.has_fluid || model_.has_contacts;
+  scratch("neighbor_counts", "particles.neighbor_counts", {n}, DType::UINT32);
+  scratch("neighbor_lists", "particles.neighbor_lists", {grid ? int64_t(shader::PARTICLE_MAX_NEIGHBORS) : 1, n},
+          DType::UINT32);
   if (grid) per_substep_clears_ = {counts->storage->buffer.buffer, fill->storage->buffer.buffer};
 
   // control: attachment slots, all free
@@ -110,6 +115,11 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   for (int64_t a = 0; a < na; ++a) att[size_t(a)].ids = {0, 0, shader::ATTACH_FREE, uint32_t(a / std::max<uint32_t>(attachments_per_env_, 1))};
   bindings_["attachments"] = make(control, "control.particle_attachments", att.data(), att.size() * sizeof(att[0]),
                                   {na, int64_t(sizeof(shader::ParticleAttachment) / 4)}, DType::UINT32, false, exportable);
+
+  // control: fluid removal flags, applied at the next step's start (particle_remove.comp.hlsl)
+  const std::vector<uint32_t> keep(size_t(n), 0u);
+  bindings_["remove_flags"] = make(control, "control.particle_remove", keep.data(), keep.size() * 4, {n}, DType::UINT32,
+                                   false, false);
 
   // env flags, shared with the rigid solver; made here when there is none
   for (const char* k : {"env.reset_mask", "env.health", "env.health_events"})
@@ -141,6 +151,7 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
     scan_add_ = pass("physics/particle_scan_add", table_size_);
     scatter_ = pass("physics/particle_grid_scatter", uint64_t(n));
     sort_ = pass("physics/particle_grid_sort", table_size_);
+    neighbor_list_ = pass("physics/particle_neighbor_list", uint64_t(n));
     neighbors_ = pass("physics/particle_neighbors", uint64_t(n));
   }
   if (model_.has_fluid) {
@@ -148,18 +159,39 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
     vorticity_ = pass("physics/particle_fluid_vorticity", uint64_t(n));
     fluid_velocity_ = pass("physics/particle_fluid_velocity", uint64_t(n));
   }
+  for (uint32_t e = 0; e < uint32_t(ne); ++e)
+    if (model_.env_ranges[e].range.y > largest_env_) largest_env_ = model_.env_ranges[e].range.y, largest_env_index_ = e;
   for (auto& s : model_.sets) {
     const auto c = int64_t(s.records.size());
     auto cb = in("", "particles." + s.name + "_constraints", words(s.records),
                  {c, int64_t(sizeof(shader::ParticleConstraint) / 4)}, DType::UINT32);
     auto lb = make(internal, "particles." + s.name + "_lambdas", nullptr, 0, {c}, DType::FLOAT32, true, false);
+    // cutting: a writable flag per record, read by constraint_index() in particle_constraint.hlsli
+    const std::vector<uint32_t> whole(size_t(c), 0u);
+    auto cut = make(control, "control.particle_" + s.name + "_cut", whole.data(), whole.size() * 4, {c}, DType::UINT32,
+                    false, false);
     if (c == 0) continue;
     auto b = bindings_;
     b["constraints"] = cb;
     b["lambdas"] = lb;
+    b["cut"] = cut;
     auto p = compute::create_builtin_pass(ctx, s.shader, b);
     all_.push_back(p);
-    families_.push_back({p, &s});
+    Family f{p, nullptr, &s};
+    // families built on particle_solve.hlsli have a one-workgroup-per-env build too
+    const auto names = gpu::embedded_shader_names();
+    if (largest_env_ <= shader::PARTICLE_BLOCK_CAPACITY && std::count(names.begin(), names.end(), s.shader + ".block")) {
+      b["env_colours"] = in("", "particles." + s.name + "_env_colours", s.env_colours,
+                            {int64_t(s.env_colours.size() / 2), 2}, DType::UINT32);
+      f.per_env = compute::create_builtin_pass(ctx, s.shader + ".block", b);
+      f.per_env->groups = {uint32_t(ne), 1, 1};
+      all_.push_back(f.per_env);
+    }
+    families_.push_back(f);
+    auto r = compute::create_builtin_pass(ctx, "physics/particle_cut_reset", b);
+    r->set_threads({uint64_t(c), 1, 1});
+    all_.push_back(r);
+    cut_resets_.push_back({r, uint32_t(c)});
     per_substep_clears_.push_back(lb->storage->buffer.buffer);
   }
   gather_ = pass("physics/particle_gather", uint64_t(n));
@@ -174,6 +206,7 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
     orient_velocity_ = pass("physics/particle_orient_velocity", uint64_t(ne_));
   }
   if (model_.has_emitters) emit_ = pass("physics/particle_emit", uint64_t(no));
+  if (model_.has_fluid) remove_ = pass("physics/particle_remove", uint64_t(n));
   set_settings(settings);
 }
 
@@ -189,8 +222,40 @@ void ParticleSystem::set_settings(const PhysicsSettings& s) {
   if (s.max_particle_attachments_per_env != attachments_per_env_)
     throw std::invalid_argument("PhysicsSettings.max_particle_attachments_per_env sizes the attachment buffer: set it "
                                 "before upload_world() (or call upload_world() again)");
+  if (s.particle_solver == "workgroup" && largest_env_ > shader::PARTICLE_BLOCK_CAPACITY)
+    throw std::invalid_argument("PhysicsSettings.particle_solver 'workgroup' needs every env to have at most " +
+                                std::to_string(shader::PARTICLE_BLOCK_CAPACITY) + " particles; env " +
+                                std::to_string(largest_env_index_) + " has " + std::to_string(largest_env_) +
+                                " (use 'auto' or 'dispatch')");
   settings_ = s;
   set_constants(s);
+}
+
+bool ParticleSystem::workgroup_solve() const {
+  return settings_.particle_solver != "dispatch" && largest_env_ <= shader::PARTICLE_BLOCK_CAPACITY;
+}
+
+// every constraint family `passes` times over (Gauss-Seidel between colours and families)
+void ParticleSystem::record_families(VkCommandBuffer cmd, uint32_t passes) const {
+  auto put = [](compute::ComputePass& p, uint32_t offset, uint32_t count) {
+    std::memcpy(p.constants.data() + offsetof(shader::ParticleConstants, item_offset), &offset, 4);
+    std::memcpy(p.constants.data() + offsetof(shader::ParticleConstants, item_count), &count, 4);
+  };
+  for (auto& f : families_) {
+    if (f.per_env && workgroup_solve()) {
+      put(*f.per_env, passes, uint32_t(f.set->colour_count.size()));
+      f.per_env->record(cmd);
+      gpu::compute_barrier(cmd);
+      continue;
+    }
+    for (uint32_t pass = 0; pass < passes; ++pass)
+      for (size_t k = 0; k < f.set->colour_count.size(); ++k) {
+        put(*f.per_colour, f.set->colour_offset[k], f.set->colour_count[k]);
+        f.per_colour->groups = {(f.set->colour_count[k] + kGroup - 1) / kGroup, 1, 1};
+        f.per_colour->record(cmd);
+        gpu::compute_barrier(cmd);
+      }
+  }
 }
 
 void ParticleSystem::set_constants(const PhysicsSettings& s) {
@@ -206,6 +271,8 @@ void ParticleSystem::set_constants(const PhysicsSettings& s) {
     c.attachment_count = c.env_count * attachments_per_env_;
     c.edge_count = uint32_t(model_.orientations.size());
     c.item_count = p == scan_blocks_ ? blocks_ : (p == emit_ || p == reset_) ? uint32_t(model_.objects.size()) : 0;
+    for (auto& [r, records] : cut_resets_)
+      if (p == r) c.item_count = records;
     if (p->constants.size() != sizeof(c)) throw std::logic_error("ParticleConstants does not match " + p->name);
     std::memcpy(p->constants.data(), &c, sizeof(c));
   }
@@ -219,6 +286,7 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
     }
   };
   const uint32_t substeps = settings_.substeps;
+  run(remove_);
   run(emit_);
   for (uint32_t s = 0; s < substeps; ++s) {
     // passes that look at moving bodies see them where they are at the end of this substep
@@ -229,19 +297,15 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
     run(integrate_);
     run(orient_integrate_);
     if (grid_count_) {
-      for (auto& p : {grid_count_, scan_local_, scan_blocks_, scan_add_, scatter_, sort_}) run(p);
+      for (auto& p : {grid_count_, scan_local_, scan_blocks_, scan_add_, scatter_, sort_, neighbor_list_}) run(p);
     }
-    for (uint32_t it = 0; it < settings_.particle_iterations; ++it) {
+    // the constraint families every iteration, contacts in `contacts` of them spread evenly:
+    // contact iteration k follows the families' iterations up to floor((k + 1) I / C)
+    const uint32_t iterations = settings_.particle_iterations;
+    const uint32_t contacts = settings_.particle_contact_iterations ? settings_.particle_contact_iterations : iterations;
+    for (uint32_t k = 0; k < contacts; ++k) {
       run(fluid_lambda_);
-      // each family colour by colour (Gauss-Seidel between colours), then neighbours and colliders
-      for (auto& [p, set] : families_)
-        for (size_t k = 0; k < set->colour_count.size(); ++k) {
-          const uint32_t range[2] = {set->colour_offset[k], set->colour_count[k]};
-          std::memcpy(p->constants.data() + offsetof(shader::ParticleConstants, item_offset), &range[0], 4);
-          std::memcpy(p->constants.data() + offsetof(shader::ParticleConstants, item_count), &range[1], 4);
-          p->groups = {(range[1] + kGroup - 1) / kGroup, 1, 1};
-          run(p);
-        }
+      record_families(cmd, (k + 1) * iterations / contacts - k * iterations / contacts);
       run(neighbors_);
       run(gather_);
       run(rigid_push_);
@@ -255,7 +319,10 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
   health_->record(cmd);
 }
 
-void ParticleSystem::record_reset(VkCommandBuffer cmd) const { reset_->record(cmd); }
+void ParticleSystem::record_reset(VkCommandBuffer cmd) const {
+  reset_->record(cmd);
+  for (auto& [p, records] : cut_resets_) p->record(cmd);
+}
 
 uint64_t ParticleSystem::health_events(const BufferMap& internal) const {
   const auto& b = internal.at("env.health_events")->storage->buffer;

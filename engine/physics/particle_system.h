@@ -1,14 +1,18 @@
 // The particle system on the GPU (soft bodies, fluids, strands, batched over envs): its buffers
-// (keys particles.* and control.particle_attachments), the substep loop recorded into
+// (keys particles.*, control.particle_attachments, control.particle_remove and
+// control.particle_<family>_cut), the substep loop recorded into
 // step_physics after the rigid solver, and the per-env reset.
 //
-// Per frame first: fluid emitters activate inactive slots.
+// Per frame first: fluid removals (control.particle_remove) make slots inactive, then fluid
+// emitters activate inactive slots.
 // Per substep: integrate; neighbour grid keyed on (env, cell) (count, prefix sum, scatter, sort
-// each bucket); `particle_iterations` times: fluid densities, every constraint family colour by
-// colour, neighbour corrections (fluid density, particle contacts), the gather (those
+// each bucket, list each particle's neighbours); `particle_iterations` times every constraint family colour by colour (one
+// dispatch per colour, or one workgroup per env for all colours), and in
+// `particle_contact_iterations` of those (spread evenly) first fluid densities and after the
+// families neighbour corrections (fluid density, particle contacts), the gather (those
 // corrections + rigid collider contacts with friction), dynamic bodies' share of those contacts
-// (two-way coupling) and attachments; then velocities and the
-// fluid velocity terms. At the frame's end, env health.
+// (two-way coupling) and attachments; then velocities and the fluid velocity terms. At the
+// frame's end, env health.
 #pragma once
 #include <map>
 #include <memory>
@@ -42,6 +46,8 @@ class ParticleSystem {
  private:
   std::shared_ptr<compute::ComputePass> pass(const std::string& shader, uint64_t threads);
   void set_constants(const PhysicsSettings& s);
+  void record_families(VkCommandBuffer cmd, uint32_t passes) const;
+  bool workgroup_solve() const;
 
   std::shared_ptr<gpu::Context> ctx_;
   ParticleModel model_;
@@ -51,10 +57,19 @@ class ParticleSystem {
   std::map<std::string, std::shared_ptr<compute::TypedBuffer>> bindings_;  // HLSL name -> buffer
   std::vector<VkBuffer> per_substep_clears_;  // zeroed at each substep start (grid counters, lambdas)
   std::vector<std::shared_ptr<compute::ComputePass>> all_;
-  std::shared_ptr<compute::ComputePass> emit_, integrate_, orient_integrate_, orient_velocity_, grid_count_, scan_local_, scan_blocks_, scan_add_, scatter_, sort_,
-      fluid_lambda_, neighbors_, gather_, rigid_push_, attach_, velocity_, vorticity_, fluid_velocity_, health_, reset_;
-  // one pass per non-empty constraint set, dispatched once per colour
-  std::vector<std::pair<std::shared_ptr<compute::ComputePass>, const ConstraintSet*>> families_;
+  std::shared_ptr<compute::ComputePass> emit_, integrate_, orient_integrate_, orient_velocity_, grid_count_, scan_local_, scan_blocks_, scan_add_, scatter_, sort_, neighbor_list_,
+      fluid_lambda_, neighbors_, gather_, rigid_push_, attach_, velocity_, vorticity_, fluid_velocity_, health_, reset_,
+      remove_;
+  // a non-empty constraint set: its pass dispatched once per colour, and for positional
+  // families whose envs fit in group memory the one-workgroup-per-env pass
+  struct Family {
+    std::shared_ptr<compute::ComputePass> per_colour, per_env;
+    const ConstraintSet* set;
+  };
+  std::vector<Family> families_;
+  uint32_t largest_env_ = 0, largest_env_index_ = 0;  // particles of the biggest env
+  // per family: the env reset of its cut flags, and its record count
+  std::vector<std::pair<std::shared_ptr<compute::ComputePass>, uint32_t>> cut_resets_;
 };
 
 }  // namespace cressim::physics

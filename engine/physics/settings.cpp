@@ -19,6 +19,11 @@ void PhysicsSettings::validate() const {
   if (!(max_speed > 0)) fail("max_speed", "must be positive");
   if (!(max_penetration > 0)) fail("max_penetration", "must be positive");
   if (particle_iterations < 1 || particle_iterations > 256) fail("particle_iterations", "must be 1..256");
+  if (particle_contact_iterations > particle_iterations)
+    fail("particle_contact_iterations", "must be at most particle_iterations (" + std::to_string(particle_iterations) +
+                                            "); 0 means all of them");
+  if (particle_solver != "auto" && particle_solver != "dispatch" && particle_solver != "workgroup")
+    fail("particle_solver", "'" + particle_solver + "' is not one of auto, dispatch, workgroup");
   if (max_particle_attachments_per_env > 4096) fail("max_particle_attachments_per_env", "must be at most 4096");
 }
 

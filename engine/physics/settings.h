@@ -2,6 +2,7 @@
 #pragma once
 #include <array>
 #include <cstdint>
+#include <string>
 
 namespace cressim::physics {
 
@@ -15,6 +16,13 @@ struct PhysicsSettings {
   float max_penetration = 0.25f;  // m
   uint32_t particle_iterations = 4;  // particle constraint passes per substep (XPBD: compliance holds whatever the count)
   uint32_t max_particle_attachments_per_env = 4;  // rigid-particle attachment slots (control.particle_attachments)
+  // of the particle_iterations, how many also solve contacts, fluid density and attachments
+  // (0: all); the constraint families run every iteration (the paper's "internal" vs "contact")
+  uint32_t particle_contact_iterations = 0;
+  // constraint families: "dispatch" (one dispatch per colour), "workgroup" (one workgroup per env
+  // solves all colours in group memory; envs of at most PARTICLE_BLOCK_CAPACITY particles), or
+  // "auto" (workgroup where every env fits)
+  std::string particle_solver = "auto";
 
   void validate() const;
 };

@@ -17,6 +17,20 @@ namespace {
 using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
 using IndexArray = py::array_t<int64_t, py::array::c_style | py::array::forcecast>;
 
+// a 1-d array of non-negative indices; `what` names the argument in errors
+std::vector<uint32_t> indices(const IndexArray& a, const char* what) {
+  if (a.ndim() > 1) throw std::invalid_argument(std::string(what) + " must be a 1-d array of indices");
+  std::vector<uint32_t> out(size_t(a.size()));
+  const int64_t* d = a.data();
+  for (size_t k = 0; k < out.size(); ++k) {
+    if (d[k] < 0 || d[k] > int64_t(UINT32_MAX))
+      throw std::out_of_range(std::string(what) + "[" + std::to_string(k) + "] = " + std::to_string(d[k]) +
+                              " is not a valid index");
+    out[k] = uint32_t(d[k]);
+  }
+  return out;
+}
+
 // an (n, 3) array of points as a flat list; `what` names the argument in errors
 std::vector<float> points(py::handle o, const char* what) {
   auto a = FloatArray::ensure(o);
@@ -213,15 +227,31 @@ void bind_particles(py::module_& m) {
       "triangles (global particle indices, each object's slice), and each constraint set's colour ranges of "
       "particles.<name>_constraints rows (a row's object is its first particle's) and constraints per object.")
       .def("attach_particle",
-           [](runtime::Engine& e, uint32_t env, uint32_t slot, uint32_t particle, py::object body, float compliance) {
+           [](runtime::Engine& e, uint32_t env, uint32_t slot, uint32_t particle, py::object body, float compliance,
+              bool hold_frame, std::optional<std::array<float, 4>> frame_offset) {
              const uint32_t id = py::isinstance<Entity>(body) ? body.cast<Entity>().id : body.cast<uint32_t>();
-             e.attach_particle(env, slot, particle, id, compliance);
+             e.attach_particle(env, slot, particle, id, compliance, hold_frame, frame_offset);
            },
            py::arg("env"), py::arg("slot"), py::arg("particle"),
-           py::arg("body"), py::arg("compliance") = 0.f,
+           py::arg("body"), py::arg("compliance") = 0.f, py::arg("hold_frame") = false,
+           py::arg("frame_offset") = py::none(),
            "Ties particle (global index) to the rigid body of entity `body` where both are at the next step, in "
-           "attachment slot `slot` of `env` (no reallocation).")
-      .def("release_particle", &runtime::Engine::release_particle, py::arg("env"), py::arg("slot"));
+           "attachment slot `slot` of `env` (no reallocation). hold_frame (a strand's particle): the segment "
+           "at that particle also keeps its material frame at body rotation * frame_offset (xyzw; default: "
+           "the offset at the next step), so turning the body twists the strand.")
+      .def("release_particle", &runtime::Engine::release_particle, py::arg("env"), py::arg("slot"))
+      .def("remove_particles",
+           [](runtime::Engine& e, IndexArray particles) { e.remove_particles(indices(particles, "particles")); },
+           py::arg("particles"),
+           "Fluid particles (global indices, any envs) become inactive slots at the next step: "
+           "particles.emitted drops and emitters reuse the slots. Task passes write control.particle_remove.")
+      .def("cut_constraints",
+           [](runtime::Engine& e, const std::string& family, IndexArray rows, bool cut) {
+             e.cut_constraints(family, indices(rows, "indices"), cut);
+           },
+           py::arg("family"), py::arg("indices"), py::arg("cut") = true,
+           "Switches constraints (rows of particles.<family>_constraints) off from the next step (cut=False: "
+           "on again); an env reset restores its constraints. Task passes write control.particle_<family>_cut.");
 }
 
 }  // namespace cressim::python

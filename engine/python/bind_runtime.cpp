@@ -59,16 +59,18 @@ void bind_physics_settings(py::module_& m) {
   py::class_<PhysicsSettings>(m, "PhysicsSettings")
       .def(py::init([](float dt, uint32_t substeps, uint32_t iterations, std::array<float, 3> gravity,
                        uint32_t max_contacts, float max_speed, float max_penetration, uint32_t particle_iterations,
-                       uint32_t max_attachments) {
+                       uint32_t max_attachments, uint32_t particle_contact_iterations, std::string particle_solver) {
              PhysicsSettings s{dt, substeps, iterations, gravity, max_contacts, max_speed, max_penetration,
-                               particle_iterations, max_attachments};
+                               particle_iterations, max_attachments, particle_contact_iterations,
+                               std::move(particle_solver)};
              s.validate();
              return s;
            }),
            py::kw_only(), py::arg("dt") = 1.0f / 60.0f, py::arg("substeps") = 4u, py::arg("iterations") = 1u,
            py::arg("gravity") = std::array<float, 3>{0, 0, -9.81f}, py::arg("max_contacts_per_env") = 64u,
            py::arg("max_speed") = 100.f, py::arg("max_penetration") = 0.25f, py::arg("particle_iterations") = 4u,
-           py::arg("max_particle_attachments_per_env") = 4u)
+           py::arg("max_particle_attachments_per_env") = 4u, py::arg("particle_contact_iterations") = 0u,
+           py::arg("particle_solver") = "auto")
       .def_readwrite("dt", &PhysicsSettings::dt)
       .def_readwrite("substeps", &PhysicsSettings::substeps)
       .def_readwrite("iterations", &PhysicsSettings::iterations)
@@ -78,6 +80,8 @@ void bind_physics_settings(py::module_& m) {
       .def_readwrite("max_penetration", &PhysicsSettings::max_penetration)
       .def_readwrite("particle_iterations", &PhysicsSettings::particle_iterations)
       .def_readwrite("max_particle_attachments_per_env", &PhysicsSettings::max_particle_attachments_per_env)
+      .def_readwrite("particle_contact_iterations", &PhysicsSettings::particle_contact_iterations)
+      .def_readwrite("particle_solver", &PhysicsSettings::particle_solver)
       .def("__repr__", [](const PhysicsSettings& s) {
         return py::str("PhysicsSettings(dt={}, substeps={}, iterations={}, gravity={})")
             .format(s.dt, s.substeps, s.iterations, py::cast(s.gravity));
@@ -204,6 +208,7 @@ void bind_runtime(py::module_& m) {
           entity = m.probe_entity;
           for (auto& p : m.probes) env.push_back(p.ids.y), layer.push_back(p.ids.w);
           scatterers = m.scatterers.size();
+          d["tets"] = m.tets.size();  // soft tissue tets carrying scatterers
           d["lines"] = m.lines, d["samples"] = m.samples, d["width"] = m.width, d["height"] = m.height;
         }
         d["entity"] = to_numpy(entity);
@@ -212,7 +217,7 @@ void bind_runtime(py::module_& m) {
         d["scatterers"] = scatterers;
         return d;
       }, "Each ultrasound probe's entity, env and layer of ultrasound0.image / ultrasound0.iq; the "
-         "scatterer count over all envs; scanlines, IQ samples per line and image size.")
+         "scatterer count over all envs (and the soft-tissue tets carrying them); scanlines, IQ samples per line and image size.")
       .def_property_readonly("health_events", &Engine::health_events,
                              "Envs flagged unhealthy (NaN/Inf, speed, penetration) and reset since upload_world().")
       .def_property_readonly("prepared", &Engine::prepared)

@@ -291,13 +291,19 @@ void bind_render_components(py::module_& m) {
       .def_readonly("shadows", &scene::Light::shadows);
 
   py::class_<scene::EnvironmentLight>(m, "EnvironmentLight")
-      .def(py::init([](Vec3 sky, Vec3 ground, float intensity) { return scene::EnvironmentLight{sky, ground, intensity}; }),
+      .def(py::init([](Vec3 sky, Vec3 ground, float intensity, int32_t map) {
+             return scene::EnvironmentLight{sky, ground, intensity, map};
+           }),
            py::kw_only(), py::arg("sky") = Vec3{0.2f, 0.2f, 0.2f}, py::arg("ground") = Vec3{0.2f, 0.2f, 0.2f},
-           py::arg("intensity") = 1.f,
-           "The env's ambient light (one per env): a hemisphere, `sky` from +z and `ground` from -z.")
+           py::arg("intensity") = 1.f, py::arg("map") = -1,
+           "The env's ambient light (one per env): a hemisphere, `sky` from +z and `ground` from -z; or, with "
+           "map (a world.add_texture index of an equirectangular image: rows from +z at the top to -z, columns "
+           "from azimuth -180 deg to 180 deg, +x in the middle; sRGB texels), image-based lighting: radiance = "
+           "the map's linear texels x intensity, filtered on the GPU (diffuse and specular).")
       .def_readonly("sky", &scene::EnvironmentLight::sky)
       .def_readonly("ground", &scene::EnvironmentLight::ground)
-      .def_readonly("intensity", &scene::EnvironmentLight::intensity);
+      .def_readonly("intensity", &scene::EnvironmentLight::intensity)
+      .def_readonly("map", &scene::EnvironmentLight::map);
 }
 
 // keyword-only construction of a component with many fields: each keyword sets the field of
@@ -329,8 +335,9 @@ void bind_sensor_components(py::module_& m) {
                 "line_length, line_spacing (linear), sector_angle (degrees) and radius (sector; 0: phased "
                 "array), width, height, sampling_frequency (Hz), radial_decimation, center_frequency (Hz), "
                 "fractional_bandwidth, lateral_beam_width and elevational_beam_width (FWHM), speed_of_sound "
-                "(m/s), metres_per_unit, dynamic_range and gain (dB), rf_output (also fill ultrasound0.rf). Defaults: "
-                "an abdominal curvilinear probe.")
+                "(m/s), metres_per_unit, dynamic_range and gain (dB), time_gain_compensation (dB/cm of depth), "
+                "focal_depth (the beam widths hold there and grow away from it as a Gaussian beam's; 0: constant "
+                "widths), rf_output (also fill ultrasound0.rf). Defaults: an abdominal curvilinear probe.")
       .def(py::init([](py::kwargs kw) { return from_keywords<P>("UltrasoundProbe", kw); }))
       .def_property("kind",
                     [](const P& p) { return p.kind == ProbeKind::LINEAR ? "linear" : "sector"; },
@@ -355,6 +362,8 @@ void bind_sensor_components(py::module_& m) {
       .def_readwrite("metres_per_unit", &P::metres_per_unit)
       .def_readwrite("dynamic_range", &P::dynamic_range)
       .def_readwrite("gain", &P::gain)
+      .def_readwrite("time_gain_compensation", &P::time_gain_compensation)
+      .def_readwrite("focal_depth", &P::focal_depth)
       .def_readwrite("rf_output", &P::rf_output);
 
   using I = scene::UltrasoundInclusion;
@@ -369,10 +378,12 @@ void bind_sensor_components(py::module_& m) {
 
   using T = scene::UltrasoundTissue;
   py::class_<T>(m, "UltrasoundTissue",
-                "Ultrasound scatterers of a tissue, made at prepare() in the entity frame and carried by its pose. "
-                "Keyword fields: region ('box', 'sphere', 'cylinder'), size (box half extents; sphere radius in "
-                "x; cylinder radius x, half height y along z), center, density (per cubic scene unit) or count, "
-                "amplitude_mean, amplitude_std (normal amplitudes), inclusions, seed.")
+                "Ultrasound scatterers of a tissue, made at prepare() in the entity frame and carried by its pose, "
+                "or, on an entity with a tetrahedral SoftBody, inside its tets and carried by its particles. "
+                "Keyword fields: region ('box', 'sphere', 'cylinder'; not used on a SoftBody), size (box half "
+                "extents; sphere radius in x; cylinder radius x, half height y along z), center, density (per "
+                "cubic scene unit) or count, amplitude_mean, amplitude_std (normal amplitudes), inclusions, seed, "
+                "attenuation (dB/cm/MHz, default 0.5).")
       .def(py::init([](py::kwargs kw) { return from_keywords<T>("UltrasoundTissue", kw); }))
       .def_property("region",
                     [](const T& t) {
@@ -390,7 +401,8 @@ void bind_sensor_components(py::module_& m) {
       .def_readwrite("amplitude_mean", &T::amplitude_mean)
       .def_readwrite("amplitude_std", &T::amplitude_std)
       .def_readwrite("inclusions", &T::inclusions)
-      .def_readwrite("seed", &T::seed);
+      .def_readwrite("seed", &T::seed)
+      .def_readwrite("attenuation", &T::attenuation);
 }
 
 }  // namespace

@@ -55,6 +55,7 @@ RenderModel build_render_model(const scene::World& world, const scene::LayoutMap
   m.fluid_looks.assign(mapping.num_envs, shader::RenderableData{});
   std::vector<std::vector<uint32_t>> env_renderables(mapping.num_envs), env_cameras(mapping.num_envs);
   std::vector<uint32_t> shadow_envs;
+  std::map<std::array<float, 2>, uint32_t> map_slots;  // (texture, intensity) -> IBL slot
   std::map<std::array<uint32_t, 3>, std::vector<uint32_t>> by_config;  // (width, height, products)
   for (uint32_t env = 0; env < mapping.num_envs; ++env) {
     uint32_t lights = 0;
@@ -70,6 +71,16 @@ RenderModel build_render_model(const scene::World& world, const scene::LayoutMap
         lighting.sky = {a.sky[0] * a.intensity, a.sky[1] * a.intensity, a.sky[2] * a.intensity, 0};
         lighting.ground = {a.ground[0] * a.intensity, a.ground[1] * a.intensity, a.ground[2] * a.intensity, 0};
         environment = true;
+        if (a.map >= int32_t(world.textures().size()) || a.map < -1)
+          fail(world, e, "EnvironmentLight.map " + std::to_string(a.map) + " is not a texture of the world (" +
+                             std::to_string(world.textures().size()) + " textures; world.add_texture returns the index)");
+        if (!(a.intensity >= 0)) fail(world, e, "EnvironmentLight.intensity must be >= 0");
+        if (a.map >= 0) {  // envs with the same map and intensity share one filtered slot
+          auto [it, added] = map_slots.try_emplace({float(a.map), a.intensity}, uint32_t(m.environment_maps.size()));
+          if (added) m.environment_maps.push_back({float(a.map), a.intensity, a.intensity, a.intensity});
+          lighting.map = {uint32_t(a.map) + 1, it->second, 0, 0};
+          lighting.map_scale = {a.intensity, a.intensity, a.intensity, 0};
+        }
       }
       if (world.has<scene::Renderable>(e)) {
         const auto& r = world.get<scene::Renderable>(e);

@@ -51,6 +51,7 @@ struct RenderModel {
   std::vector<uint32_t> camera_entity;
   std::vector<shader::LightData> lights;  // max_lights_per_env slots per env
   std::vector<shader::EnvLighting> env_lighting;  // per env
+  std::vector<shader::float4> environment_maps;   // per IBL slot (a distinct map, intensity): texture, scale rgb
   std::vector<std::array<uint32_t, 2>> env_renderables;  // per env: first renderable, count
   std::vector<std::array<uint32_t, 2>> instances;  // (renderable, camera), by group then mesh
   std::vector<CameraGroup> groups;

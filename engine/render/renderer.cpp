@@ -8,6 +8,7 @@
 #include "gpu/context.h"
 #include "gpu/embedded_shaders.h"
 #include "gpu/graphics_pipeline.h"
+#include "render/environment_map.h"
 
 namespace cressim::render {
 namespace {
@@ -68,7 +69,7 @@ Renderer::Renderer(std::shared_ptr<gpu::Context> ctx, RenderModel model, uint64_
   shadow_maps_ = make(ctx_, internal, "render.shadow_maps", std::vector<float>{},
                       {std::max<int64_t>(model_.shadow_maps, 1), std::max<int64_t>(S, 1), std::max<int64_t>(S, 1)},
                       DType::FLOAT32, generation);
-  const BufferMap bound{
+  BufferMap bound{
       {"vertex_positions", make(ctx_, internal, "render.vertex_positions", model_.vertex_positions,
                                 {n(model_.vertex_positions), 4}, DType::FLOAT32, generation)},
       {"vertex_normals", make(ctx_, internal, "render.vertex_normals", model_.vertex_normals,
@@ -96,6 +97,7 @@ Renderer::Renderer(std::shared_ptr<gpu::Context> ctx, RenderModel model, uint64_
       {"positions", scene.at("transform.positions")},
       {"rotations", scene.at("transform.rotations")},
       {"scales", scene.at("transform.scales")}};
+  build_environment_maps(ctx_, model_, generation, internal, bound);
   vertex_positions_ = bound.at("vertex_positions")->storage->buffer.buffer;
   particles_ = std::make_unique<ParticleDraw>(ctx_, model_, generation, internal, scene, bound);
   for (size_t k = 0; k < model_.meshes.size(); ++k) {
@@ -117,6 +119,11 @@ Renderer::Renderer(std::shared_ptr<gpu::Context> ctx, RenderModel model, uint64_
       gpu::BufferOptions{gpu::Memory::DEVICE, VK_BUFFER_USAGE_INDEX_BUFFER_BIT, false});
   gpu::upload(*ctx_, indices_->buffer, model_.indices.data(), model_.indices.size() * 4);
 
+  culling_ = std::make_unique<Culling>(ctx_, model_, generation, internal, bound);
+  VkPhysicalDeviceFeatures features{};  // enabled where present (gpu/context.cpp)
+  vkGetPhysicalDeviceFeatures(ctx_->physical, &features);
+  indirect_ = !use_compute && features.drawIndirectFirstInstance;
+  multi_draw_ = features.multiDrawIndirect;
   if (!use_compute) {
     // a camera's unwanted products are attachments without an image view: their writes are dropped
     gpu::GraphicsPipelineDesc desc;
@@ -126,8 +133,11 @@ Renderer::Renderer(std::shared_ptr<gpu::Context> ctx, RenderModel model, uint64_
     desc.color_formats = {kColor, kDepth, kSegmentation};
     desc.depth_format = kZ;
     pipeline_ = gpu::create_graphics_pipeline(*ctx_, desc);
-    for (const auto& b : pipeline_.reflection.bindings)
-      gpu::bind_buffer(*ctx_, pipeline_, b.binding, bound.at(b.name)->storage->buffer.buffer);
+    for (const auto& b : pipeline_.reflection.bindings) {
+      // indirect draws: the instances are the culled list, each draw's at its first_instance
+      const auto& buffer = indirect_ && b.name == "instances" ? culling_->visible_instances() : bound.at(b.name);
+      gpu::bind_buffer(*ctx_, pipeline_, b.binding, buffer->storage->buffer.buffer);
+    }
   }
 
   if (!model_.shadow_groups.empty()) {
@@ -268,6 +278,7 @@ void Renderer::record(VkCommandBuffer cmd) const {
   if (!vertex_sources_.empty()) gpu::compute_barrier(cmd);
   particles_->record_vertices(cmd);
   record_shadows(cmd);
+  culling_->record(cmd);
   for (size_t g = 0; g < compute_passes_.size(); ++g) {
     compute_passes_[g]->record(cmd);
     particles_->record_fluid(cmd, uint32_t(g));
@@ -301,9 +312,18 @@ void Renderer::record(VkCommandBuffer cmd) const {
     const VkRect2D scissor{{0, 0}, {grp.width, grp.height}};
     vkCmdSetViewport(cmd, 0, 1, &viewport);
     vkCmdSetScissor(cmd, 0, 1, &scissor);
-    for (const auto& d : grp.draws) {
-      const MeshRange& m = model_.meshes[d.mesh];
-      vkCmdDrawIndexed(cmd, m.index_count, d.instance_count, m.first_index, m.vertex_offset, d.first_instance);
+    const uint32_t draws = uint32_t(grp.draws.size());
+    const VkDeviceSize first = VkDeviceSize(culling_->first_draw(g)) * sizeof(VkDrawIndexedIndirectCommand);
+    if (indirect_ && multi_draw_) {
+      if (draws) vkCmdDrawIndexedIndirect(cmd, culling_->commands(), first, draws, sizeof(VkDrawIndexedIndirectCommand));
+    } else if (indirect_) {
+      for (uint32_t d = 0; d < draws; ++d)
+        vkCmdDrawIndexedIndirect(cmd, culling_->commands(), first + d * sizeof(VkDrawIndexedIndirectCommand), 1, 0);
+    } else {
+      for (const auto& d : grp.draws) {
+        const MeshRange& m = model_.meshes[d.mesh];
+        vkCmdDrawIndexed(cmd, m.index_count, d.instance_count, m.first_index, m.vertex_offset, d.first_instance);
+      }
     }
     vkCmdEndRendering(cmd);
     for (const gpu::Image* im : {&t.color, &t.depth, &t.segmentation})

@@ -4,7 +4,9 @@
 // dynamic-rendering pass into layered targets (colour, metric depth, segmentation), then copies
 // into typed buffers that passes and torch read ("camera{g}.rgb" (layers, H, W, 4) uint8, "camera{g}.depth" (layers, H, W) float32 in
 // metres, 0 where nothing was hit, "camera{g}.segmentation" (layers, H, W) uint32, 0 background),
-// those of the group's Camera.products.
+// those of the group's Camera.products. Instances outside their camera's frustum are culled
+// first (culling.h): the graphics path draws the GPU-written list indirectly, the compute
+// rasterizer skips them by the same test.
 #pragma once
 #include <map>
 #include <memory>
@@ -16,6 +18,7 @@
 #include "gpu/image.h"
 #include "gpu/pipeline.h"
 #include "render/particle_draw.h"
+#include "render/culling.h"
 #include "render/render_model.h"
 
 namespace cressim::render {
@@ -58,6 +61,9 @@ class Renderer {
   VkBuffer vertex_positions_ = VK_NULL_HANDLE;
   std::shared_ptr<compute::TypedBuffer> shadow_maps_;
   std::unique_ptr<ParticleDraw> particles_;
+  std::unique_ptr<Culling> culling_;  // counts in both modes; the draw list in the graphics path
+  bool indirect_ = false;             // the graphics path draws the culled list
+  bool multi_draw_ = false;           // in one vkCmdDrawIndexedIndirect per group
 };
 
 }  // namespace cressim::render

@@ -62,7 +62,7 @@ void Engine::prepare() {
   render_model_ = render::build_render_model(*world_, mapping_,
                                              std::min(limits.maxImageArrayLayers, limits.maxFramebufferLayers),
                                              particle_model_);
-  ultrasound_model_ = sensors::build_ultrasound_model(*world_, mapping_);
+  ultrasound_model_ = sensors::build_ultrasound_model(*world_, mapping_, particle_model_);
   prepared_ = true;
   uploaded_ = false;
 }
@@ -449,7 +449,8 @@ uint32_t Engine::attachment_row(uint32_t env, uint32_t slot, const char* what) c
   return env * per_env + slot;
 }
 
-void Engine::attach_particle(uint32_t env, uint32_t slot, uint32_t particle, uint32_t body_entity, float compliance) {
+void Engine::attach_particle(uint32_t env, uint32_t slot, uint32_t particle, uint32_t body_entity, float compliance,
+                             bool hold_frame, const std::optional<std::array<float, 4>>& frame_offset) {
   const uint32_t row = attachment_row(env, slot, "attach_particle()");
   const auto& pm = particles_->model();
   if (particle >= pm.size() || pm.phases[particle].z != env)
@@ -460,13 +461,16 @@ void Engine::attach_particle(uint32_t env, uint32_t slot, uint32_t particle, uin
     throw std::invalid_argument("attach_particle: " + world_->describe(body_entity) + " is not a rigid body of env " +
                                 std::to_string(env));
   if (!(compliance >= 0)) throw std::invalid_argument("attach_particle: compliance must be >= 0");
-  shader::ParticleAttachment a{{particle, uint32_t(body), shader::ATTACH_PENDING, env}, {0, 0, 0, compliance}};
+  shader::ParticleAttachment a{{particle, uint32_t(body), shader::ATTACH_PENDING, env}, {0, 0, 0, compliance},
+                               {shader::CRESSIM_NONE, shader::HOLD_FRAME_CAPTURE, 0, 0}, {0, 0, 0, 1}};
+  if (hold_frame) hold_frame_of(a, frame_offset);
+  else if (frame_offset) throw std::invalid_argument("attach_particle: frame_offset needs hold_frame=True");
   write_rows(*shared_.at("control.particle_attachments"), row, &a, sizeof(a));
 }
 
 void Engine::release_particle(uint32_t env, uint32_t slot) {
   const uint32_t row = attachment_row(env, slot, "release_particle()");
-  shader::ParticleAttachment a{{0, 0, shader::ATTACH_FREE, env}, {0, 0, 0, 0}};
+  shader::ParticleAttachment a{{0, 0, shader::ATTACH_FREE, env}, {0, 0, 0, 0}, {shader::CRESSIM_NONE, 0, 0, 0}, {0, 0, 0, 1}};
   write_rows(*shared_.at("control.particle_attachments"), row, &a, sizeof(a));
 }
 

@@ -5,6 +5,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -70,8 +71,15 @@ class Engine {
   const physics::ParticleSystem* particles() const { return particles_.get(); }
   // rigid-particle attachment slot `slot` of `env`: ties `particle` (global index) to the rigid
   // body of `body_entity` where both are at the next step; release frees the slot. No reallocation.
-  void attach_particle(uint32_t env, uint32_t slot, uint32_t particle, uint32_t body_entity, float compliance = 0);
+  // hold_frame (strand particles): the segment at that end keeps its material frame at
+  // body rotation * frame_offset (xyzw; without one, the offset where both are at the next step).
+  void attach_particle(uint32_t env, uint32_t slot, uint32_t particle, uint32_t body_entity, float compliance = 0,
+                       bool hold_frame = false, const std::optional<std::array<float, 4>>& frame_offset = std::nullopt);
   void release_particle(uint32_t env, uint32_t slot);
+  // (particle_edits.cpp) fluid particles (global indices) become inactive slots at the next step;
+  // constraints (rows of particles.<family>_constraints) are switched off (cut) or on again
+  void remove_particles(const std::vector<uint32_t>& particles);
+  void cut_constraints(const std::string& family, const std::vector<uint32_t>& rows, bool cut = true);
   const render::Renderer* renderer() const { return renderer_.get(); }
   const sensors::UltrasoundSensor* ultrasound() const { return ultrasound_.get(); }
   // envs the solver flagged (NaN, speed, penetration) and reset since upload_world()
@@ -112,6 +120,7 @@ class Engine {
   void release_world_buffers();
   void write_rows(compute::TypedBuffer& dst, uint32_t row, const void* data, uint32_t row_bytes);
   uint32_t attachment_row(uint32_t env, uint32_t slot, const char* what) const;
+  void hold_frame_of(shader::ParticleAttachment& a, const std::optional<std::array<float, 4>>& offset) const;
 
   std::shared_ptr<scene::World> world_;
   std::shared_ptr<gpu::Context> ctx_;

@@ -126,11 +126,14 @@ struct Light {
   uint32_t shadow_resolution = 256;
 };
 
-// The env's ambient light: a hemisphere, `sky` from +z and `ground` from -z (per env).
+// The env's ambient light: a hemisphere, `sky` from +z and `ground` from -z (per env); or,
+// with `map` (a World texture, equirectangular), image-based lighting from that map
+// (render/environment_map.h).
 struct EnvironmentLight {
   Vec3 sky{0.2f, 0.2f, 0.2f};
   Vec3 ground{0.2f, 0.2f, 0.2f};
   float intensity = 1;
+  int32_t map = -1;  // texture index, -1: none (the hemisphere)
 };
 
 
@@ -158,6 +161,8 @@ struct UltrasoundProbe {
   float metres_per_unit = 1;            // metres in one scene unit
   float dynamic_range = 50;             // dB shown from white to black
   float gain = -25;                     // dB; envelope 1 (after gain) is white
+  float time_gain_compensation = 0;     // dB per cm of depth added back (attenuation x 2 x f0 flattens)
+  float focal_depth = 0;                // beam narrowest (the widths above) here; 0: no focus, widths constant
   bool rf_output = false;               // also fill "ultrasound0.rf" at the full sampling rate
 };
 
@@ -172,7 +177,8 @@ struct UltrasoundInclusion {
 };
 
 // Scatterers of a tissue, generated at prepare() in the entity frame and carried by its pose
-// (a static, kinematic or dynamic body). Region: box half extents, sphere radius (size x),
+// (a static, kinematic or dynamic body); on an entity with a tetrahedral SoftBody they fill its
+// tets instead (region unused) and are carried by the tets' particles, so the image deforms. Region: box half extents, sphere radius (size x),
 // cylinder radius x and half height y along z; centred at `center`.
 struct UltrasoundTissue {
   RegionKind region = RegionKind::BOX;
@@ -184,6 +190,7 @@ struct UltrasoundTissue {
   float amplitude_std = 0.5f;
   std::vector<UltrasoundInclusion> inclusions;
   uint32_t seed = 0;     // with the entity id: envs get different speckle
+  float attenuation = 0.5f;  // dB/cm/MHz, one way (soft tissue about 0.5)
 };
 
 // Particle objects (engine/physics/particle_*): positions are in the entity frame at prepare().

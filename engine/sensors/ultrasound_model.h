@@ -1,12 +1,14 @@
-// prepare() for the ultrasound sensor: every probe's geometry and pulse worked out into
-// UltrasoundProbeData, and every tissue's scatterers generated in its entity frame.
-// A scatterer is (local position, amplitude) plus the entity row whose pose carries it; soft
-// tissue will carry them by particle or tetrahedron (barycentric) the same way.
+// prepare() for the ultrasound sensor: every probe's geometry, pulse and beam worked out into
+// UltrasoundProbeData, and every tissue's scatterers generated: in its entity frame, carried by
+// the entity's pose, or, on a tetrahedral SoftBody, inside its tets by barycentric weights,
+// carried by the tets' particles (particles.positions).
 #pragma once
+#include <array>
 #include <cstdint>
 #include <vector>
 
 #include "cressim/ultrasound.h"
+#include "physics/particle_model.h"
 #include "scene/layout_mapping.h"
 #include "scene/world.h"
 
@@ -15,8 +17,10 @@ namespace cressim::sensors {
 struct UltrasoundModel {
   std::vector<shader::UltrasoundProbeData> probes;  // one output layer each, envs in order
   std::vector<uint32_t> probe_entity;
-  std::vector<shader::float4> scatterers;  // xyz in the parent's frame, w amplitude
-  std::vector<uint32_t> scatterer_parent;  // entity row
+  std::vector<shader::float4> scatterers;  // xyz in the carrier's frame (or barycentric weights 1-3), w amplitude
+  std::vector<std::array<uint32_t, 2>> scatterer_carrier;  // x entity row or tet | ULTRASOUND_TET_CARRIER, y tissue
+  std::vector<float> tissue_attenuation;         // per tissue, dB/cm/MHz
+  std::vector<shader::uint4> tets;               // global particle indices of carrier tets
   std::vector<std::array<uint32_t, 2>> env_scatterers;  // per env: first, count
   uint32_t lines = 0, samples = 0, width = 0, height = 0, max_env_scatterers = 0;
   uint32_t rf_factor = 0;  // RF samples per IQ sample (the decimation) when RF is asked for, else 0
@@ -24,6 +28,8 @@ struct UltrasoundModel {
   bool empty() const { return probes.empty(); }
 };
 
-UltrasoundModel build_ultrasound_model(const scene::World& world, const scene::LayoutMapping& mapping);
+// particles: the prepared particle model (soft tissue's tets are carried by its particles)
+UltrasoundModel build_ultrasound_model(const scene::World& world, const scene::LayoutMapping& mapping,
+                                       const physics::ParticleModel& particles);
 
 }  // namespace cressim::sensors

@@ -32,7 +32,18 @@ UltrasoundSensor::UltrasoundSensor(std::shared_ptr<gpu::Context> ctx, Ultrasound
   auto probes = make(ctx, internal, "ultrasound.probes", m.probes,
                      {P, int64_t(sizeof(shader::UltrasoundProbeData) / 4)}, DType::UINT32, generation);
   auto scatterers = make(ctx, internal, "ultrasound.scatterers", m.scatterers, {N, 4}, DType::FLOAT32, generation);
-  auto parents = make(ctx, internal, "ultrasound.scatterer_parent", m.scatterer_parent, {N}, DType::UINT32, generation);
+  auto carriers = make(ctx, internal, "ultrasound.scatterer_carrier", m.scatterer_carrier, {N, 2}, DType::UINT32,
+                       generation);
+  // tables padded to one row: a binding needs a buffer even when no tissue is soft
+  auto attenuation = m.tissue_attenuation.empty() ? std::vector<float>{0.f} : m.tissue_attenuation;
+  auto tets = m.tets.empty() ? std::vector<shader::uint4>{{0, 0, 0, 0}} : m.tets;
+  auto tissues = make(ctx, internal, "ultrasound.tissue_attenuation", attenuation, {int64_t(attenuation.size())},
+                      DType::FLOAT32, generation);
+  auto tet_table = make(ctx, internal, "ultrasound.tets", tets, {int64_t(tets.size()), 4}, DType::UINT32, generation);
+  auto particles = scene.count("particles.positions")
+                       ? scene.at("particles.positions")
+                       : make(ctx, internal, "ultrasound.no_particles", std::vector<float>(4, 0.f), {1, 4},
+                              DType::FLOAT32, generation);
   auto env_ranges = make(ctx, internal, "ultrasound.env_scatterers", ranges, {E, 2}, DType::UINT32, generation);
   accumulator_ = make(ctx, internal, "ultrasound0.accumulator", std::vector<int32_t>{}, {P, lines, samples, 2},
                       DType::INT32, generation);
@@ -50,7 +61,8 @@ UltrasoundSensor::UltrasoundSensor(std::shared_ptr<gpu::Context> ctx, Ultrasound
   };
   project_ = compute::create_builtin_pass(
       ctx, "sensors/ultrasound_project",
-      {{"probes", probes}, {"scatterers", scatterers}, {"scatterer_parent", parents}, {"env_scatterers", env_ranges},
+      {{"probes", probes}, {"scatterers", scatterers}, {"scatterer_carrier", carriers}, {"env_scatterers", env_ranges},
+       {"tissue_attenuation", tissues}, {"tets", tet_table}, {"particle_positions", particles},
        {"positions", scene.at("transform.positions")}, {"rotations", scene.at("transform.rotations")},
        {"accumulator", accumulator_}});
   constants(*project_);

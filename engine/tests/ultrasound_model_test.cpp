@@ -5,6 +5,8 @@
 #include <cmath>
 #include <numbers>
 
+#include "physics/particle_model.h"
+
 using namespace cressim;
 using namespace cressim::scene;
 
@@ -19,13 +21,18 @@ UltrasoundProbe linear_probe() {
   return p;
 }
 
+sensors::UltrasoundModel model(const World& w) {
+  const auto mapping = build_layout_mapping(w);
+  return sensors::build_ultrasound_model(w, mapping, physics::build_particle_model(w, mapping));
+}
+
 }  // namespace
 
 TEST(UltrasoundModel, ProbePulseAndGeometryFollowThePhysics) {
   World w(SceneLayout{1});
   EntityId e = w.create_entity(0, "probe");
   w.add(e, linear_probe());
-  auto m = sensors::build_ultrasound_model(w, build_layout_mapping(w));
+  auto m = model(w);
   ASSERT_EQ(m.probes.size(), 1u);
   const auto& d = m.probes[0];
   const double dz = 1540.0 / (2 * 40e6) * 8 / 0.1;  // scene units per IQ sample
@@ -49,7 +56,7 @@ TEST(UltrasoundModel, ScatterersFillTheRegionLessAnechoicInclusions) {
     if (env == 1) tissue.inclusions.push_back({{0, 0, 0}, 0.05f, 0.0f});  // removes 4/3 pi 0.05^3 of 0.008
     w.add(t, tissue);
   }
-  auto m = sensors::build_ultrasound_model(w, build_layout_mapping(w));
+  auto m = model(w);
   EXPECT_EQ(m.env_scatterers[0][1], 8000u);
   const double kept = 8000 * (1 - 4.0 / 3 * std::numbers::pi * 0.05 * 0.05 * 0.05 / 0.008);
   EXPECT_NEAR(double(m.env_scatterers[1][1]), kept, 4 * std::sqrt(kept));
@@ -58,7 +65,7 @@ TEST(UltrasoundModel, ScatterersFillTheRegionLessAnechoicInclusions) {
     const auto& s = m.scatterers[i];
     ASSERT_LE(std::max({std::abs(s.x), std::abs(s.y), std::abs(s.z)}), 0.1f);
     if (i >= 8000) ASSERT_GT(s.x * s.x + s.y * s.y + s.z * s.z, 0.05f * 0.05f);
-    ASSERT_EQ(m.scatterer_parent[i], i < 8000 ? 0u : 1u);  // each env's tissue row
+    ASSERT_EQ(m.scatterer_carrier[i][0], i < 8000 ? 0u : 1u);  // each env's tissue row
   }
 }
 
@@ -69,9 +76,35 @@ TEST(UltrasoundModel, ProbesOfOneWorldMustShareTheirOutputShape) {
   other.width = 64;
   w.add(w.create_entity(1, "b"), other);
   try {
-    sensors::build_ultrasound_model(w, build_layout_mapping(w));
+    model(w);
     FAIL() << "expected an error";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("entity 1 'b' in env 1: every UltrasoundProbe"), std::string::npos) << e.what();
   }
+}
+
+TEST(UltrasoundModel, SoftTissueScatterersFillItsTetsByBarycentricWeights) {
+  World w(SceneLayout{1});
+  EntityId e = w.create_entity(0, "liver");
+  Transform t;
+  t.scale = {2, 2, 2};  // the scene volume counts: 8 x (0.1)^3
+  w.add(e, t);
+  SoftBody sb;
+  // one cube of 6 tets around the diagonal 0-7 (corners by bits x, y, z)
+  for (int i = 0; i < 8; ++i) sb.positions.insert(sb.positions.end(), {0.1f * (i & 1), 0.1f * (i >> 1 & 1), 0.1f * (i >> 2 & 1)});
+  sb.tets = {0, 1, 3, 7, 0, 3, 2, 7, 0, 2, 6, 7, 0, 6, 4, 7, 0, 4, 5, 7, 0, 5, 1, 7};
+  w.add(e, sb);
+  UltrasoundTissue tissue;
+  tissue.density = 1e6f;
+  w.add(e, tissue);
+  auto m = model(w);
+  ASSERT_EQ(m.tets.size(), 6u);
+  EXPECT_NEAR(double(m.scatterers.size()), 8000.0, 4 * std::sqrt(8000.0));
+  for (size_t i = 0; i < m.scatterers.size(); ++i) {
+    const auto& s = m.scatterers[i];
+    ASSERT_TRUE(m.scatterer_carrier[i][0] & shader::ULTRASOUND_TET_CARRIER);
+    ASSERT_LT(m.scatterer_carrier[i][0] & ~shader::ULTRASOUND_TET_CARRIER, 6u);
+    ASSERT_TRUE(s.x >= 0 && s.y >= 0 && s.z >= 0 && s.x + s.y + s.z <= 1.0001f);
+  }
+  EXPECT_FLOAT_EQ(m.tissue_attenuation[0], 0.5f);
 }

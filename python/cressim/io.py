@@ -1,5 +1,5 @@
-"""Files in and out of the renderer: PNG images (a small zlib writer, no imaging library),
-depth and segmentation colour maps for people to look at, and meshes and textures read from
+"""Files in and out of the renderer: PNG images and OpenEXR images (small zlib writers, no
+imaging library), depth and segmentation colour maps for people to look at, and meshes and textures read from
 .obj/.stl/.glb/.png files (trimesh and matplotlib, imported when used)."""
 from __future__ import annotations
 
@@ -35,6 +35,87 @@ def save_png(path, image) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_bytes(png)
     return path
+
+
+_EXR_HALF, _EXR_FLOAT = 1, 2  # OpenEXR pixel types (0 is uint)
+_EXR_LINES = 16  # scanlines per chunk under ZIP compression (the format fixes it)
+
+
+def save_exr(path, image=None, *, depth=None, half: bool = True, compress: bool = True) -> Path:
+    """Writes an OpenEXR scanline image (ZIP-compressed, or uncompressed with compress=False).
+
+    image: (H, W, 3) or (H, W, 4) colour, channels R G B [A]. uint8 is a camera's "rgb" tensor
+    (sRGB-encoded, gamma 2.2 as the renderer writes it): decoded to linear, since EXR holds
+    linear values; float is taken as linear. Stored as half (or float with half=False).
+    depth: (H, W) metric depth, a camera's "depth" tensor: channel Z, float32 metres; the
+    tensor's 0 (nothing hit) is written as +inf. Either or both (same H, W). Returns the path."""
+    channels = {}  # name -> (H, W) array of the stored type
+    if image is not None:
+        a = np.asarray(image)
+        if a.ndim != 3 or a.shape[2] not in (3, 4):
+            raise ValueError(f"save_exr: {path}: the image must be (H, W, 3) or (H, W, 4), not {a.shape}")
+        if a.dtype == np.uint8:
+            f = (a.astype(np.float32) / 255)
+            f[..., :3] **= 2.2
+        elif np.issubdtype(a.dtype, np.floating):
+            f = a.astype(np.float32)
+        else:
+            raise ValueError(f"save_exr: {path}: the image must be uint8 or float, not {a.dtype}")
+        for i, name in enumerate("RGBA"[:a.shape[2]]):
+            channels[name] = f[..., i].astype(np.float16 if half else np.float32)
+    if depth is not None:
+        d = np.array(depth, dtype=np.float32)
+        if d.ndim != 2:
+            raise ValueError(f"save_exr: {path}: depth must be (H, W), not {d.shape}")
+        d[d <= 0] = np.inf
+        channels["Z"] = d
+    if not channels:
+        raise ValueError(f"save_exr: {path}: give an image, a depth or both")
+    shapes = {c.shape[:2] for c in channels.values()}
+    if len(shapes) != 1:
+        raise ValueError(f"save_exr: {path}: image and depth differ in size: {sorted(shapes)}")
+    (h, w), = shapes
+    names = sorted(channels)  # the format stores channels in name order
+
+    def attribute(name: str, kind: str, value: bytes) -> bytes:
+        return name.encode() + b"\0" + kind.encode() + b"\0" + struct.pack("<i", len(value)) + value
+
+    chlist = b"".join(n.encode() + b"\0" + struct.pack("<iB3xii", _EXR_HALF if channels[n].dtype == np.float16
+                                                          else _EXR_FLOAT, 0, 1, 1) for n in names) + b"\0"
+    window = struct.pack("<iiii", 0, 0, w - 1, h - 1)
+    header = (attribute("channels", "chlist", chlist)
+              + attribute("compression", "compression", bytes([3 if compress else 0]))
+              + attribute("dataWindow", "box2i", window) + attribute("displayWindow", "box2i", window)
+              + attribute("lineOrder", "lineOrder", b"\0")  # increasing y
+              + attribute("pixelAspectRatio", "float", struct.pack("<f", 1))
+              + attribute("screenWindowCenter", "v2f", struct.pack("<ff", 0, 0))
+              + attribute("screenWindowWidth", "float", struct.pack("<f", 1)) + b"\0")
+    lines = _EXR_LINES if compress else 1
+    chunks = []
+    for y0 in range(0, h, lines):
+        # a chunk: per scanline, each channel's row in turn (little-endian)
+        rows = np.concatenate([channels[n][y0:y0 + lines].astype(channels[n].dtype.newbyteorder("<"))
+                               .view(np.uint8).reshape(-1, w * channels[n].itemsize) for n in names], axis=1)
+        data = rows.tobytes()
+        if compress:
+            packed = _exr_zip(data)
+            data = packed if len(packed) < len(data) else data  # readers take a full-size chunk as raw
+        chunks.append(struct.pack("<ii", y0, len(data)) + data)
+    start = 8 + len(header) + 8 * len(chunks)
+    offsets = np.cumsum([start] + [len(c) for c in chunks[:-1]]).astype("<u8")
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(struct.pack("<ii", 20000630, 2) + header + offsets.tobytes() + b"".join(chunks))
+    return path
+
+
+def _exr_zip(data: bytes) -> bytes:
+    """OpenEXR's ZIP chunk: bytes split into even and odd halves, then byte deltas (+128), then zlib."""
+    b = np.frombuffer(data, np.uint8)
+    t = np.concatenate([b[0::2], b[1::2]])
+    d = t.copy()
+    d[1:] = (t[1:].astype(np.int16) - t[:-1] + 128).astype(np.uint8)
+    return zlib.compress(d.tobytes(), 6)
 
 
 def read_png(path) -> np.ndarray:

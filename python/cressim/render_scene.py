@@ -1,8 +1,9 @@
 """`cressim render scene.yaml`: images of a scene file's cameras for a person to look at.
 
 For every camera of env 0 (or of every env): <env>_<camera>_rgb.png, _depth.png (colour-mapped,
-near red, far blue), _segmentation.png (one colour per id, background black) and _depth.npy (metric
-depth in metres, float32; 0 where nothing was hit)."""
+near red, far blue), _segmentation.png (one colour per id, background black), _depth.npy (metric
+depth in metres, float32; 0 where nothing was hit) and _depth.exr (the same depth as an OpenEXR
+channel Z, float32 metres, +inf where nothing was hit)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -47,6 +48,7 @@ def render(scene: str | Path, out_dir: str | Path = "out/render", *, all_envs: b
             written.append(io.save_png(f"{stem}_depth.png", io.colour_depth(img["depth"])))
             np.save(f"{stem}_depth.npy", img["depth"])
             written.append(Path(f"{stem}_depth.npy"))
+            written.append(io.save_exr(f"{stem}_depth.exr", depth=img["depth"]))
         if "segmentation" in img:
             written.append(io.save_png(f"{stem}_segmentation.png", io.colour_segmentation(img["segmentation"])))
     return written

@@ -4,7 +4,8 @@ line and the field. The format (every key optional unless said)::
 
     envs: 2
     layout: {max_renderables_per_env: 16, max_lights_per_env: 4, max_cameras_per_env: 4}
-    environment: {sky: [0.3, 0.35, 0.4], ground: [0.15, 0.12, 0.1], intensity: 1}
+    environment: {sky: [0.3, 0.35, 0.4], ground: [0.15, 0.12, 0.1], intensity: 1}   # or map: <texture>
+                                         # (equirectangular, image-based lighting; docs/render.md)
     meshes:                              # named meshes (files relative to the scene file)
       bunny: {file: meshes/bunny.obj, scale: 1.0}
       ball: {sphere: {radius: 0.1}}      # or box: {half_extents}, capsule: {radius, half_height},
@@ -276,8 +277,14 @@ class _Loader:
         return out
 
     def environment(self, f: Field) -> cressim.EnvironmentLight:
-        e = f.keys(("sky", "ground", "intensity"))
-        return cressim.EnvironmentLight(**{k: (v.float() if k == "intensity" else v.vec(3)) for k, v in e.items()})
+        e = f.keys(("sky", "ground", "intensity", "map"))
+        out = {k: (v.float() if k == "intensity" else v.vec(3)) for k, v in e.items() if k != "map"}
+        if "map" in e:
+            name = e["map"].str()
+            if name not in self.textures:
+                raise e["map"].fail(f"no texture '{name}'; textures: {', '.join(self.textures) or 'none'}")
+            out["map"] = self.textures[name]
+        return cressim.EnvironmentLight(**out)
 
     # --- entities --------------------------------------------------------------------------
     def entity(self, env: int, f: Field) -> None:

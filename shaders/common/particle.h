@@ -13,14 +13,22 @@ static const uint PARTICLE_FLUID = 2;   // position-based fluids
 static const uint PARTICLE_STRAND = 3;  // threads and cables
 
 // phase.w flags
+// the most particles one env may have for the one-workgroup-per-env constraint solve (group memory)
+static const uint PARTICLE_BLOCK_CAPACITY = 1024;
+
+// neighbour list entries per particle (particles.neighbor_lists), taken once per substep
+static const uint PARTICLE_MAX_NEIGHBORS = 64;
+
 static const uint PARTICLE_ACTIVE = 1;        // inactive slots (fluid budget) neither move nor collide
 static const uint PARTICLE_SELF_COLLIDE = 2;  // collides with particles of its own object
 
 // Every constraint family stores records of this shape: up to 4 particles and family-specific
 // parameters. Records are grouped by colour (no two constraints of a colour share a particle),
 // and the family's pass projects one colour per dispatch straight onto the positions: Gauss-Seidel
-// between colours, parallel within one, the same for every env. A new family is a record builder
-// and a pass; the solver core only walks the table of sets.
+// between colours, parallel within one, the same for every env. A new family is its name in
+// kConstraintFamilies, a record builder and a pass; the solver core only walks the table of sets
+// (docs/particles.md, "Adding a family"). Any record can be cut at run time (its flag in
+// control.particle_<family>_cut).
 struct ParticleConstraint {
   uint4 particles;  // global particle indices (CRESSIM_NONE when unused)
   float4 params;    // x rest value, y compliance, zw family-specific
@@ -41,13 +49,19 @@ struct ParticleEnvRange {
 
 // A rigid-particle attachment slot (control.particle_attachments, max_particle_attachments_per_env
 // per env): state 0 free, 1 attached, 2 attach at the next step (local offset taken from the
-// poses then). Written by the host (Engine.attach_particle) or by task passes.
+// poses then). Written by the host (Engine.attach_particle) or by task passes. A slot may also
+// hold a strand segment's material frame to the body's rotation (hold.x the segment), so
+// turning the body twists the strand.
 static const uint ATTACH_FREE = 0;
 static const uint ATTACH_ACTIVE = 1;
 static const uint ATTACH_PENDING = 2;
+static const uint HOLD_FRAME_CAPTURE = 0;  // hold.y: the frame offset is taken when the slot becomes active
+static const uint HOLD_FRAME_GIVEN = 1;    // hold.y: frame is the offset to keep
 struct ParticleAttachment {
   uint4 ids;     // x particle, y body (rigid body index), z state, w env
-  float4 local;  // xyz particle position in the body frame, w compliance (0: rigid)
+  float4 local;  // xyz particle position in the body frame, w compliance (0: rigid; frames too)
+  uint4 hold;    // x strand segment whose frame is held (CRESSIM_NONE: none), y HOLD_FRAME_*
+  float4 frame;  // the segment's frame in the body frame (xyzw): frame = body rotation * this
 };
 
 // push constants of every particle pass

@@ -44,12 +44,14 @@ struct LightData {
   float4 direction;  // travel direction of a light without an entity
 };
 
-// Per env: ambient hemisphere and the shadow map of its first shadowed directional light.
+// Per env: ambient hemisphere (or environment map) and the shadow map of its first shadowed directional light.
 struct EnvLighting {
   float4 sky;     // rgb from +z
   float4 ground;  // rgb from -z
   uint4 ids;      // x first light slot, y light slots, z shadow map index + 1 (0: none), w shadow light row
   float4 shadow;  // x half-size (m), y half depth range (m), z resolution (texels), w unused
+  uint4 map;         // environment map: x texture index + 1 (0: none, the hemisphere), y its slot in render.ibl_*
+  float4 map_scale;  // rgb: radiance per linear texel value (EnvironmentLight.intensity)
 };
 
 struct TextureInfo {

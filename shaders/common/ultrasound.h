@@ -13,6 +13,11 @@ static const uint PROBE_SECTOR = 2;
 // do not depend on the order threads run in (float atomics are optional in Vulkan).
 static const float ULTRASOUND_FIXED_POINT = 65536.0;
 
+// A scatterer's carrier (ultrasound.scatterer_carrier.x): an entity row whose pose carries its
+// local position, or, with this bit, a tetrahedron (ultrasound.tets row) whose four particles
+// carry it by barycentric weights (scatterer xyz = weights of particles 1-3; particle 0 gets the rest).
+static const uint ULTRASOUND_TET_CARRIER = 0x80000000u;
+
 // A probe looks along its entity's +z; scanlines are spread along x, y is the elevation.
 // Scanline l of a linear probe starts at x = geometry.w + l * geometry.x on the face; a sector
 // probe's lines leave an apex geometry.y behind the face at angles geometry.w + l * geometry.x.
@@ -20,9 +25,13 @@ struct UltrasoundProbeData {
   uint4 ids;        // x entity row, y env, z kind, w output layer
   float4 geometry;  // x line step (units or rad), y apex radius, z line length, w first line (offset or angle)
   float4 pulse;     // x sample spacing along a line, y axial sigma of the envelope, z two-way wavenumber (rad/unit), w kernel radius (samples)
-  float4 beam;      // x lateral sigma, y elevational sigma, z lateral reach, w elevational reach
+  float4 beam;      // x lateral sigma, y elevational sigma (at the focus; cut at 3 sigma)
   float4 image;     // x left edge, y top edge, z pixel width, w pixel height
-  float4 display;   // x dynamic range (dB), y gain (dB)
+  float4 display;   // x dynamic range (dB), y gain (dB), z time-gain compensation (dB per unit of depth)
+  // depth dependence: x focal depth (0: no focus, the beam keeps its width), y lateral and
+  // z elevational Rayleigh ranges of the focused beam, w two-way attenuation in dB per unit of
+  // depth per (dB/cm/MHz) of the tissue (2 x f0 in MHz x centimetres per unit)
+  float4 depth;
 };
 
 struct UltrasoundConstants {

@@ -1,7 +1,6 @@
-// The common part of every constraint family's pass: one XPBD step (Macklin et al. 2016) for
-// each constraint of one colour, applied to the positions at once (the colour's constraints
-// share no particle). lambda accumulates over the substep; compliance is divided by h^2 so
-// stiffness does not depend on the iteration count once the solve has converged.
+// The common part of every constraint family's pass: one XPBD step (Macklin et al. 2016) per
+// constraint. lambda accumulates over the substep; compliance is divided by h^2 so stiffness
+// does not depend on the iteration count once the solve has converged.
 #include "cressim/layout.h"
 #include "cressim/particle.h"
 #include "cressim/rigid.h"
@@ -11,21 +10,25 @@ StructuredBuffer<ParticleConstraint> constraints;
 RWStructuredBuffer<float4> positions;
 RWStructuredBuffer<float> lambdas;
 
-// the constraint this thread projects, or CRESSIM_NONE
-uint constraint_index(uint thread) { return thread < pc.item_count ? pc.item_offset + thread : CRESSIM_NONE; }
+// control.particle_<family>_cut: nonzero switches a constraint off (cutting), set by the host
+// (Engine.cut_constraints) or a task pass; the colouring stays valid for any subset
+StructuredBuffer<uint> cut;
 
-// one XPBD step of constraint c with value C and gradients g[k] of its n particles
-void project(uint c, ParticleConstraint rec, uint n, float C, float3 g[4]) {
-  const uint ids[4] = {rec.particles.x, rec.particles.y, rec.particles.z, rec.particles.w};
-  float w[4] = {0, 0, 0, 0};
+// the constraint this thread projects, or CRESSIM_NONE (past the colour, or cut)
+uint constraint_index(uint thread) {
+  if (thread >= pc.item_count) return CRESSIM_NONE;
+  const uint c = pc.item_offset + thread;
+  return cut[c] == 0 ? c : CRESSIM_NONE;
+}
+
+// the multiplier change of constraint c with value C, gradients g[k] and inverse masses w[k]
+// of its n particles; the caller moves particle k by w[k] * dl * g[k]
+float xpbd_step(uint c, ParticleConstraint rec, uint n, float C, float3 g[4], float w[4]) {
   const float alpha = rec.params.y / (pc.gravity.w * pc.gravity.w);
   float denom = alpha;
-  for (uint k = 0; k < n; ++k) {
-    w[k] = positions[ids[k]].w;
-    denom += w[k] * dot(g[k], g[k]);
-  }
-  if (denom <= 1e-20) return;
+  for (uint k = 0; k < n; ++k) denom += w[k] * dot(g[k], g[k]);
+  if (denom <= 1e-20) return 0;
   const float dl = (-C - alpha * lambdas[c]) / denom;
   lambdas[c] += dl;
-  for (uint k = 0; k < n; ++k) positions[ids[k]].xyz += w[k] * dl * g[k];
+  return dl;
 }

@@ -11,13 +11,9 @@ StructuredBuffer<float4> velocity_copies;
 StructuredBuffer<float> densities;
 StructuredBuffer<float4> vorticities;
 StructuredBuffer<float4> normals;
-StructuredBuffer<int4> cells;
-StructuredBuffer<uint> cell_starts;
-StructuredBuffer<uint> cell_counts;
-StructuredBuffer<uint> sorted;
 RWStructuredBuffer<float4> velocities;
 
-#include "particle_grid.hlsli"
+#include "particle_neighbor_list.hlsli"
 #include "particle_fluid.hlsli"
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]

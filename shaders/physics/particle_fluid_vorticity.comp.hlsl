@@ -10,15 +10,11 @@ StructuredBuffer<uint4> phases;
 StructuredBuffer<float4> positions;
 StructuredBuffer<float4> velocities;
 StructuredBuffer<float> densities;
-StructuredBuffer<int4> cells;
-StructuredBuffer<uint> cell_starts;
-StructuredBuffer<uint> cell_counts;
-StructuredBuffer<uint> sorted;
 RWStructuredBuffer<float4> vorticities;
 RWStructuredBuffer<float4> normals;
 RWStructuredBuffer<float4> velocity_copies;
 
-#include "particle_grid.hlsli"
+#include "particle_neighbor_list.hlsli"
 #include "particle_fluid.hlsli"
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]

@@ -13,7 +13,7 @@ uint cell_bucket(int3 c, uint env) {
 int3 cell_of(float3 x) { return int3(floor(x / pc.grid.x)); }
 
 // visits every particle j in the 27 cells around particle i's cell (i itself included)
-#define FOR_EACH_NEIGHBOR(i, j, BODY)                                                 \
+#define FOR_EACH_GRID_NEIGHBOR(i, j, BODY)                                                 \
   {                                                                                   \
     const int4 home_ = cells[i];                                                      \
     for (int dz_ = -1; dz_ <= 1; ++dz_)                                               \

@@ -10,14 +10,10 @@
 StructuredBuffer<ParticleObject> objects;
 StructuredBuffer<uint4> phases;
 StructuredBuffer<float4> positions;
-StructuredBuffer<int4> cells;
-StructuredBuffer<uint> cell_starts;
-StructuredBuffer<uint> cell_counts;
-StructuredBuffer<uint> sorted;
 StructuredBuffer<float> fluid_lambdas;
 RWStructuredBuffer<float4> deltas;
 
-#include "particle_grid.hlsli"
+#include "particle_neighbor_list.hlsli"
 #include "particle_fluid.hlsli"
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]

@@ -1,6 +1,6 @@
 // Particles of every env flagged in env.reset_mask go back to their authored state (positions,
 // velocities, which budget slots are active, emitter counts, strand frames); the env's
-// attachments are released.
+// attachments are released and its pending removals dropped.
 #include "cressim/layout.h"
 #include "cressim/particle.h"
 
@@ -15,6 +15,8 @@ RWStructuredBuffer<uint4> phases;
 RWStructuredBuffer<ParticleAttachment> attachments;
 StructuredBuffer<ParticleObject> objects;
 RWStructuredBuffer<uint> emitted;
+RWStructuredBuffer<uint> first_free;
+RWStructuredBuffer<uint> remove_flags;
 StructuredBuffer<uint> edge_particles;
 StructuredBuffer<float4> initial_orientations;
 RWStructuredBuffer<float4> orientations;
@@ -24,7 +26,10 @@ RWStructuredBuffer<float4> angular_velocities;
 void main(uint3 id : SV_DispatchThreadID) {
   const uint i = id.x;
   if (i < pc.attachment_count && reset_mask[attachments[i].ids.w] != 0) attachments[i].ids.z = ATTACH_FREE;
-  if (i < pc.item_count && reset_mask[objects[i].range.z] != 0) emitted[i] = objects[i].ids.w;
+  if (i < pc.item_count && reset_mask[objects[i].range.z] != 0) {
+    emitted[i] = objects[i].ids.w;
+    first_free[i] = objects[i].ids.w;
+  }
   if (i < pc.edge_count && reset_mask[initial_phases[edge_particles[i]].z] != 0) {
     orientations[i] = initial_orientations[i];
     angular_velocities[i] = float4(0, 0, 0, 0);
@@ -35,4 +40,5 @@ void main(uint3 id : SV_DispatchThreadID) {
   positions[i] = initial_positions[i];
   velocities[i] = initial_velocities[i];
   phases[i] = ph;
+  remove_flags[i] = 0;
 }

@@ -13,6 +13,7 @@
 
 #include "raster_resources.hlsli"
 #include "shading.hlsli"
+#include "frustum.hlsli"
 
 [[vk::binding(15)]] StructuredBuffer<uint2> env_renderables;  // per env: first renderable, count
 [[vk::binding(16)]] StructuredBuffer<uint4> mesh_ranges;      // per mesh: first index, index count, vertex offset,
@@ -84,21 +85,13 @@ Screen setup(CameraData c, float3 v[3], int2 origin) {
 }
 
 // false when the renderable's bounding sphere misses the tile's frustum (then none of its
-// triangles can cover a pixel of the tile)
+// triangles can cover a pixel of the tile); the culling pass's test, on the tile
 bool may_cover(RenderableData r, uint4 m, CameraData c, float4 eye_q, float3 eye_p, int2 origin) {
-  if (r.maps.w & RENDER_WORLD_VERTICES) return true;  // no fixed bounds
-  const float3 s = scales[r.ids.x].xyz;
-  const float radius = asfloat(m.w) * max(abs(s.x), max(abs(s.y), abs(s.z)));
+  // vertices from a buffer or particles: the mesh's radius does not bound them
+  if (r.maps.y != 0 || (r.maps.w & RENDER_WORLD_VERTICES) != 0) return true;
   const float3 centre = quat_unrotate(eye_q, positions[r.ids.x].xyz - eye_p);
-  if (centre.z + radius < c.clip.x || centre.z - radius > c.clip.y) return false;
-  // side planes through the eye and the tile's edges: u = x0 is fx x - (x0 - cx) z = 0
-  const float2 lo = float2(origin) - c.intrinsics.zw;
-  const float2 hi = float2(min(origin + int2(TILE_W, TILE_H), int2(pc.width, pc.height))) - c.intrinsics.zw;
-  const float3 planes[4] = {float3(c.intrinsics.x, 0, -lo.x), float3(-c.intrinsics.x, 0, hi.x),
-                            float3(0, c.intrinsics.y, -lo.y), float3(0, -c.intrinsics.y, hi.y)};
-  for (uint i = 0; i < 4; ++i)
-    if (dot(planes[i], centre) < -radius * length(planes[i])) return false;
-  return true;
+  const int2 hi = min(origin + int2(TILE_W, TILE_H), int2(pc.width, pc.height));
+  return sphere_in_view(c, centre, bounding_radius(asfloat(m.w), scales[r.ids.x].xyz), float2(origin), float2(hi));
 }
 
 float edge(float2 a, float2 b, float2 p) { return (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x); }

@@ -16,6 +16,9 @@
 [[vk::binding(12)]] StructuredBuffer<uint> texels;  // RGBA8
 [[vk::binding(13)]] StructuredBuffer<float> shadow_maps;  // (maps, S, S), normalised light depth
 [[vk::binding(14)]] StructuredBuffer<uint2> shadow_instances;  // x renderable, y layer
+// image-based lighting (render/environment_map.h), per slot; apart from the rest's numbers
+[[vk::binding(40)]] StructuredBuffer<float4> ibl_sh;        // (slots, 9): diffuse SH9
+[[vk::binding(41)]] StructuredBuffer<float4> ibl_specular;  // (slots, levels, H, W) prefiltered radiance
 
 struct Varyings {
   float4 position : SV_Position;

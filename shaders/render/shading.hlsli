@@ -1,7 +1,10 @@
 // Shading shared by the fragment stage and the compute rasterizer: GGX / Cook-Torrance
 // specular and Lambert diffuse from each of the env's lights (directional, point, spot;
-// shadows from the env's shadowed directional light), a hemisphere ambient term, base colour
-// times an optional texture. Needs raster_resources.hlsli.
+// shadows from the env's shadowed directional light), an ambient term (a hemisphere, or the
+// env's environment map: image_lighting.hlsli), base colour times an optional texture. Needs
+// raster_resources.hlsli.
+#include "image_lighting.hlsli"
+
 static const float PI = 3.14159265;
 
 float4 texel(TextureInfo t, int2 p) {
@@ -66,7 +69,8 @@ float4 shade(RenderableData r, float3 world, float3 n, float2 uv, float3 eye) {
   float4 base = r.color;
   if (r.maps.x != 0) base *= sample_texture(r.maps.x - 1, uv);
   const float metallic = saturate(r.material.x), roughness = clamp(r.material.y, 0.05, 1.0);
-  float3 rgb = lerp(env.ground.rgb, env.sky.rgb, 0.5 + 0.5 * n.z) * base.rgb;
+  float3 rgb = env.map.x != 0 ? image_lighting(env, n, v, base.rgb, metallic, roughness)
+                              : lerp(env.ground.rgb, env.sky.rgb, 0.5 + 0.5 * n.z) * base.rgb;
   for (uint k = 0; k < env.ids.y; ++k) {
     const LightData light = lights[env.ids.x + k];
     const uint kind = light.ids.y, row = light.ids.x;

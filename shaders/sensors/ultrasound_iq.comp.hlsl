@@ -1,6 +1,7 @@
 // COLE step 2: the projected contributions of each scanline convolved with the pulse's
 // Gaussian envelope (axial sigma from the centre frequency and bandwidth): the baseband (IQ)
-// signal after demodulation. Threads: (sample, scanline, probe).
+// signal after demodulation, with the probe's time-gain compensation (dB per unit of depth)
+// applied at the sample's depth. Threads: (sample, scanline, probe).
 #include "cressim/layout.h"
 #include "cressim/ultrasound.h"
 
@@ -24,5 +25,6 @@ void main(uint3 id : SV_DispatchThreadID) {
     const uint i = 2 * (base + uint(m));
     sum += exp(-0.5 * t * t) * float2(float(accumulator[i]), float(accumulator[i + 1]));
   }
-  iq[base + k] = sum * (1.0 / ULTRASOUND_FIXED_POINT);
+  const float tgc = exp(p.display.z * (float(k) + 0.5) * p.pulse.x * (log(10.0) / 20.0));
+  iq[base + k] = sum * (tgc / ULTRASOUND_FIXED_POINT);
 }

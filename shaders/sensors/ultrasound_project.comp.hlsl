@@ -1,7 +1,10 @@
-// COLE step 1: every scatterer of a probe's env, posed by its parent entity, is projected onto
-// the scanlines within 3 beam sigmas: a complex (IQ) contribution of amplitude x lateral and
+// COLE step 1: every scatterer of a probe's env, posed by its carrier (an entity's pose, or a
+// tet's four particles by barycentric weights), is projected onto the scanlines within 3 beam
+// sigmas: a complex (IQ) contribution of amplitude x two-way attenuation x lateral and
 // elevational Gaussian beam weights x exp(-i 2k depth) is added to the IQ sample nearest its
-// depth. The phase carries the exact depth; the pulse envelope is applied by ultrasound_iq.
+// depth. A focused beam's sigmas grow away from the focal depth as a Gaussian beam's
+// (sqrt(1 + (distance / z_R)^2)), its on-axis amplitude falling by the same factor per axis.
+// The phase carries the exact depth; the pulse envelope is applied by ultrasound_iq.
 // Threads: (scatterer of the env, probe).
 #include "cressim/layout.h"
 #include "cressim/quat.h"
@@ -9,21 +12,40 @@
 
 [[vk::push_constant]] ConstantBuffer<UltrasoundConstants> pc;
 StructuredBuffer<UltrasoundProbeData> probes;
-StructuredBuffer<float4> scatterers;      // xyz in the parent frame, w amplitude
-StructuredBuffer<uint> scatterer_parent;  // entity row
-StructuredBuffer<uint2> env_scatterers;   // first, count
-StructuredBuffer<float4> positions;       // transform.* rows
+StructuredBuffer<float4> scatterers;         // xyz in the carrier frame (or barycentric weights 1-3), w amplitude
+StructuredBuffer<uint2> scatterer_carrier;   // x entity row or tet | ULTRASOUND_TET_CARRIER, y tissue
+StructuredBuffer<uint2> env_scatterers;      // first, count
+StructuredBuffer<float> tissue_attenuation;  // dB/cm/MHz
+StructuredBuffer<uint4> tets;                // particle indices
+StructuredBuffer<float4> particle_positions; // particles.positions
+StructuredBuffer<float4> positions;          // transform.* rows
 StructuredBuffer<float4> rotations;
-RWStructuredBuffer<int> accumulator;      // (probes, lines, samples, 2) fixed point
+RWStructuredBuffer<int> accumulator;         // (probes, lines, samples, 2) fixed point
 
-void deposit(UltrasoundProbeData p, uint probe, uint scanline, float lateral, float depth, float weight) {
+void deposit(UltrasoundProbeData p, uint probe, uint scanline, float lateral, float depth, float weight, float sigma) {
   const float at = depth / p.pulse.x;
   if (at < 0 || at >= float(pc.samples)) return;
-  const float w = weight * exp(-0.5 * lateral * lateral / (p.beam.x * p.beam.x));
+  const float w = weight * exp(-0.5 * lateral * lateral / (sigma * sigma));
   const float phase = -p.pulse.z * depth;
   const uint i = 2 * ((probe * pc.lines + scanline) * pc.samples + uint(at));
   InterlockedAdd(accumulator[i], int(round(w * cos(phase) * ULTRASOUND_FIXED_POINT)));
   InterlockedAdd(accumulator[i + 1], int(round(w * sin(phase) * ULTRASOUND_FIXED_POINT)));
+}
+
+float3 pose(float4 sa, uint carrier) {
+  if (carrier & ULTRASOUND_TET_CARRIER) {
+    const uint4 t = tets[carrier & ~ULTRASOUND_TET_CARRIER];
+    return (1.0 - sa.x - sa.y - sa.z) * particle_positions[t.x].xyz + sa.x * particle_positions[t.y].xyz +
+           sa.y * particle_positions[t.z].xyz + sa.z * particle_positions[t.w].xyz;
+  }
+  return positions[carrier].xyz + quat_rotate(rotations[carrier], sa.xyz);
+}
+
+// beam widening at a depth (1 at the focus, or everywhere when unfocused): lateral, elevational
+float2 widening(UltrasoundProbeData p, float depth) {
+  if (p.depth.x <= 0) return float2(1, 1);
+  const float d = depth - p.depth.x;
+  return sqrt(1.0 + d * d / (p.depth.yz * p.depth.yz));
 }
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
@@ -35,27 +57,32 @@ void main(uint3 id : SV_DispatchThreadID) {
   if (id.x >= range.y) return;
   const uint s = range.x + id.x;
   const float4 sa = scatterers[s];
-  const uint parent = scatterer_parent[s], eye = p.ids.x;
-  const float3 world = positions[parent].xyz + quat_rotate(rotations[parent], sa.xyz);
-  const float3 local = quat_unrotate(rotations[eye], world - positions[eye].xyz);
-  if (abs(local.y) > p.beam.w) return;
-  const float weight = sa.w * exp(-0.5 * local.y * local.y / (p.beam.y * p.beam.y));
+  const uint2 carrier = scatterer_carrier[s];
+  const uint eye = p.ids.x;
+  const float3 local = quat_unrotate(rotations[eye], pose(sa, carrier.x) - positions[eye].xyz);
+  const float R = p.geometry.y;
+  const float r = length(float2(local.x, local.z + R));
+  const float depth = p.ids.z == PROBE_LINEAR ? local.z : r - R;  // the beam's and attenuation's depth
+  const float2 grow = widening(p, depth);
+  const float2 sigma = p.beam.xy * grow;
+  if (abs(local.y) > 3.0 * sigma.y) return;
+  const float decibels = tissue_attenuation[carrier.y] * p.depth.w * max(depth, 0.0);
+  const float weight = sa.w * exp(-0.5 * local.y * local.y / (sigma.y * sigma.y)) / (grow.x * grow.y) *
+                       exp(-decibels * (log(10.0) / 20.0));
   const float last = float(pc.lines - 1);
   if (p.ids.z == PROBE_LINEAR) {
-    const float u = (local.x - p.geometry.w) / p.geometry.x, reach = p.beam.z / p.geometry.x;
+    const float u = (local.x - p.geometry.w) / p.geometry.x, reach = 3.0 * sigma.x / p.geometry.x;
     const int first = int(ceil(max(u - reach, 0.0))), end = int(floor(min(u + reach, last)));
     for (int l = first; l <= end; ++l)
-      deposit(p, probe, uint(l), local.x - (p.geometry.w + l * p.geometry.x), local.z, weight);
+      deposit(p, probe, uint(l), local.x - (p.geometry.w + l * p.geometry.x), local.z, weight, sigma.x);
   } else {
-    const float R = p.geometry.y, zc = local.z + R;
-    const float r = length(float2(local.x, zc));
     if (r <= 0) return;
-    const float theta = atan2(local.x, zc), u = (theta - p.geometry.w) / p.geometry.x;
-    const float reach = asin(min(p.beam.z / r, 1.0)) / p.geometry.x;
+    const float theta = atan2(local.x, local.z + R), u = (theta - p.geometry.w) / p.geometry.x;
+    const float reach = asin(min(3.0 * sigma.x / r, 1.0)) / p.geometry.x;
     const int first = int(ceil(max(u - reach, 0.0))), end = int(floor(min(u + reach, last)));
     for (int l = first; l <= end; ++l) {
       const float d = theta - (p.geometry.w + l * p.geometry.x);
-      deposit(p, probe, uint(l), r * sin(d), r * cos(d) - R, weight);
+      deposit(p, probe, uint(l), r * sin(d), r * cos(d) - R, weight, sigma.x);
     }
   }
 }

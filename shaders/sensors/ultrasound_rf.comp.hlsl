@@ -1,6 +1,7 @@
 // RF on request: the same pulse convolution as ultrasound_iq, evaluated at the full sampling
 // rate and modulated back onto the carrier, rf(t) = Re{iq(t) exp(i 2 pi f0 t)} with t the
-// two-way time of the depth. RF sample j sits at depth (j + 0.5) dz / rf_factor.
+// two-way time of the depth, time-gain compensated as the IQ. RF sample j sits at depth
+// (j + 0.5) dz / rf_factor.
 // Threads: (RF sample, scanline, probe).
 #include "cressim/layout.h"
 #include "cressim/ultrasound.h"
@@ -27,5 +28,6 @@ void main(uint3 id : SV_DispatchThreadID) {
     sum += exp(-0.5 * t * t) * float2(float(accumulator[i]), float(accumulator[i + 1]));
   }
   const float phase = p.pulse.z * depth;
-  rf[(probe * pc.lines + scanline) * count + j] = (sum.x * cos(phase) - sum.y * sin(phase)) / ULTRASOUND_FIXED_POINT;
+  const float tgc = exp(p.display.z * depth * (log(10.0) / 20.0));
+  rf[(probe * pc.lines + scanline) * count + j] = (sum.x * cos(phase) - sum.y * sin(phase)) * tgc / ULTRASOUND_FIXED_POINT;
 }

@@ -33,8 +33,8 @@ def test_example_scene_loads_every_kind():
 def test_cressim_render_writes_images(tmp_path, capsys):
     assert main(["render", DEMO, "--out", str(tmp_path)]) == 0
     files = sorted(p.name for p in tmp_path.iterdir())
-    assert files == ["env0_camera_depth.npy", "env0_camera_depth.png", "env0_camera_rgb.png",
-                     "env0_camera_segmentation.png"]
+    assert files == ["env0_camera_depth.exr", "env0_camera_depth.npy", "env0_camera_depth.png",
+                     "env0_camera_rgb.png", "env0_camera_segmentation.png"]
     rgb = io.read_png(tmp_path / "env0_camera_rgb.png")
     assert rgb.shape == (240, 320, 3) and rgb.std() > 10  # a picture, not a flat colour
     depth = np.load(tmp_path / "env0_camera_depth.npy")

@@ -53,18 +53,20 @@ def frame(engine):
     return np.hypot(iq[..., 0], iq[..., 1]), engine.buffer("ultrasound0.image").read()
 
 
-def phantom(world, env, density=500e9, position=(0, 0, 6.5 * MM), **tissue):
+def phantom(world, env, density=500e9, position=(0, 0, 6.5 * MM), attenuation=0.0, **tissue):
+    """A box of speckle 8 x 1.6 x 6.5 mm (half extents); no attenuation unless asked for."""
     t = world.create_entity(env=env, name="phantom")
     t.add(cressim.Transform(position=position))
-    t.add(cressim.UltrasoundTissue(region="box", size=(8 * MM, 1.6 * MM, 6.5 * MM), density=density, **tissue))
+    t.add(cressim.UltrasoundTissue(region="box", size=(8 * MM, 1.6 * MM, 6.5 * MM), density=density,
+                                   attenuation=attenuation, **tissue))
     return t
 
 
-def point(world, env, position, amplitude=1.0):
+def point(world, env, position, amplitude=1.0, attenuation=0.0):
     t = world.create_entity(env=env, name="point")
     t.add(cressim.Transform(position=position))
     t.add(cressim.UltrasoundTissue(region="sphere", size=(1e-9, 0, 0), count=1, amplitude_mean=amplitude,
-                                   amplitude_std=0.0))
+                                   amplitude_std=0.0, attenuation=attenuation))
     return t
 
 
@@ -180,6 +182,40 @@ def test_sector_probe_places_a_point_by_range_and_angle(make_engine):
     row, col = np.unravel_index(np.argmax(image[0]), image[0].shape)
     assert abs(col - ((x + half) / (2 * half / 128) - 0.5)) <= 1.0
     assert abs(row - ((z - top) / ((30 * MM - top) / 128) - 0.5)) <= 1.0
+
+
+def test_every_probe_of_an_env_fills_its_own_layer(make_engine):
+    """A linear and a sector probe in env 0 and a linear one in env 1, one point in each env: each
+    probe's layer shows its env's point where that probe's geometry puts it."""
+    world = cressim.World(cressim.SceneLayout(2))
+    sector = dict(kind="sector", sector_angle=40.0, radius=0.0, lateral_beam_width=1.0 * MM)
+    for env, where in ((0, (1 * MM, 0, 6 * MM)), (1, (-2 * MM, 0, 4 * MM))):
+        point(world, env, where)
+        a = world.create_entity(env=env, name="linear")
+        a.add(cressim.Transform())
+        a.add(probe())
+        if env == 0:
+            b = world.create_entity(env=env, name="sector")
+            b.add(cressim.Transform(position=(-1 * MM, 0, 0)))
+            b.add(probe(**sector))
+    engine = make_engine(world)
+    engine.prepare()
+    engine.upload_world()
+    probes = engine.ultrasound_probes
+    assert probes["env"].tolist() == [0, 0, 1] and probes["layer"].tolist() == [0, 1, 2]
+    names = [world.entity(int(e)).name for e in probes["entity"]]
+    assert names == ["linear", "sector", "linear"]
+    env, image = frame(engine)
+    assert image.shape == (3, 128, 96)
+    lines = env.max(axis=2).argmax(axis=1)
+    # linear: line u = (x - first line) / spacing; sector: angle from the apex, 40/95 degrees a line
+    assert lines[0] == round(1 * MM / (0.15 * MM) + 47.5)
+    assert lines[2] == round(-2 * MM / (0.15 * MM) + 47.5)
+    angle = math.degrees(math.atan2(2 * MM, 6 * MM))
+    assert abs(lines[1] - (angle + 20) / (40 / 95)) <= 0.5
+    for layer in range(3):  # every layer shows something, and only its own env's point
+        assert image[layer].max() > 0.5
+    assert not np.array_equal(image[0], image[2])
 
 
 def test_bad_input_names_the_entity_and_field(make_engine):

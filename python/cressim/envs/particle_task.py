@@ -13,9 +13,11 @@ from .vector_env import VectorEnv
 class ParticleTask(VectorEnv):
     substeps = 4
     particle_iterations = 4
+    contact_iterations = 0  # of the particle iterations, those that also solve contacts (0: all)
 
     def physics_settings(self) -> cressim.PhysicsSettings:
         return cressim.PhysicsSettings(dt=1 / 60, substeps=self.substeps, particle_iterations=self.particle_iterations,
+                                       particle_contact_iterations=self.contact_iterations,
                                        max_particle_attachments_per_env=0)
 
     def task_bindings(self) -> dict:

@@ -1,5 +1,6 @@
 // UltrasoundScan task logic. One thread per env (apply_action, evaluate); observe runs one
-// thread per (env, pixel). task_rows[env] = (probe entity row, tissue entity row, probe body).
+// thread per (env, pixel). task_rows[env] = (probe entity row, the tissue's centre particle (the
+// target, carried by the deforming tissue), probe body).
 #include "cressim/layout.h"
 #include "cressim/quat.h"
 
@@ -22,6 +23,7 @@ StructuredBuffer<uint4> task_rows;
 StructuredBuffer<float4> positions;           // transform.positions
 StructuredBuffer<float4> rotations;           // transform.rotations
 StructuredBuffer<float4> initial_positions;   // transform.initial_positions
+StructuredBuffer<float4> particles;           // particles.positions
 StructuredBuffer<float> image;                // ultrasound0.image, layer = env
 RWStructuredBuffer<float> actions;            // (envs, 2): lateral, depth
 RWStructuredBuffer<float2> probe_offset;      // lateral, depth (along the beam) from the start
@@ -38,7 +40,7 @@ RWStructuredBuffer<float> finished_length;
 // the dark target (the tissue's centre) in the probe's image, 0 at the image centre
 float target_distance(uint env) {
   const uint4 r = task_rows[env];
-  const float3 local = quat_unrotate(rotations[r.x], positions[r.y].xyz - positions[r.x].xyz);
+  const float3 local = quat_unrotate(rotations[r.x], particles[r.y].xyz - positions[r.x].xyz);
   const float half_depth = 0.5 * pc.line_length;
   return length(float2(local.x / pc.half_width, (local.z - half_depth) / half_depth));
 }

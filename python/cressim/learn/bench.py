@@ -86,6 +86,7 @@ def bench_step(task: str, num_envs: int, device=None, warmup: int = 64, steps: i
            "vulkan_device": env.engine.device["name"], "torch_device": str(env.device)}
     if hasattr(env, "scatterers"):  # ultrasound tasks: the workload's size
         out["scatterers"] = env.scatterers
+        out["scatterers_per_env"] = env.scatterers / num_envs
     env.close()
     del env, zeros
     gc.collect()

@@ -230,6 +230,14 @@ class Arm:
     def measured_js_rate(self, window: float = 1.0) -> float:
         return self._measured_js.rate(window)
 
+    def wait_measured(self, samples: int, timeout: float) -> bool:
+        """Wait for `samples` more measured_js messages: the twin publishes one per tick, so this
+        waits a span of simulated time however slowly the machine runs it."""
+        latest = self._measured_js
+        with latest.cond:
+            target = latest.count + samples
+            return latest.cond.wait_for(lambda: latest.count >= target, timeout)
+
     # ---- motion
     def servo_jp(self, q):
         self._servo_jp.publish(JointState(position=[float(v) for v in q]))

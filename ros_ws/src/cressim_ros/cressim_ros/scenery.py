@@ -53,7 +53,9 @@ class UltrasoundSpec:
         return cressim.UltrasoundProbe(kind="linear", scanlines=self.scanlines, line_spacing=self.line_spacing,
                                        line_length=self.depth, width=self.width, height=self.height,
                                        center_frequency=self.center_frequency, lateral_beam_width=0.0005,
-                                       elevational_beam_width=0.0015, radial_decimation=4)
+                                       elevational_beam_width=0.0015, radial_decimation=4,
+                                       # TGC for the tissue's default 0.5 dB/cm/MHz two ways at 7.5 MHz
+                                       time_gain_compensation=0.5 * 2 * self.center_frequency / 1e6)
 
 
 @dataclass(frozen=True)

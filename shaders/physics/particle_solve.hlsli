@@ -1,0 +1,76 @@
+// Entry points of a positional constraint family (one that moves particle positions only). The
+// family file defines
+//   uint evaluate(ParticleConstraint rec, float3 x[4], out float C, out float3 g[4])
+// (value and gradients at its particles' positions x; returns how many particles it has) and
+// includes this file after it. cmake/shaders.cmake builds it twice:
+// - by default one dispatch per colour: a thread per constraint, straight on `positions`;
+// - with CRESSIM_BLOCK (the `.block` pass) one workgroup per env: the env's particles go to group
+//   memory, every colour is projected in turn (a group barrier between colours) pc.item_offset
+//   times over, then written back (cut records skipped in both). That is one dispatch where the first needs colours x passes,
+//   and dispatches, not arithmetic, bound small soft bodies in many envs.
+
+#ifndef CRESSIM_BLOCK
+
+[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
+void main(uint3 id : SV_DispatchThreadID) {
+  const uint c = constraint_index(id.x);
+  if (c == CRESSIM_NONE) return;
+  const ParticleConstraint rec = constraints[c];
+  const uint ids[4] = {rec.particles.x, rec.particles.y, rec.particles.z, rec.particles.w};
+  float3 x[4];
+  float w[4];
+  for (uint k = 0; k < 4; ++k) {
+    const float4 p = ids[k] == CRESSIM_NONE ? float4(0, 0, 0, 0) : positions[ids[k]];
+    x[k] = p.xyz;
+    w[k] = p.w;
+  }
+  float C;
+  float3 g[4];
+  const uint n = evaluate(rec, x, C, g);
+  const float dl = xpbd_step(c, rec, n, C, g, w);
+  for (uint k = 0; k < n; ++k) positions[ids[k]].xyz += w[k] * dl * g[k];
+}
+
+#else
+
+StructuredBuffer<ParticleEnvRange> env_ranges;
+StructuredBuffer<uint2> env_colours;  // (first, count) of this family's records per env and colour
+groupshared float4 block_x[PARTICLE_BLOCK_CAPACITY];
+// 16 KiB of group memory a workgroup: 128 threads keep an SM's warps full where 64 would leave
+// half of them idle (the group memory, not the threads, limits the workgroups per SM)
+static const uint BLOCK_THREADS = 128;
+
+[numthreads(BLOCK_THREADS, 1, 1)]
+void main(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
+  const uint env = group.x, lane = thread.x, colours = pc.item_count;
+  const uint first = env_ranges[env].range.x, count = env_ranges[env].range.y;
+  for (uint i = lane; i < count; i += BLOCK_THREADS) block_x[i] = positions[first + i];
+  GroupMemoryBarrierWithGroupSync();
+  for (uint pass = 0; pass < pc.item_offset; ++pass) {
+    for (uint k = 0; k < colours; ++k) {
+      const uint2 r = env_colours[env * colours + k];
+      for (uint j = lane; j < r.y; j += BLOCK_THREADS) {
+        const uint c = r.x + j;
+        if (cut[c] != 0) continue;
+        const ParticleConstraint rec = constraints[c];
+        const uint ids[4] = {rec.particles.x, rec.particles.y, rec.particles.z, rec.particles.w};
+        float3 x[4];
+        float w[4];
+        for (uint m = 0; m < 4; ++m) {
+          const float4 p = ids[m] == CRESSIM_NONE ? float4(0, 0, 0, 0) : block_x[ids[m] - first];
+          x[m] = p.xyz;
+          w[m] = p.w;
+        }
+        float C;
+        float3 g[4];
+        const uint n = evaluate(rec, x, C, g);
+        const float dl = xpbd_step(c, rec, n, C, g, w);
+        for (uint m = 0; m < n; ++m) block_x[ids[m] - first].xyz += w[m] * dl * g[m];
+      }
+      GroupMemoryBarrierWithGroupSync();
+    }
+  }
+  for (uint i = lane; i < count; i += BLOCK_THREADS) positions[first + i] = block_x[i];
+}
+
+#endif

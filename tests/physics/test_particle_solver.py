@@ -1,0 +1,64 @@
+"""The constraint solve's two schedules and the contact iteration split: the one-workgroup-per-env
+solve (group memory, all colours in one dispatch) must give the per-colour dispatches' result, and
+solving contacts in fewer iterations than the constraints must keep a resting body on the ground."""
+import numpy as np
+import pytest
+
+import cressim
+
+from .particle_scenes import lattice, positions, start, static, step
+
+
+def _soft_scene(envs=2):
+    """A self-colliding soft cube dropped on the ground and a hanging thread, per env."""
+    world = cressim.World(cressim.SceneLayout(envs))
+    mesh = cressim.TetMesh.box((0.1, 0.1, 0.1), (3, 3, 3))
+    for env in range(envs):
+        static(world, env, [cressim.Shape.plane()], "ground")
+        cube = world.create_entity(env=env, name="cube")
+        cube.add(cressim.Transform(position=(0.02 * env, 0, 0.15)))
+        cube.add(cressim.SoftBody(mesh, radius=0.02, mass=0.01, distance_compliance=1e-3, volume_compliance=1e-3,
+                                  damping=0.5, self_collision=True))
+        thread = world.create_entity(env=env, name="thread")
+        thread.add(cressim.Transform(position=(0.5, 0, 0.6)))
+        thread.add(cressim.Strand(lattice((8, 1, 1), 0.04), fixed=[0], radius=0.01, bend_compliance=1e-3))
+    return world, mesh
+
+
+@pytest.mark.parametrize("frames", [30])
+def test_workgroup_solve_matches_per_colour_dispatches(make_engine, frames):
+    runs = {}
+    for solver in ("dispatch", "workgroup"):
+        world, _ = _soft_scene()
+        engine = start(world, make_engine, substeps=2, particle_iterations=6, particle_solver=solver)
+        before = positions(engine)
+        step(engine, frames)
+        runs[solver] = positions(engine)
+    assert np.abs(runs["dispatch"] - before).max() > 0.05  # the cube fell and the thread swung
+    # same colours in the same order; only floating-point contraction may differ between the builds
+    np.testing.assert_allclose(runs["workgroup"], runs["dispatch"], atol=1e-5)
+
+
+def test_contacts_in_fewer_iterations_keep_a_resting_cube_up(make_engine):
+    tops = {}
+    for contacts in (0, 4):  # 0: all 16 iterations solve contacts
+        world, mesh = _soft_scene(envs=1)
+        engine = start(world, make_engine, substeps=2, particle_iterations=16, particle_contact_iterations=contacts)
+        step(engine, 60)
+        p = positions(engine)[: len(mesh.positions)]
+        assert p[:, 2].min() > 0.02 - 2e-3, f"cube sank into the ground ({contacts} contact iterations)"
+        tops[contacts] = p[:, 2].max()
+    assert abs(tops[4] - tops[0]) < 3e-3, tops
+
+
+def test_solver_settings_are_checked(make_engine):
+    with pytest.raises(ValueError, match="particle_contact_iterations"):
+        cressim.PhysicsSettings(particle_iterations=4, particle_contact_iterations=5)
+    with pytest.raises(ValueError, match="'gpu' is not one of auto, dispatch, workgroup"):
+        cressim.PhysicsSettings(particle_solver="gpu")
+    world = cressim.World(cressim.SceneLayout(1))
+    big = world.create_entity(env=0, name="big")
+    big.add(cressim.Transform(position=(0, 0, 1)))
+    big.add(cressim.SoftBody(cressim.TetMesh.box((0.2, 0.2, 0.2), (10, 10, 10)), mass=0.01))
+    with pytest.raises(ValueError, match="env 0 has 1331"):
+        start(world, make_engine, particle_solver="workgroup")

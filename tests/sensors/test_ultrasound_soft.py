@@ -1,0 +1,151 @@
+"""Ultrasound scatterers carried by a soft body's tets: the image follows the particles.
+
+A tissue on an entity with a tetrahedral SoftBody gets its scatterers inside the tets (barycentric
+weights) and its inclusions judged at the rest positions, so both deform with the tissue.
+Checks: at rest the image equals the rigid path's with the same scatterers placed one by one; a
+uniform axial compression of the particle positions (the entity's scale, applied to the particles
+and not to the rest frame) moves a bright point and a cyst to where the strain puts them (within
+a pixel) and shortens the cyst's axial extent by strain x diameter (within two pixels).
+"""
+import numpy as np
+import pytest
+
+import cressim
+
+from .test_ultrasound import FS, MM, C, probe
+
+HALF = (4 * MM, 1.2 * MM, 4 * MM)  # the tissue box, half extents
+TOP = 2 * MM                     # depth of its face toward the probe
+ROW = 12 * MM / 128              # image pixel height (and width: 14.4 mm over 96)
+COL = 96 * 0.15 * MM / 96
+
+
+def soft_tissue(world, env, scale=1.0, **tissue):
+    """The box compressed along the beam by `scale` about its face (which stays at TOP)."""
+    mesh = cressim.TetMesh.box(HALF, (4, 2, 4))
+    t = world.create_entity(env=env, name="tissue")
+    t.add(cressim.Transform(position=(0, 0, TOP + HALF[2] * scale), scale=(1, 1, scale)))
+    t.add(cressim.SoftBody(mesh, radius=0.2 * MM))
+    t.add(cressim.UltrasoundTissue(**tissue))
+    return t
+
+
+def imaged(make_engine, world):
+    engine = make_engine(world)
+    engine.physics = cressim.PhysicsSettings(gravity=(0, 0, 0))
+    engine.prepare()
+    engine.upload_world()
+    engine.step_simulation_sensors()
+    engine.end_frame()
+    iq = engine.buffer("ultrasound0.iq").read()
+    return engine, np.hypot(iq[..., 0], iq[..., 1]), engine.buffer("ultrasound0.image").read()
+
+
+def with_probes(world, envs, **fields):
+    for env in range(envs):
+        p = world.create_entity(env=env, name="probe")
+        p.add(cressim.Transform())
+        p.add(probe(**fields))
+    return world
+
+
+def test_soft_tissue_at_rest_images_as_the_rigid_path(make_engine):
+    world = cressim.World(cressim.SceneLayout(1))
+    soft_tissue(world, 0, density=2.5e9, inclusions=[cressim.UltrasoundInclusion((0, 0, 0), 1.5 * MM)])
+    engine, soft, soft_image = imaged(make_engine, with_probes(world, 1))
+    assert engine.ultrasound_probes["tets"] == 4 * 2 * 4 * 6
+    places, amplitudes = scatterer_places(engine)
+    assert 300 < len(places) < 460  # 2.5 per mm^3 of 153.6 mm^3, less the cyst's 14.1
+    assert (np.linalg.norm(places - (0, 0, TOP + HALF[2]), axis=1) > 1.5 * MM - 1e-6).all()
+
+    rigid = cressim.World(cressim.SceneLayout(1))
+    for p, a in zip(places, amplitudes):
+        e = rigid.create_entity(env=0, name="scatterer")
+        e.add(cressim.Transform(position=tuple(float(c) for c in p)))
+        e.add(cressim.UltrasoundTissue(region="sphere", size=(1e-12, 0, 0), count=1, amplitude_mean=float(a),
+                                       amplitude_std=0.0))
+    _, hard, hard_image = imaged(make_engine, with_probes(rigid, 1))
+    print(f"soft vs rigid: envelope max {soft.max():.4f}, largest difference {np.abs(soft - hard).max():.2e}")
+    assert np.abs(soft - hard).max() <= 1e-4 * soft.max()
+    assert np.abs(soft_image - hard_image).max() <= 1e-3
+
+
+def scatterer_places(engine):
+    """World positions of the scatterers from their tets' particles, and their amplitudes."""
+    scatterers = engine.buffer("ultrasound.scatterers").read()
+    carrier = engine.buffer("ultrasound.scatterer_carrier").read()
+    tets = engine.buffer("ultrasound.tets").read()
+    particles = engine.buffer("particles.positions").read()[:, :3]
+    assert (carrier[:, 0] & 0x80000000).all()
+    corners = particles[tets[carrier[:, 0] & 0x7FFFFFFF]]  # (n, 4, 3)
+    w = np.concatenate([1 - scatterers[:, :3].sum(1, keepdims=True), scatterers[:, :3]], axis=1)
+    return (w[:, :, None] * corners).sum(1), scatterers[:, 3]
+
+
+def test_compression_moves_and_shortens_what_the_tissue_carries(make_engine):
+    strain, radius, seed = 0.75, 1.2 * MM, 3
+    cyst = cressim.UltrasoundInclusion((0, 0, 2 * MM), radius)
+    # a point target: in each env the scatterer nearest (1.5, 0, -1.5) mm (rest frame) made 100
+    # times brighter. Scatterer positions do not depend on inclusions (the same draws), so a
+    # first world without them finds it. count, not density: the compressed tissue keeps its number.
+    tissue = dict(count=30000, attenuation=0.0, seed=3)
+    scales = (1.0, strain)
+    world = cressim.World(cressim.SceneLayout(2))
+    for env, scale in enumerate(scales):
+        soft_tissue(world, env, scale, **tissue)
+    first = make_engine(with_probes(world, 2))
+    first.prepare()
+    first.upload_world()
+    places = scatterer_places(first)[0]
+    ranges = first.buffer("ultrasound.env_scatterers").read()
+    targets, brights = [], []
+    for env, scale in enumerate(scales):
+        first_s, n = ranges[env]
+        rest = (places[first_s:first_s + n] - (0, 0, TOP + HALF[2] * scale)) / (1, 1, scale)
+        target = rest[np.argmin(np.linalg.norm(rest - (1.5 * MM, 0, -1.5 * MM), axis=1))]
+        spacing = np.sort(np.linalg.norm(rest - target, axis=1))[1]
+        targets.append(target)
+        brights.append(cressim.UltrasoundInclusion(tuple(float(c) for c in target), 0.5 * spacing,
+                                                   amplitude_scale=100.0))
+
+    world = cressim.World(cressim.SceneLayout(2))
+    for env, scale in enumerate(scales):
+        soft_tissue(world, env, scale, inclusions=[cyst, brights[env]], **tissue)
+    # a thin slice (0.5 mm elevational FWHM, cut at 0.64 mm): the cyst's middle gets no echo at all
+    engine, env, image = imaged(make_engine, with_probes(world, 2, elevational_beam_width=0.5 * MM))
+    assert (scatterer_places(engine)[1] > 10).sum() == 2  # the point, once in each env
+    dz = C / (2 * FS) * 4
+
+    def rest_to_depth(z, scale):  # the entity frame's z (rest) to depth below the probe
+        return TOP + (HALF[2] + z) * scale
+
+    extents = []
+    for e, img, scale, target in zip(env, image, scales, targets):
+        line, sample = np.unravel_index(np.argmax(e), e.shape)
+        x, z = (line - 47.5) * 0.15 * MM, (sample + 0.5) * dz
+        print(f"strain {scale}: point at ({x / MM:.3f}, {z / MM:.3f}) mm, predicted "
+              f"({target[0] / MM:.3f}, {rest_to_depth(target[2], scale) / MM:.3f})")
+        assert abs(x - target[0]) <= COL and abs(z - rest_to_depth(target[2], scale)) <= ROW
+        # the cyst: dark pixels of the middle columns between the point and the tissue's far face
+        rows, _ = np.nonzero(img[:, 40:56] < 0.15)
+        centres = (rows + 0.5) * ROW
+        rows = rows[(centres > TOP + 3.5 * MM) & (centres < rest_to_depth(HALF[2], scale) - 0.4 * MM)]
+        centre = (rows.mean() + 0.5) * ROW
+        extents.append((rows.max() - rows.min() + 1) * ROW)
+        print(f"strain {scale}: cyst centre {centre / MM:.3f} mm (predicted {rest_to_depth(2 * MM, scale) / MM:.3f}),"
+              f" dark axial extent {extents[-1] / MM:.3f} mm")
+        assert abs(centre - rest_to_depth(2 * MM, scale)) <= ROW
+    # the dark extent is the cyst's less a blur that compression does not change: it shortens
+    # by (1 - strain) x the diameter
+    shortening = extents[0] - extents[1]
+    print(f"cyst shortened by {shortening / MM:.3f} mm (predicted {(1 - strain) * 2 * radius / MM:.3f})")
+    assert abs(shortening - (1 - strain) * 2 * radius) <= 2 * ROW
+
+
+def test_soft_tissue_needs_tets(make_engine):
+    world = cressim.World(cressim.SceneLayout(1))
+    t = world.create_entity(env=0, name="liver")
+    t.add(cressim.SoftBody(np.random.default_rng(0).uniform(-1, 1, (20, 3)) * MM, radius=0.2 * MM))
+    t.add(cressim.UltrasoundTissue(density=1e9))
+    with pytest.raises(ValueError, match="'liver' in env 0: UltrasoundTissue on a SoftBody without tets"):
+        make_engine(with_probes(world, 1)).prepare()
