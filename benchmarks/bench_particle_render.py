@@ -79,12 +79,15 @@ def main() -> None:
     ap.add_argument("--raster", default="auto", choices=("auto", "graphics", "compute"))
     ap.add_argument("--json")
     args = ap.parse_args()
-    rows = [measure(task, envs, args, camera) for task in args.tasks.split(",") for envs in map(int, args.envs.split(","))
-            for camera in (False, True)]
-    if args.json:
-        os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
-        with open(args.json, "w") as f:
-            json.dump(rows, f, indent=2)
+    rows = []
+    for task in args.tasks.split(","):
+        for envs in map(int, args.envs.split(",")):
+            for camera in (False, True):
+                rows.append(measure(task, envs, args, camera))
+                if args.json:  # after every row: a run cut off by its time limit keeps what it measured
+                    os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
+                    with open(args.json, "w") as f:
+                        json.dump(rows, f, indent=2)
 
 
 if __name__ == "__main__":
