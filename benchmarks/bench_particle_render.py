@@ -10,15 +10,17 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import time
 
 import cressim
 from cressim.envs.fluid_pour import FluidPour
 from cressim.envs.soft_body_push import SoftBodyPush
+from cressim.scene_file import _quat_look_at
 
 TASKS = {"SoftBodyPush": SoftBodyPush, "FluidPour": FluidPour}
+VIEWS = {"SoftBodyPush": ((0, -2.2, 1.4), (0, 0, 0.2)),  # (eye, target): the cube and the pusher
+         "FluidPour": ((0, -4.5, 2.2), (0, 0, 0.8))}      # both containers
 
 
 def build(task: str, envs: int, size: int, camera: bool) -> cressim.Engine:
@@ -29,11 +31,11 @@ def build(task: str, envs: int, size: int, camera: bool) -> cressim.Engine:
         if not camera:
             break
         sun = world.create_entity(env=env, name="sun")
-        sun.add(cressim.Transform(position=(0, 0, 2), rotation=(0.2, 0.1, 0.0, 0.97)))
+        sun.add(cressim.Transform(position=(0, 0, 2), rotation=_quat_look_at((0, 0, 2), (0.4, 0.3, 0))))  # travels down
         sun.add(cressim.Light())
         cam = world.create_entity(env=env, name="camera")
-        # at (0, -2.2, 1.4) looking along +y, tilted 30 deg down (optical z forward, y down)
-        cam.add(cressim.Transform(position=(0, -2.2, 1.4), rotation=(-math.sin(math.pi / 3), 0, 0, math.cos(math.pi / 3))))
+        eye, target = VIEWS[task]
+        cam.add(cressim.Transform(position=eye, rotation=_quat_look_at(eye, target)))
         cam.add(cressim.Camera(width=size, height=size, fov_y=50))
     engine = cressim.Engine(world)
     engine.physics = owner.physics_settings()
