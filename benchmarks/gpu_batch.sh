@@ -3,16 +3,21 @@
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh setup tests      # build, ctest, pytest
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-a           # CartPole, rendering
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-b           # ultrasound, twin
-#   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-p           # SoftBodyPush, FluidPour
+#   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-soft bench-fluid  # SoftBodyPush, FluidPour
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-r bench-us  # render extras, ultrasound
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-pr          # particles drawn by the renderer
-# Results (text and JSON) go to $OUT (default out/gpu). Each command has its own time limit, so
+# Results (text and JSON) go to $OUT/r (default out/gpu/r). Each command has its own time limit, so
 # one slow run cannot eat the stage. `setup` also installs the pure-Python wheels the twin's
 # kinematics need (.gpu-wheels, made on the development machine: benchmarks/README.md) into
 # .gpu-py, since the GPU machine reaches no registry.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 OUT=${OUT:-out/gpu}
+# only a few files come back from the GPU machine: logs and results go under $OUT/r, and the
+# archive $OUT/gpu_results.tgz of it is refreshed after every run, so a stage cut short by the
+# time limit still returns what it measured
+TOP=$OUT
+OUT=$TOP/r
 mkdir -p "$OUT"
 export PYTHONPATH=python:ros_ws/src/cressim_ros:.gpu-py
 ulimit -n "$(ulimit -Hn)" 2>/dev/null  # every Vulkan device on the NVIDIA driver holds a few fds
@@ -23,7 +28,8 @@ run() {  # run NAME SECONDS CMD...: output to $OUT/NAME.txt, a line per run to $
   local t0=$SECONDS
   timeout "$limit" "$@" > "$OUT/$name.txt" 2>&1
   local rc=$?
-  echo "$name rc=$rc $((SECONDS - t0))s: $*" | tee -a "$OUT/runs.txt"
+  echo "$name rc=$rc $((SECONDS - t0))s: $*" | tee -a "$TOP/runs.txt"
+  tar czf "$TOP/gpu_results.tgz" -C "$OUT" .
 }
 
 for stage in "$@"; do
@@ -69,16 +75,19 @@ for stage in "$@"; do
         --json "$OUT/ultrasound_sensor.json"
       run twin 240 python3 benchmarks/bench_twin.py --envs 1,64,1024,4096 --ticks 50 --json "$OUT/twin.json"
       ;;
-    bench-p)
-      mkdir -p "$OUT/softbodypush" "$OUT/fluidpour"
+    bench-soft)
+      mkdir -p "$OUT/softbodypush" "$OUT/softbodypush_ppo"
       run softbodypush 240 python3 -m cressim bench SoftBodyPush --envs ${SOFT_ENVS:-128,256,512,1024,2048,4096,8192} \
         --mode step --out "$OUT/softbodypush"
+      run softbodypush_ppo 150 python3 -m cressim bench SoftBodyPush --envs ${SOFT_PPO_ENVS:-512} --mode both \
+        --out "$OUT/softbodypush_ppo"
+      ;;
+    bench-fluid)
+      mkdir -p "$OUT/fluidpour" "$OUT/fluidpour_ppo"
       run fluidpour 200 python3 -m cressim bench FluidPour --envs ${FLUID_ENVS:-64,128,256,512,1024,2048,4096} \
         --mode step --out "$OUT/fluidpour"
-      mkdir -p "$OUT/softbodypush_ppo" "$OUT/fluidpour_ppo"
-      run softbodypush_ppo 150 python3 -m cressim bench SoftBodyPush --envs 512,2048 --mode both \
-        --out "$OUT/softbodypush_ppo"
-      run fluidpour_ppo 120 python3 -m cressim bench FluidPour --envs 128,1024 --mode both --out "$OUT/fluidpour_ppo"
+      run fluidpour_ppo 120 python3 -m cressim bench FluidPour --envs ${FLUID_PPO_ENVS:-128} --mode both \
+        --out "$OUT/fluidpour_ppo"
       ;;
     bench-r)  # renderer extras: culling, image-based lighting; TargetCenter with PPO
       run render_culling 150 python3 benchmarks/bench_render.py --envs 1024,4096 --sizes 64 --objects 200 \
@@ -104,5 +113,3 @@ for stage in "$@"; do
     *) echo "unknown stage $stage" >&2; exit 2 ;;
   esac
 done
-# only a few files come back from the GPU machine: everything in one archive beside the summary
-(cd "$OUT" && tar czf ../gpu_results.tgz . && mv ../gpu_results.tgz .)
