@@ -5,6 +5,7 @@
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-b           # ultrasound, twin
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-soft bench-fluid  # SoftBodyPush, FluidPour
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-r bench-us  # render extras, ultrasound
+#   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-pr          # particles drawn by the renderer
 # Results (text and JSON) go to $OUT/r (default out/gpu/r). Each command has its own time limit, so
 # one slow run cannot eat the stage. `setup` also installs the pure-Python wheels the twin's
 # kinematics need (.gpu-wheels, made on the development machine: benchmarks/README.md) into
@@ -96,6 +97,12 @@ for stage in "$@"; do
       mkdir -p "$OUT/targetcenter_ppo"
       run targetcenter_ppo 150 python3 -m cressim bench TargetCenter --envs 256,1024 --mode both \
         --out "$OUT/targetcenter_ppo"
+      ;;
+    bench-pr)  # particles drawn by the renderer: SoftBodyPush / FluidPour worlds, a 64x64 camera per env
+      run particle_render 240 python3 benchmarks/bench_particle_render.py --envs 256,1024,4096 --frames 30 \
+        --raster compute --json "$OUT/particle_render.json"
+      run particle_render_graphics 150 python3 benchmarks/bench_particle_render.py --envs 1024 --frames 30 \
+        --raster graphics --json "$OUT/particle_render_graphics.json"
       ;;
     bench-us)
       mkdir -p "$OUT/ultrasound"

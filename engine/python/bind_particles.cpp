@@ -166,7 +166,22 @@ void bind_particles(py::module_& m) {
       .def_readonly("mass", &scene::Strand::mass);
 
   auto entity = py::reinterpret_borrow<py::class_<Entity>>(m.attr("Entity"));
-  entity.def("add", &add<scene::SoftBody>, py::arg("component"))
+  py::class_<scene::Material>(m, "Material")
+      .def(py::init([](std::array<float, 4> color, float metallic, float roughness, uint32_t seg) {
+             return scene::Material{color, metallic, roughness, seg};
+           }),
+           py::kw_only(), py::arg("color") = std::array<float, 4>{0.8f, 0.8f, 0.8f, 1.0f}, py::arg("metallic") = 0.f,
+           py::arg("roughness") = 0.5f, py::arg("segmentation_id") = 0u,
+           "The look of the SoftBody, Strand or Fluid on the same entity (drawn from the physics buffers). "
+           "color: linear base colour (a fluid's: what 2 cm of it shows over white); segmentation_id 0: "
+           "entity id + 1.")
+      .def_readwrite("color", &scene::Material::color)
+      .def_readwrite("metallic", &scene::Material::metallic)
+      .def_readwrite("roughness", &scene::Material::roughness)
+      .def_readwrite("segmentation_id", &scene::Material::segmentation_id);
+
+  entity.def("add", &add<scene::Material>, py::arg("component"))
+      .def("add", &add<scene::SoftBody>, py::arg("component"))
       .def("add", &add<scene::Fluid>, py::arg("component"))
       .def("add", &add<scene::Strand>, py::arg("component"));
 

@@ -467,6 +467,7 @@ void bind_scene(py::module_& m) {
         if (type.is(py::type::of<scene::Collider>())) return e.world->has<scene::Collider>(e.id);
         if (type.is(py::type::of<scene::Joint>())) return e.world->has<scene::Joint>(e.id);
         if (type.is(py::type::of<scene::Renderable>())) return e.world->has<scene::Renderable>(e.id);
+        if (type.is(py::type::of<scene::Material>())) return e.world->has<scene::Material>(e.id);
         if (type.is(py::type::of<scene::Camera>())) return e.world->has<scene::Camera>(e.id);
         if (type.is(py::type::of<scene::Light>())) return e.world->has<scene::Light>(e.id);
         if (type.is(py::type::of<scene::UltrasoundProbe>())) return e.world->has<scene::UltrasoundProbe>(e.id);

@@ -1,5 +1,7 @@
 #include "render/render_model.h"
 
+#include "render/particle_geometry.h"
+
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -17,7 +19,8 @@ namespace {
 
 }  // namespace
 
-RenderModel build_render_model(const scene::World& world, const scene::LayoutMapping& mapping, uint32_t max_layers) {
+RenderModel build_render_model(const scene::World& world, const scene::LayoutMapping& mapping, uint32_t max_layers,
+                               const physics::ParticleModel& particles) {
   // CRESSIM_MAX_LAYERS lowers the layers per target (tests split small batches into groups)
   if (const char* v = std::getenv("CRESSIM_MAX_LAYERS"); v && std::atoi(v) > 0)
     max_layers = std::min(max_layers, uint32_t(std::atoi(v)));
@@ -36,6 +39,9 @@ RenderModel build_render_model(const scene::World& world, const scene::LayoutMap
     m.indices.insert(m.indices.end(), mesh.indices.begin(), mesh.indices.end());
     m.meshes.push_back(r);
   }
+  const ParticleMeshes particle_meshes = add_particle_meshes(m, particles);
+  std::map<scene::EntityId, std::vector<uint32_t>> entity_objects;
+  for (uint32_t o = 0; o < particles.objects.size(); ++o) entity_objects[particles.object_entity[o]].push_back(o);
   for (const auto& t : world.textures()) {
     m.textures.push_back({{uint32_t(m.texels.size()), t.width, t.height, 0}});
     const size_t first = m.texels.size();
@@ -46,6 +52,7 @@ RenderModel build_render_model(const scene::World& world, const scene::LayoutMap
   const uint32_t slots = layout.max_lights_per_env;
   m.lights.assign(size_t(mapping.num_envs) * slots, shader::LightData{});
   m.env_lighting.assign(mapping.num_envs, shader::EnvLighting{});
+  m.fluid_looks.assign(mapping.num_envs, shader::RenderableData{});
   std::vector<std::vector<uint32_t>> env_renderables(mapping.num_envs), env_cameras(mapping.num_envs);
   std::vector<uint32_t> shadow_envs;
   std::map<std::array<float, 2>, uint32_t> map_slots;  // (texture, intensity) -> IBL slot
@@ -91,6 +98,36 @@ RenderModel build_render_model(const scene::World& world, const scene::LayoutMap
         if (env_renderables[env].size() > layout.max_renderables_per_env)
           fail(world, e, "env " + std::to_string(env) + " has more renderables than SceneLayout.max_renderables_per_env = " +
                              std::to_string(layout.max_renderables_per_env));
+      }
+      if (auto it = entity_objects.find(e); it != entity_objects.end()) {
+        // particle objects: their Material (or a default look per kind), segmentation entity id + 1
+        for (uint32_t o : it->second) {
+          const auto& obj = particles.objects[o];
+          const uint32_t kind = obj.range.w;
+          scene::Material look;
+          look.color = kind == shader::PARTICLE_FLUID    ? std::array<float, 4>{0.35f, 0.01f, 0.01f, 1}  // blood
+                       : kind == shader::PARTICLE_STRAND ? std::array<float, 4>{0.75f, 0.75f, 0.7f, 1}
+                                                         : std::array<float, 4>{0.75f, 0.35f, 0.3f, 1};  // tissue
+          if (kind == shader::PARTICLE_FLUID) look.roughness = 0.15f;
+          if (world.has<scene::Material>(e)) look = world.get<scene::Material>(e);
+          const shader::RenderableData d{{row, 0, look.segmentation_id ? look.segmentation_id : e + 1, env},
+                                         {look.color[0], look.color[1], look.color[2], look.color[3]},
+                                         {look.metallic, look.roughness, obj.material.x, 0},
+                                         {0, 0, particle_meshes.object_offset[o], shader::RENDER_WORLD_VERTICES}};
+          if (kind == shader::PARTICLE_FLUID) {
+            if (m.fluid_looks[env].ids.y == 0) m.fluid_looks[env] = d;  // an env's fluids look like its first
+            m.fluid_looks[env].ids.y = 1;
+            m.has_fluid = true;
+            continue;
+          }
+          if (particle_meshes.object_mesh[o] < 0) continue;
+          env_renderables[env].push_back(uint32_t(m.renderables.size()));
+          m.renderables.push_back(d);
+          m.renderables.back().ids.y = uint32_t(particle_meshes.object_mesh[o]);
+          if (env_renderables[env].size() > layout.max_renderables_per_env)
+            fail(world, e, "env " + std::to_string(env) + " has more renderables (particle objects count) than "
+                           "SceneLayout.max_renderables_per_env = " + std::to_string(layout.max_renderables_per_env));
+        }
       }
       if (world.has<scene::Camera>(e)) {
         const auto& c = world.get<scene::Camera>(e);

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "cressim/render.h"
+#include "physics/particle_model.h"
 #include "scene/layout_mapping.h"
 #include "scene/world.h"
 
@@ -57,10 +58,18 @@ struct RenderModel {
   uint32_t shadow_resolution = 0, shadow_maps = 0;
   std::vector<std::array<uint32_t, 2>> shadow_instances;  // (renderable, layer), by group then mesh
   std::vector<ShadowGroup> shadow_groups;
+  // particles drawn from the physics buffers (particle_geometry.h, particle_draw.h)
+  uint32_t particle_vertex_base = 0;               // the generated vertices follow the meshes'
+  std::vector<shader::uint4> particle_vertices;    // how each is made (PARTICLE_VERTEX_*)
+  std::vector<uint32_t> particle_adjacency;        // each surface vertex's triangles
+  std::vector<shader::uint4> particle_triangles;   // surface triangles (global particle ids)
+  std::vector<shader::RenderableData> fluid_looks;  // per env: its fluid (ids.y 1) look, radius in material.z
+  bool has_fluid = false;
 
   bool empty() const { return cameras.empty(); }
 };
 
-RenderModel build_render_model(const scene::World& world, const scene::LayoutMapping& mapping, uint32_t max_layers);
+RenderModel build_render_model(const scene::World& world, const scene::LayoutMapping& mapping, uint32_t max_layers,
+                               const physics::ParticleModel& particles);
 
 }  // namespace cressim::render

@@ -99,6 +99,7 @@ Renderer::Renderer(std::shared_ptr<gpu::Context> ctx, RenderModel model, uint64_
       {"scales", scene.at("transform.scales")}};
   build_environment_maps(ctx_, model_, generation, internal, bound);
   vertex_positions_ = bound.at("vertex_positions")->storage->buffer.buffer;
+  particles_ = std::make_unique<ParticleDraw>(ctx_, model_, generation, internal, scene, bound);
   for (size_t k = 0; k < model_.meshes.size(); ++k) {
     const MeshRange& m = model_.meshes[k];
     if (m.positions_key.empty()) continue;
@@ -168,10 +169,10 @@ Renderer::Renderer(std::shared_ptr<gpu::Context> ctx, RenderModel model, uint64_
                                         generation);
     compute_bound["mesh_indices"] = make(ctx_, internal, "render.indices", model_.indices,
                                          {std::max<int64_t>(n(model_.indices), 1)}, DType::UINT32, generation);
-    // bound where a group does not write a product (its writes are skipped)
-    compute_bound["unused_output"] = make(ctx_, internal, "render.unused_output", std::vector<uint32_t>{}, {1},
-                                          DType::UINT32, generation);
   }
+  // bound where a group does not write a product (its writes are skipped)
+  compute_bound["unused_output"] = make(ctx_, internal, "render.unused_output", std::vector<uint32_t>{}, {1},
+                                        DType::UINT32, generation);
 
   const VkImageUsageFlags target = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
   for (size_t g = 0; g < model_.groups.size(); ++g) {
@@ -190,6 +191,17 @@ Renderer::Renderer(std::shared_ptr<gpu::Context> ctx, RenderModel model, uint64_
     if (seg)
       t.segmentation_out = make(ctx_, internal, prefix + "segmentation", std::vector<uint32_t>{}, {L, H, W},
                                 DType::UINT32, generation, exportable);
+    // fluids are composited over the scene's depth, a product or not
+    t.scene_depth = t.depth_out;
+    if (!dep && particles_->has_fluid())
+      t.scene_depth = make(ctx_, internal, "render.group" + std::to_string(g) + "_scene_depth", std::vector<float>{},
+                           {L, H, W}, DType::FLOAT32, generation);
+    particles_->add_group(uint32_t(g),
+                          {{"out_rgb", rgb ? t.rgb_out : compute_bound.at("unused_output")},
+                           {"out_segmentation", seg ? t.segmentation_out : compute_bound.at("unused_output")},
+                           {"scene_depth", t.scene_depth ? t.scene_depth : compute_bound.at("unused_output")}},
+                          grp.products);
+    const uint32_t products = grp.products | (t.scene_depth ? uint32_t(scene::PRODUCT_DEPTH) : 0u);
     if (use_compute) {
       std::vector<uint32_t> by_layer(grp.layers);
       for (uint32_t c = 0; c < model_.cameras.size(); ++c)
@@ -198,21 +210,21 @@ Renderer::Renderer(std::shared_ptr<gpu::Context> ctx, RenderModel model, uint64_
       b["group_cameras"] = make(ctx_, internal, "render.group" + std::to_string(g) + "_cameras", by_layer,
                                 {int64_t(by_layer.size())}, DType::UINT32, generation);
       b["out_rgb"] = rgb ? t.rgb_out : compute_bound.at("unused_output");
-      b["out_depth"] = dep ? t.depth_out : compute_bound.at("unused_output");
+      b["out_depth"] = t.scene_depth ? t.scene_depth : compute_bound.at("unused_output");
       b["out_segmentation"] = seg ? t.segmentation_out : compute_bound.at("unused_output");
       auto pass = compute::create_builtin_pass(ctx_, "render/raster_compute", b);
       const uint32_t tiles_x = (grp.width + 63) / 64, tiles_y = (grp.height + 31) / 32;
       pass->set_constant_bits("width", &grp.width, 4);
       pass->set_constant_bits("height", &grp.height, 4);
       pass->set_constant_bits("tiles_x", &tiles_x, 4);
-      pass->set_constant_bits("products", &grp.products, 4);
+      pass->set_constant_bits("products", &products, 4);
       pass->set_groups({tiles_x * tiles_y, grp.layers, 1});
       compute_passes_.push_back(pass);
       targets_.push_back(std::move(t));
       continue;
     }
     if (rgb) t.color = gpu::create_image(*ctx_, kColor, grp.width, grp.height, grp.layers, target);
-    if (dep) t.depth = gpu::create_image(*ctx_, kDepth, grp.width, grp.height, grp.layers, target);
+    if (t.scene_depth) t.depth = gpu::create_image(*ctx_, kDepth, grp.width, grp.height, grp.layers, target);
     if (seg) t.segmentation = gpu::create_image(*ctx_, kSegmentation, grp.width, grp.height, grp.layers, target);
     t.z_buffer = gpu::create_image(*ctx_, kZ, grp.width, grp.height, grp.layers, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT);
     targets_.push_back(std::move(t));
@@ -264,9 +276,13 @@ void Renderer::record(VkCommandBuffer cmd) const {
   for (const auto& v : vertex_sources_)
     vkCmdCopyBuffer(cmd, v.from->storage->buffer.buffer, vertex_positions_, 1, &v.region);
   if (!vertex_sources_.empty()) gpu::compute_barrier(cmd);
+  particles_->record_vertices(cmd);
   record_shadows(cmd);
   culling_->record(cmd);
-  for (const auto& pass : compute_passes_) pass->record(cmd);
+  for (size_t g = 0; g < compute_passes_.size(); ++g) {
+    compute_passes_[g]->record(cmd);
+    particles_->record_fluid(cmd, uint32_t(g));
+  }
   for (size_t g = 0; g < model_.groups.size() && compute_passes_.empty(); ++g) {
     const auto& grp = model_.groups[g];
     const Targets& t = targets_[g];
@@ -313,8 +329,9 @@ void Renderer::record(VkCommandBuffer cmd) const {
     for (const gpu::Image* im : {&t.color, &t.depth, &t.segmentation})
       if (im->image) gpu::image_barrier(cmd, *im, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
     if (t.rgb_out) copy_out(cmd, t.color, *t.rgb_out);
-    if (t.depth_out) copy_out(cmd, t.depth, *t.depth_out);
+    if (t.scene_depth) copy_out(cmd, t.depth, *t.scene_depth);
     if (t.segmentation_out) copy_out(cmd, t.segmentation, *t.segmentation_out);
+    particles_->record_fluid(cmd, uint32_t(g));
   }
 }
 

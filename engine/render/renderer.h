@@ -17,6 +17,7 @@
 #include "compute/typed_buffer.h"
 #include "gpu/image.h"
 #include "gpu/pipeline.h"
+#include "render/particle_draw.h"
 #include "render/culling.h"
 #include "render/render_model.h"
 
@@ -42,6 +43,7 @@ class Renderer {
   struct Targets {
     gpu::Image color, depth, segmentation, z_buffer;
     std::shared_ptr<compute::TypedBuffer> rgb_out, depth_out, segmentation_out;
+    std::shared_ptr<compute::TypedBuffer> scene_depth;  // depth_out, or a stand-in the fluid passes need
   };
   std::shared_ptr<gpu::Context> ctx_;
   RenderModel model_;
@@ -58,6 +60,7 @@ class Renderer {
   std::vector<VertexSource> vertex_sources_;
   VkBuffer vertex_positions_ = VK_NULL_HANDLE;
   std::shared_ptr<compute::TypedBuffer> shadow_maps_;
+  std::unique_ptr<ParticleDraw> particles_;
   std::unique_ptr<Culling> culling_;  // counts in both modes; the draw list in the graphics path
   bool indirect_ = false;             // the graphics path draws the culled list
   bool multi_draw_ = false;           // in one vkCmdDrawIndexedIndirect per group

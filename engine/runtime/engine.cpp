@@ -60,7 +60,8 @@ void Engine::prepare() {
   particle_model_ = physics::build_particle_model(*world_, mapping_);
   const auto& limits = ctx_->properties.limits;
   render_model_ = render::build_render_model(*world_, mapping_,
-                                             std::min(limits.maxImageArrayLayers, limits.maxFramebufferLayers));
+                                             std::min(limits.maxImageArrayLayers, limits.maxFramebufferLayers),
+                                             particle_model_);
   ultrasound_model_ = sensors::build_ultrasound_model(*world_, mapping_, particle_model_);
   prepared_ = true;
   uploaded_ = false;

@@ -85,6 +85,15 @@ struct Renderable {
   int32_t texture = -1;
 };
 
+// The look of a particle object (SoftBody, Strand, Fluid on the same entity), which the
+// renderer draws from the physics buffers. segmentation_id 0: the entity id + 1. A fluid's
+// colour is what 2 cm of it shows over white (its absorption follows from that).
+struct Material {
+  std::array<float, 4> color{0.8f, 0.8f, 0.8f, 1.0f};  // linear RGBA
+  float metallic = 0, roughness = 0.5f;
+  uint32_t segmentation_id = 0;
+};
+
 // What a camera writes (bits of Camera.products): fewer outputs, less memory and bandwidth.
 enum CameraProduct : uint32_t { PRODUCT_RGB = 1, PRODUCT_DEPTH = 2, PRODUCT_SEGMENTATION = 4, PRODUCT_ALL = 7 };
 
@@ -247,7 +256,7 @@ struct Strand {
   bool self_collision = false;
 };
 
-using ComponentTypes = std::tuple<Transform, RigidBody, Collider, Joint, Renderable, Camera, Light, EnvironmentLight,
+using ComponentTypes = std::tuple<Transform, RigidBody, Collider, Joint, Renderable, Material, Camera, Light, EnvironmentLight,
                                   UltrasoundProbe, UltrasoundTissue, SoftBody, Fluid, Strand>;
 
 // Triangle meshes shared by all envs; vertex normals per vertex.

@@ -86,7 +86,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("scene", nargs="?", default="twin", choices=("twin", "batched", "soft", "fluid", "thread"),
                    help="twin: the PSM twin driven over ROS 2, recording MCAP (default); batched: a batched "
                         "scene and a custom compute pass; soft, fluid, thread: particle scenes saved as "
-                        "particle-state sequences (.npz)")
+                        "particle-state sequences (.npz) and a few rendered frames (PNG colour, segmentation)")
     p.add_argument("--seconds", type=float, default=2.0, help="twin: length of the servo_jp sine")
     p.add_argument("--envs", type=int, default=16, help="batched: envs")
     p.add_argument("--frames", type=int, default=120, help="batched and particle scenes: frames")

@@ -27,6 +27,17 @@ line and the field. The format (every key optional unless said)::
       - name: sun
         transform: {position: [0, 0, 2], look_at: [0.2, 0.3, 0]}
         light: {kind: directional, intensity: 2.5, shadows: true, shadow_extent: 1.5}
+      - name: tissue                     # particles (entity frame), drawn from the physics buffers
+        transform: {position: [0, 0, 0.1]}
+        soft_body: {box: {half_extents: [0.08, 0.08, 0.08], cells: [3, 3, 3]}, radius: 0.02, mass: 0.01,
+                    distance_compliance: 1e-4, volume_compliance: 1e-4, damping: 0, friction: 0.5}
+                                         # or cylinder: {radius, half_height, cells_across, cells_along}
+        material: {color: [0.8, 0.35, 0.3], roughness: 0.4, segmentation_id: 5}   # or a name
+      - name: blood
+        fluid: {block: {counts: [10, 6, 2], spacing: 0.03, origin: [-0.1, -0.2, 0.015]}, radius: 0.015,
+                budget: 0, viscosity: 0.01}
+      - name: thread
+        strand: {line: {start: [0, 0, 0.5], end: [0.3, 0, 0.5], count: 20}, radius: 0.004, fixed: [0]}
 """
 from __future__ import annotations
 
@@ -277,12 +288,14 @@ class _Loader:
 
     # --- entities --------------------------------------------------------------------------
     def entity(self, env: int, f: Field) -> None:
-        e = f.keys(("name", "transform", "renderable", "camera", "light", "rigid_body", "collider"))
+        e = f.keys(("name", "transform", "renderable", "camera", "light", "rigid_body", "collider", "soft_body",
+                    "fluid", "strand", "material"))
         name = e["name"].str() if "name" in e else ""
         ent = self.world.create_entity(env=env, name=name)
         ent.add(self.transform(e["transform"]) if "transform" in e else cressim.Transform())
         for key, make in (("renderable", self.renderable), ("camera", self.camera), ("light", self.light),
-                          ("rigid_body", self.rigid_body), ("collider", self.collider)):
+                          ("rigid_body", self.rigid_body), ("collider", self.collider), ("soft_body", self.soft_body),
+                          ("fluid", self.fluid), ("strand", self.strand), ("material", self.look)):
             if key in e:
                 try:
                     ent.add(make(e[key]))
@@ -340,6 +353,74 @@ class _Loader:
         if "segmentation_id" in r:
             opts["segmentation_id"] = r["segmentation_id"].int(1)
         return cressim.Renderable(mesh, **opts)
+
+    # particle objects: their parameters as keyword arguments, their points from a generator
+    @staticmethod
+    def _need(f: Field, c: dict[str, Field], keys: tuple[str, ...], what: str) -> dict[str, Field]:
+        for k in keys:
+            if k not in c:
+                raise f.fail(f"{what} needs '{k}'")
+        return c
+
+    def _options(self, c: dict[str, Field], ints=(), lists=()) -> dict:
+        return {k: (v.int(0) if k in ints else [x.int(0) for x in v.list()] if k in lists else v.float())
+                for k, v in c.items()}
+
+    def soft_body(self, f: Field) -> cressim.SoftBody:
+        c = f.keys(("box", "cylinder", "radius", "mass", "distance_compliance", "volume_compliance", "damping",
+                    "friction", "fixed"))
+        shapes = [k for k in ("box", "cylinder") if k in c]
+        if len(shapes) != 1:
+            raise f.fail("a soft_body needs one of: box, cylinder")
+        g = c[shapes[0]]
+        if shapes[0] == "box":
+            b = self._need(g, g.keys(("half_extents", "cells")), ("half_extents", "cells"), "box")
+            mesh = cressim.TetMesh.box(b["half_extents"].vec(3), tuple(int(x) for x in b["cells"].vec(3)))
+        else:
+            keys = ("radius", "half_height", "cells_across", "cells_along")
+            b = self._need(g, g.keys(keys), keys, "cylinder")
+            mesh = cressim.TetMesh.cylinder(b["radius"].float(), b["half_height"].float(), b["cells_across"].int(1),
+                                            b["cells_along"].int(1))
+        return cressim.SoftBody(mesh, **self._options({k: v for k, v in c.items() if k not in shapes}, lists=("fixed",)))
+
+    def fluid(self, f: Field) -> cressim.Fluid:
+        c = f.keys(("block", "radius", "budget", "rest_density", "viscosity", "cohesion", "surface_tension",
+                    "vorticity", "friction", "damping"))
+        if "block" not in c:
+            raise f.fail("a fluid needs 'block' {counts, spacing, origin}")
+        keys = ("counts", "spacing", "origin")
+        b = self._need(c["block"], c["block"].keys(keys), keys, "block")
+        nx, ny, nz = (int(x) for x in b["counts"].vec(3))
+        z, y, x = np.meshgrid(np.arange(nz), np.arange(ny), np.arange(nx), indexing="ij")
+        points = np.stack([x, y, z], -1).reshape(-1, 3) * b["spacing"].float() + np.asarray(b["origin"].vec(3))
+        opts = self._options({k: v for k, v in c.items() if k != "block"}, ints=("budget",))
+        return cressim.Fluid(points.astype(np.float32), **opts)
+
+    def strand(self, f: Field) -> cressim.Strand:
+        c = f.keys(("line", "radius", "mass", "fixed", "stretch_compliance", "bend_compliance", "twist_compliance",
+                    "damping", "friction"))
+        if "line" not in c:
+            raise f.fail("a strand needs 'line' {start, end, count}")
+        keys = ("start", "end", "count")
+        line = self._need(c["line"], c["line"].keys(keys), keys, "line")
+        t = np.linspace(0, 1, line["count"].int(2))[:, None]
+        points = (1 - t) * np.asarray(line["start"].vec(3)) + t * np.asarray(line["end"].vec(3))
+        opts = self._options({k: v for k, v in c.items() if k != "line"}, lists=("fixed",))
+        return cressim.Strand(points.astype(np.float32), **opts)
+
+    def look(self, f: Field) -> cressim.Material:
+        """A particle object's material: a name from materials (its texture unused) or inline."""
+        if isinstance(f.node, yaml.ScalarNode):
+            name = f.str()
+            if name not in self.materials:
+                raise f.fail(f"no material '{name}'; materials: {', '.join(self.materials) or 'none'}")
+            opts = {k: v for k, v in self.materials[name].items() if k != "texture"}
+        else:
+            m = f.keys(("color", "metallic", "roughness", "segmentation_id"))
+            opts = self.material({k: v for k, v in m.items() if k != "segmentation_id"})
+            if "segmentation_id" in m:
+                opts["segmentation_id"] = m["segmentation_id"].int(1)
+        return cressim.Material(**opts)
 
     def camera(self, f: Field) -> cressim.Camera:
         c = f.keys(("width", "height", "fov_y", "fx", "fy", "cx", "cy", "near", "far", "products"))

@@ -12,8 +12,20 @@ struct RenderableData {
   uint4 ids;       // x entity row, y mesh, z segmentation id, w env
   float4 color;    // base colour, linear RGBA
   float4 material; // x metallic, y roughness
-  uint4 maps;      // x texture index + 1 (0: none), y 1: flat normals (from the triangle)
+  uint4 maps;      // x texture index + 1 (0: none), y 1: flat normals (from the triangle),
+                   // z added to the mesh's vertex ids, w RENDER_WORLD_VERTICES
 };
+
+// RenderableData.maps.w: the vertices are world positions written each frame (particle
+// surfaces and strand tubes): no entity transform, and no bounding sphere to cull by.
+static const uint RENDER_WORLD_VERTICES = 1;
+
+// How the particle vertex pass makes each generated vertex (render.particle_vertices): x kind
+// (low 4 bits), ring slot (bits 4-11) and ring size (bits 12-19) of a tube vertex; y particle;
+// surface: z first triangle in render.particle_adjacency, w count; tube: z, w the strand
+// segments whose frames it averages; cap centre: z the end segment, w 0 at the start, 1 at the end.
+static const uint PARTICLE_VERTEX_NONE = 0, PARTICLE_VERTEX_SURFACE = 1, PARTICLE_VERTEX_TUBE = 2,
+                  PARTICLE_VERTEX_CAP = 3;
 
 // Cameras look along their entity's +z with x right and y down (the optical frame of ROS and
 // OpenCV): pixel (u, v) = (fx x / z + cx, fy y / z + cy); depth is z, in metres.

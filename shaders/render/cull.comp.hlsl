@@ -2,7 +2,8 @@
 // camera) instance. A visible instance takes a slot in its draw's range of the draw list
 // (instanceCount, atomically) and copies its pair there; the draw commands then draw only
 // those. Counts per camera go to render.visible_counts. Meshes whose vertices come from a
-// buffer are never culled: their bounding radius is that of the mesh as given, not as moved.
+// buffer (and particle meshes) are never culled: their bounding radius is that of the mesh as
+// given, not as moved.
 #include "cressim/quat.h"
 #include "cressim/render.h"
 
@@ -34,7 +35,7 @@ void main(uint3 id : SV_DispatchThreadID) {
   const RenderableData r = renderables[pair.x];
   const CameraData c = cameras[pair.y];
   bool visible = true;
-  if (pc.enabled != 0 && r.maps.y == 0) {
+  if (pc.enabled != 0 && r.maps.y == 0 && (r.maps.w & RENDER_WORLD_VERTICES) == 0) {
     const uint eye = c.ids.x, row = r.ids.x;
     const float3 centre = quat_unrotate(rotations[eye], positions[row].xyz - positions[eye].xyz);
     visible = sphere_in_view(c, centre, bounding_radius(mesh_radii[r.ids.y], scales[row].xyz), float2(0, 0), c.clip.zw);

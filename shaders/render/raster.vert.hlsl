@@ -6,11 +6,12 @@
 #include "raster_resources.hlsli"
 
 // the layer is an output of its own: the fragment stage may not read it (it would need Geometry)
-Varyings main(uint vertex : SV_VertexID, uint instance : SV_InstanceID, out uint layer : SV_RenderTargetArrayIndex) {
+Varyings main(uint mesh_vertex : SV_VertexID, uint instance : SV_InstanceID, out uint layer : SV_RenderTargetArrayIndex) {
   const uint2 pair = instances[instance];
   const RenderableData r = renderables[pair.x];
   const CameraData c = cameras[pair.y];
-  const uint row = r.ids.x, eye = c.ids.x;
+  const uint vertex = mesh_vertex + r.maps.z;
+  const uint eye = c.ids.x;
   const float3 world = world_position(r, vertex);
   const float3 local = quat_unrotate(rotations[eye], world - positions[eye].xyz);
   const float near = c.clip.x, far = c.clip.y;
@@ -19,7 +20,7 @@ Varyings main(uint vertex : SV_VertexID, uint instance : SV_InstanceID, out uint
   const float2 pixel = c.intrinsics.xy * local.xy + c.intrinsics.zw * local.z;  // (u, v) * z
   o.position = float4(2.0 * pixel / c.clip.zw - local.z, far * (local.z - near) / (far - near), local.z);
   o.world = world;
-  o.normal = quat_rotate(rotations[row], vertex_normals[vertex].xyz / scales[row].xyz);
+  o.normal = world_normal(r, vertex);
   o.uv = vertex_uvs[vertex];
   o.depth = local.z;
   o.renderable = pair.x;

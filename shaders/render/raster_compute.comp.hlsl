@@ -87,7 +87,8 @@ Screen setup(CameraData c, float3 v[3], int2 origin) {
 // false when the renderable's bounding sphere misses the tile's frustum (then none of its
 // triangles can cover a pixel of the tile); the culling pass's test, on the tile
 bool may_cover(RenderableData r, uint4 m, CameraData c, float4 eye_q, float3 eye_p, int2 origin) {
-  if (r.maps.y != 0) return true;  // vertices from a buffer: the mesh's radius does not bound them
+  // vertices from a buffer or particles: the mesh's radius does not bound them
+  if (r.maps.y != 0 || (r.maps.w & RENDER_WORLD_VERTICES) != 0) return true;
   const float3 centre = quat_unrotate(eye_q, positions[r.ids.x].xyz - eye_p);
   const int2 hi = min(origin + int2(TILE_W, TILE_H), int2(pc.width, pc.height));
   return sphere_in_view(c, centre, bounding_radius(asfloat(m.w), scales[r.ids.x].xyz), float2(origin), float2(hi));
@@ -143,7 +144,7 @@ void main(uint3 group : SV_GroupID, uint tid : SV_GroupIndex) {
       if (!may_cover(r, m, c, eye_q, eye_p, origin)) continue;
       for (uint t = tid; t < m.y / 3; t += THREADS) {
         float3 v[3];
-        for (uint j = 0; j < 3; ++j) v[j] = vertex_local(r, mesh_indices[m.x + 3 * t + j] + m.z, eye_q, eye_p);
+        for (uint j = 0; j < 3; ++j) v[j] = vertex_local(r, mesh_indices[m.x + 3 * t + j] + m.z + r.maps.z, eye_q, eye_p);
         const Screen s = setup(c, v, origin);
         if (s.n == 0) continue;
         const uint id = (k << 20) | t;
@@ -172,7 +173,7 @@ void main(uint3 group : SV_GroupID, uint tid : SV_GroupIndex) {
       const RenderableData r = renderables[list.x + k];
       const uint4 m = mesh_ranges[r.ids.y];
       float3 v[3];
-      for (uint j = 0; j < 3; ++j) v[j] = vertex_local(r, mesh_indices[m.x + 3 * t + j] + m.z, eye_q, eye_p);
+      for (uint j = 0; j < 3; ++j) v[j] = vertex_local(r, mesh_indices[m.x + 3 * t + j] + m.z + r.maps.z, eye_q, eye_p);
       const Screen s = setup(c, v, origin);
       const int2 size = s.box.zw - s.box.xy;
       for (uint q = tid; q < uint(size.x * size.y); q += THREADS)
@@ -199,7 +200,7 @@ void main(uint3 group : SV_GroupID, uint tid : SV_GroupIndex) {
     uint vi[3];
     float3 v[3];
     for (uint j = 0; j < 3; ++j) {
-      vi[j] = mesh_indices[m.x + 3 * t + j] + m.z;
+      vi[j] = mesh_indices[m.x + 3 * t + j] + m.z + r.maps.z;
       v[j] = vertex_local(r, vi[j], eye_q, eye_p);
     }
     const float3 d = float3((float2(px) + 0.5 - c.intrinsics.zw) / c.intrinsics.xy, 1);  // z = 1: t is depth
@@ -220,11 +221,9 @@ void main(uint3 group : SV_GroupID, uint tid : SV_GroupIndex) {
       }
     }
     const float b0 = 1 - b1 - b2;
-    const uint row = r.ids.x;
     const float3 world = eye_p + quat_rotate(eye_q, d * depth);
     const float3 n = r.maps.y != 0 ? quat_rotate(eye_q, cross(e1, e2))  // flat: the triangle's
-                                   : quat_rotate(rotations[row], (b0 * vertex_normals[vi[0]].xyz + b1 * vertex_normals[vi[1]].xyz +
-                                                                  b2 * vertex_normals[vi[2]].xyz) / scales[row].xyz);
+                                   : b0 * world_normal(r, vi[0]) + b1 * world_normal(r, vi[1]) + b2 * world_normal(r, vi[2]);
     const float2 uv = b0 * vertex_uvs[vi[0]] + b1 * vertex_uvs[vi[1]] + b2 * vertex_uvs[vi[2]];
     if (pc.products & 1) {
       const uint4 bytes = uint4(round(saturate(encode_color(shade(r, world, n, uv, eye_p))) * 255));

@@ -30,9 +30,17 @@ struct Varyings {
   nointerpolation uint camera : CAMERA;
 };
 
+// `vertex` includes the renderable's own offset (maps.z)
 float3 world_position(RenderableData r, uint vertex) {
+  if (r.maps.w & RENDER_WORLD_VERTICES) return vertex_positions[vertex].xyz;
   const uint row = r.ids.x;
   return positions[row].xyz + quat_rotate(rotations[row], scales[row].xyz * vertex_positions[vertex].xyz);
+}
+
+float3 world_normal(RenderableData r, uint vertex) {
+  if (r.maps.w & RENDER_WORLD_VERTICES) return vertex_normals[vertex].xyz;
+  const uint row = r.ids.x;
+  return quat_rotate(rotations[row], vertex_normals[vertex].xyz / scales[row].xyz);
 }
 
 // A point in the frame of an env's shadow light: xy across the map, z along the light.

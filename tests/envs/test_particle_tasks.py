@@ -5,6 +5,7 @@ import numpy as np
 import torch
 
 import cressim.envs
+from cressim import io
 from cressim.demos.particles import run as run_demo
 
 
@@ -44,3 +45,6 @@ def test_particle_demos_save_state_sequences(tmp_path):
     data = np.load(tmp_path / "thread.npz")
     assert data["positions"].shape == (5, 40, 3)
     assert np.isfinite(data["positions"]).all()
+    seg = io.read_png(tmp_path / "thread_004_segmentation.png")[..., :3]
+    rgb = io.read_png(tmp_path / "thread_004_rgb.png")[..., :3]
+    assert rgb.shape == (120, 160, 3) and len(np.unique(seg.reshape(-1, 3), axis=0)) >= 3  # background, floor, thread
