@@ -1,7 +1,11 @@
 """Small particle scenes for the particle tests (z up, SI units)."""
+import math
+
 import numpy as np
 
 import cressim
+
+from .scenes import start  # noqa: F401  (the particle tests start engines the same way)
 
 
 def lattice(counts, spacing, origin=(0, 0, 0)):
@@ -30,15 +34,6 @@ def open_box(world, env, inner_half, wall=0.05, height=1.0, name="container"):
     return static(world, env, shapes, name)
 
 
-def start(world, make_engine, **settings):
-    engine = make_engine(world)
-    if settings:
-        engine.physics = cressim.PhysicsSettings(**settings)
-    engine.prepare()
-    engine.upload_world()
-    return engine
-
-
 def step(engine, frames):
     for _ in range(frames):
         engine.step_physics()
@@ -52,3 +47,12 @@ def positions(engine):
 def tet_volume(points, tets):
     a, b, c, d = (points[tets[:, k]] for k in range(4))
     return np.einsum("ij,ij->i", b - a, np.cross(c - a, d - a)).sum() / 6
+
+
+def twist_angle(q0, q1):
+    """Angle of the rotation from frame q0 to q1 about their common z (xyzw quaternions)."""
+    x0, y0, z0, w0 = -q0[0], -q0[1], -q0[2], q0[3]
+    x1, y1, z1, w1 = q1
+    w = w0 * w1 - x0 * x1 - y0 * y1 - z0 * z1
+    z = w0 * z1 + w1 * z0 + x0 * y1 - y0 * x1
+    return 2 * math.atan2(z, w)

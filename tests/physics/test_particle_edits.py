@@ -9,16 +9,7 @@ import pytest
 
 import cressim
 
-from .particle_scenes import lattice, open_box, positions, start, step
-
-
-def _twist(q0, q1):
-    """Angle of the rotation from frame q0 to q1 about their common z (xyzw quaternions)."""
-    x0, y0, z0, w0 = -q0[0], -q0[1], -q0[2], q0[3]
-    x1, y1, z1, w1 = q1
-    w = w0 * w1 - x0 * x1 - y0 * y1 - z0 * z1
-    z = w0 * z1 + w1 * z0 + x0 * y1 - y0 * x1
-    return 2 * math.atan2(z, w)
+from .particle_scenes import lattice, open_box, positions, start, step, twist_angle
 
 
 def _about_x(angle):
@@ -79,7 +70,7 @@ def test_held_strand_frames_follow_the_turning_body(make_engine):
     engine = _held_strands(make_engine)
     q = engine.buffer("particles.orientations").read().reshape(4, N - 1, 4)
     q0 = engine.buffer("particles.initial_orientations").read().reshape(4, N - 1, 4)
-    segment_twists = lambda e: np.array([_twist(q[e, i], q[e, i + 1]) for i in range(N - 2)])  # noqa: E731
+    segment_twists = lambda e: np.array([twist_angle(q[e, i], q[e, i + 1]) for i in range(N - 2)])  # noqa: E731
     # held at both ends: the twists of the 9 segment pairs add up to the turn (within 0.1 deg), all
     # the same way (frames turn monotonically from one end to the other; how evenly the pairs
     # share it is the bend-twist solve's business: see docs/particles.md)
@@ -87,12 +78,12 @@ def test_held_strand_frames_follow_the_turning_body(make_engine):
     assert abs(both.sum() - TURN) < math.radians(0.1)
     assert both.min() > -math.radians(0.1)
     # held at the turning end only: the relaxed cable turns with the body, every frame within 0.1 deg
-    one = np.array([_twist(q0[1, i], q[1, i]) for i in range(N - 1)])
+    one = np.array([twist_angle(q0[1, i], q[1, i]) for i in range(N - 1)])
     assert np.abs(one - TURN).max() < math.radians(0.1)
     # held by position only, the turn does not reach the cable's frames
     assert abs(segment_twists(2).sum()) < math.radians(1)
     # a given offset is kept instead of the one at attach time: 1.5 TURN in all
-    given = np.array([_twist(q0[3, i], q[3, i]) for i in range(N - 1)])
+    given = np.array([twist_angle(q0[3, i], q[3, i]) for i in range(N - 1)])
     assert np.abs(given - 1.5 * TURN).max() < math.radians(0.1)
     # the centrelines stay straight along x
     p = positions(engine)

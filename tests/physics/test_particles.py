@@ -7,7 +7,7 @@ import pytest
 
 import cressim
 
-from .particle_scenes import lattice, open_box, positions, start, static, step, tet_volume
+from .particle_scenes import lattice, open_box, positions, start, static, step, tet_volume, twist_angle
 
 
 def _beam_sag(make_engine, iterations):
@@ -306,15 +306,6 @@ def test_strand_self_collision_is_off_unless_asked(make_engine):
     assert closest[True] > 2 * r * 0.9  # kept apart (10 % slack for the last iteration's residual)
 
 
-def _twist(q0, q1):
-    """Angle of the rotation from frame q0 to q1 about their common z (xyzw quaternions)."""
-    x0, y0, z0, w0 = -q0[0], -q0[1], -q0[2], q0[3]
-    x1, y1, z1, w1 = q1
-    w = w0 * w1 - x0 * x1 - y0 * y1 - z0 * z1
-    z = w0 * z1 + w1 * z0 + x0 * y1 - y0 * x1
-    return 2 * math.atan2(z, w)
-
-
 def test_strand_twist_relaxes(make_engine):
     # a straight cable (no gravity) twisted by 90 deg end to end, ends free: the bend-twist
     # constraints untwist it, and the centreline stays straight and keeps its length
@@ -325,10 +316,10 @@ def test_strand_twist_relaxes(make_engine):
         pts, mass=0.001, radius=0.005, initial_twist=math.pi / 2, twist_compliance=1e-3, damping=2.0))
     engine = start(world, make_engine, particle_iterations=8, gravity=(0, 0, 0))
     q = engine.buffer("particles.orientations").read()
-    assert q.shape == (n - 1, 4) and _twist(q[0], q[-1]) == pytest.approx(math.pi / 2, abs=1e-5)
+    assert q.shape == (n - 1, 4) and twist_angle(q[0], q[-1]) == pytest.approx(math.pi / 2, abs=1e-5)
     step(engine, 30)
     q = engine.buffer("particles.orientations").read()
-    assert abs(_twist(q[0], q[-1])) < math.radians(1)  # from 90 deg to under 1 deg in 0.5 s
+    assert abs(twist_angle(q[0], q[-1])) < math.radians(1)  # from 90 deg to under 1 deg in 0.5 s
     p = positions(engine)
     assert np.abs(p[:, 1]).max() < 1e-4 and np.abs(p[:, 2] - 1).max() < 1e-4
     assert np.linalg.norm(np.diff(p, axis=0), axis=1).sum() == pytest.approx(0.5, rel=1e-3)

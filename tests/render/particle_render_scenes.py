@@ -5,18 +5,13 @@ import math
 import numpy as np
 
 import cressim
+from physics.particle_scenes import lattice, start  # noqa: F401  (shared with the physics tests)
 
 S = 64
 FOV = 50
 F = 0.5 * S / math.tan(math.radians(FOV / 2))  # focal length in pixels
 EYE = np.array([0.0, -1.0, 0.1])
 LOOK_ALONG_Y = (-math.sqrt(0.5), 0.0, 0.0, math.sqrt(0.5))  # camera z -> world +y, camera y -> world -z
-
-
-def lattice(counts, spacing, origin=(0, 0, 0)):
-    nx, ny, nz = counts
-    z, y, x = np.meshgrid(np.arange(nz), np.arange(ny), np.arange(nx), indexing="ij")
-    return (np.stack([x, y, z], -1).reshape(-1, 3) * spacing + np.asarray(origin)).astype(np.float32)
 
 
 def project(points):
@@ -55,13 +50,6 @@ def fluid_block(world, env=0, counts=(6, 3, 3), r=0.02, origin=(-0.1, -0.05, 0.0
     return water
 
 
-def start(world, make_engine, **settings):
-    engine = make_engine(world)
-    if settings:
-        engine.physics = cressim.PhysicsSettings(**settings)
-    engine.prepare()
-    engine.upload_world()
-    return engine
 
 
 def render(engine, physics_frames=0):

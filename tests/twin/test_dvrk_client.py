@@ -99,8 +99,8 @@ def test_dvrk_client_session(session):
     np.testing.assert_allclose(arm.measured_jp(), q, atol=max(1e-5, tol["joint"]))
 
     # --- servo_cp square (1 cm sides in x/y of PSM1_base), streamed at 100 Hz
-    T0 = arm.measured_cp()
-    np.testing.assert_allclose(T0, _fk(psm, arm.measured_jp()), atol=tol["cp"])
+    q, T0 = arm.measured_jp_and_cp()
+    np.testing.assert_allclose(T0, _fk(psm, q), atol=tol["cp"])
     corners = [(0.01, 0.0), (0.01, 0.01), (0.0, 0.01), (0.0, 0.0)]
     here = T0[:3, 3].copy()
     for dx, dy in corners:
@@ -113,10 +113,11 @@ def test_dvrk_client_session(session):
             time.sleep(PERIOD)
         here = target[:3, 3].copy()
         _settle(arm, 0.05 + settle)
-        T = _fk(psm, arm.measured_jp())  # the joints put the tip there, by FK
+        q, cp = arm.measured_jp_and_cp()
+        T = _fk(psm, q)  # the joints put the tip there, by FK
         np.testing.assert_allclose(T[:3, 3], target[:3, 3], atol=tol["tip"])
         np.testing.assert_allclose(T[:3, :3], target[:3, :3], atol=tol["rotation"])
-        np.testing.assert_allclose(arm.measured_cp(), T, atol=tol["cp"])
+        np.testing.assert_allclose(cp, T, atol=tol["cp"])  # the twin's own FK, same tick
 
     # --- move_cp square, waiting on is_busy each time
     for dx, dy in [(-0.01, 0.0), (-0.01, -0.01), (0.0, -0.01), (0.0, 0.0)]:

@@ -227,6 +227,18 @@ class Arm:
     def measured_cp(self, age: float = 0.5) -> np.ndarray:
         return pose_to_matrix(self._fresh(self._measured_cp, age, "measured_cp").pose)
 
+    def measured_jp_and_cp(self, timeout: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+        """measured_js positions and the measured_cp matrix of one tick (equal stamps): the two
+        newest messages may come from neighbouring ticks while the arm still moves."""
+        deadline = time.monotonic() + timeout
+        while True:
+            js, cp = self._fresh(self._measured_js, 0.5, "measured_js"), self._fresh(self._measured_cp, 0.5, "measured_cp")
+            if js.header.stamp == cp.header.stamp:
+                return np.array(js.position), pose_to_matrix(cp.pose)
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"{self.ns}: measured_js and measured_cp never carried the same stamp")
+            time.sleep(0.001)
+
     def measured_js_rate(self, window: float = 1.0) -> float:
         return self._measured_js.rate(window)
 
