@@ -21,21 +21,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "python"))
 
 import cressim  # noqa: E402
 
-SUCTION = """
-struct Params { uint count; float radius; float2 pad; float4 tip; };
-[[vk::push_constant]] ConstantBuffer<Params> pc;
-StructuredBuffer<float4> positions;
-StructuredBuffer<uint4> phases;
-RWStructuredBuffer<uint> remove;
-
-[numthreads(64, 1, 1)]
-void main(uint3 id : SV_DispatchThreadID) {
-  const uint i = id.x;
-  if (i >= pc.count) return;
-  const uint4 ph = phases[i];
-  if (ph.x == 2 && (ph.w & 1) != 0 && length(positions[i].xyz - pc.tip.xyz) < pc.radius) remove[i] = 1;
-}
-"""
 
 
 def build(num_envs):
@@ -71,9 +56,9 @@ def build(num_envs):
         engine.cut_constraints(family, np.nonzero(side.any(1) & ~side.all(1))[0])
     n = len(x)
     suction = engine.create_compute_pass(
-        SUCTION, name="suction", threads=n,
+        cressim.passes.source("suction"), name="suction", threads=n,
         bindings={"positions": "particles.positions", "phases": "particles.phases", "remove": "control.particle_remove"},
-        constants={"count": n, "radius": 0.06, "tip": (-0.06, -0.06, 0.06, 0.0)})
+        constants={"count": n, "env": cressim.passes.ALL_ENVS, "radius": 0.06, "tip": (-0.06, -0.06, 0.06, 0.0)})
     return engine, suction
 
 

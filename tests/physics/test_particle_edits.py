@@ -159,23 +159,6 @@ def _soft_engine(make_engine):
     return start(world, make_engine)
 
 
-# a suction tip: fluid particles of env `env` within `radius` of `tip` are flagged for removal
-SUCTION = textwrap.dedent("""
-    struct Params { uint count; uint env; float radius; float pad; float4 tip; };
-    [[vk::push_constant]] ConstantBuffer<Params> pc;
-    StructuredBuffer<float4> positions;
-    StructuredBuffer<uint4> phases;
-    RWStructuredBuffer<uint> remove;
-
-    [numthreads(64, 1, 1)]
-    void main(uint3 id : SV_DispatchThreadID) {
-      const uint i = id.x;
-      if (i >= pc.count) return;
-      const uint4 ph = phases[i];
-      if (ph.z == pc.env && ph.x == 2 && (ph.w & 1) != 0 && length(positions[i].xyz - pc.tip.xyz) < pc.radius)
-        remove[i] = 1;
-    }
-""")
 
 
 def test_a_task_pass_removes_fluid_inside_a_sphere(make_engine):
@@ -189,7 +172,7 @@ def test_a_task_pass_removes_fluid_inside_a_sphere(make_engine):
     n = 128
     tip = (0.0, 0.0, 0.06)
     suction = engine.create_compute_pass(
-        SUCTION, name="suction", threads=n,
+        cressim.passes.source("suction"), name="suction", threads=n,
         bindings={"positions": "particles.positions", "phases": "particles.phases", "remove": "control.particle_remove"},
         constants={"count": n, "env": 0, "radius": 0.05, "tip": tip + (0.0,)})
     step(engine, 5)
