@@ -161,6 +161,8 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   }
   for (uint32_t e = 0; e < uint32_t(ne); ++e)
     if (model_.env_ranges[e].range.y > largest_env_) largest_env_ = model_.env_ranges[e].range.y, largest_env_index_ = e;
+  // families built on particle_solve.hlsli have a one-workgroup-per-env build too (`.block`)
+  const auto shaders = gpu::embedded_shader_names();
   for (auto& s : model_.sets) {
     const auto c = int64_t(s.records.size());
     auto cb = in("", "particles." + s.name + "_constraints", words(s.records),
@@ -178,9 +180,7 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
     auto p = compute::create_builtin_pass(ctx, s.shader, b);
     all_.push_back(p);
     Family f{p, nullptr, &s};
-    // families built on particle_solve.hlsli have a one-workgroup-per-env build too
-    const auto names = gpu::embedded_shader_names();
-    if (largest_env_ <= shader::PARTICLE_BLOCK_CAPACITY && std::count(names.begin(), names.end(), s.shader + ".block")) {
+    if (largest_env_ <= shader::PARTICLE_BLOCK_CAPACITY && std::count(shaders.begin(), shaders.end(), s.shader + ".block")) {
       b["env_colours"] = in("", "particles." + s.name + "_env_colours", s.env_colours,
                             {int64_t(s.env_colours.size() / 2), 2}, DType::UINT32);
       f.per_env = compute::create_builtin_pass(ctx, s.shader + ".block", b);

@@ -29,6 +29,8 @@ RWStructuredBuffer<uint> truncated;
 RWStructuredBuffer<uint> episode_length;
 RWStructuredBuffer<float> finished_length;   // length of the episode that ended this step, else 0
 
+#include "episode.hlsli"
+
 uint pcg_hash(uint v) {
   const uint state = v * 747796405u + 2891336453u;
   const uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
@@ -52,18 +54,11 @@ void evaluate(uint3 id : SV_DispatchThreadID) {
   const uint env = id.x;
   if (env >= pc.envs) return;
   const uint slider = task_joints[2 * env], hinge = task_joints[2 * env + 1];
-  const uint steps = episode_length[env] + 1;
   // out of bounds, or flagged unhealthy (NaN, speed) by the solver this frame
   const bool failed = abs(joint_positions[slider]) > pc.max_x || abs(joint_positions[hinge]) > pc.max_angle ||
                    reset_mask[env] != 0;
-  const bool over = steps >= pc.max_steps;
-  const bool done = pc.reset_all != 0 || failed || over;
   rewards[env] = pc.reset_all != 0 ? 0.0 : 1.0;
-  terminated[env] = pc.reset_all == 0 && failed ? 1 : 0;
-  truncated[env] = pc.reset_all == 0 && over && !failed ? 1 : 0;
-  finished_length[env] = done && pc.reset_all == 0 ? float(steps) : 0.0;
-  episode_length[env] = done ? 0 : steps;
-  if (!done) return;
+  if (!end_step(env, failed)) return;
   // next episode's start: uniform state, applied by the engine's reset (reset_flagged_envs)
   reset_mask[env] = 1;
   joint_reset[slider] = float4(pc.reset_range * uniform_pm1(env, 0), pc.reset_range * uniform_pm1(env, 1), 0, 0);

@@ -31,6 +31,8 @@ RWStructuredBuffer<uint> truncated;
 RWStructuredBuffer<uint> episode_length;
 RWStructuredBuffer<float> finished_length;
 
+#include "episode.hlsli"
+
 // tilt about +y (pouring toward +x) of a rotation that has only that
 float tilt_of(float4 q) { return 2 * atan2(q.y, q.w); }
 
@@ -77,16 +79,9 @@ void evaluate(uint3 id : SV_DispatchThreadID) {
   const uint env = id.x;
   if (env >= pc.envs) return;
   const FluidState s = fluid_state(env);
-  const uint steps = episode_length[env] + 1;
   const bool success = s.caught >= pc.success, failed = reset_mask[env] != 0;
-  const bool over = steps >= pc.max_steps;
-  const bool done = pc.reset_all != 0 || success || failed || over;
   rewards[env] = pc.reset_all != 0 ? 0.0 : s.caught - pc.spill_penalty * s.spilled;
-  terminated[env] = pc.reset_all == 0 && (success || failed) ? 1 : 0;
-  truncated[env] = pc.reset_all == 0 && over && !(success || failed) ? 1 : 0;
-  finished_length[env] = done && pc.reset_all == 0 ? float(steps) : 0.0;
-  episode_length[env] = done ? 0 : steps;
-  if (done) reset_mask[env] = 1;
+  if (end_step(env, success || failed)) reset_mask[env] = 1;
 }
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]

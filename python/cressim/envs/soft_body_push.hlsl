@@ -26,6 +26,8 @@ RWStructuredBuffer<uint> truncated;
 RWStructuredBuffer<uint> episode_length;
 RWStructuredBuffer<float> finished_length;
 
+#include "episode.hlsli"
+
 // centroid (xy) and the fraction of particles inside the target box
 float3 cube_state(uint env) {
   const uint4 r = particle_env_ranges[env];
@@ -57,16 +59,9 @@ void evaluate(uint3 id : SV_DispatchThreadID) {
   if (env >= pc.envs) return;
   const float3 s = cube_state(env);
   const float distance = length(s.xy - float2(pc.target_x, pc.target_y));
-  const uint steps = episode_length[env] + 1;
   const bool success = s.z >= pc.success, failed = reset_mask[env] != 0;  // flagged unhealthy this frame
-  const bool over = steps >= pc.max_steps;
-  const bool done = pc.reset_all != 0 || success || failed || over;
   rewards[env] = pc.reset_all != 0 ? 0.0 : s.z + 0.25 * max(0.0, 1.0 - 2.0 * distance);
-  terminated[env] = pc.reset_all == 0 && (success || failed) ? 1 : 0;
-  truncated[env] = pc.reset_all == 0 && over && !(success || failed) ? 1 : 0;
-  finished_length[env] = done && pc.reset_all == 0 ? float(steps) : 0.0;
-  episode_length[env] = done ? 0 : steps;
-  if (done) reset_mask[env] = 1;  // the engine puts the cube and the pusher back
+  if (end_step(env, success || failed)) reset_mask[env] = 1;  // the engine puts the cube and the pusher back
 }
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]

@@ -37,6 +37,8 @@ RWStructuredBuffer<uint> truncated;
 RWStructuredBuffer<uint> episode_length;
 RWStructuredBuffer<float> finished_length;
 
+#include "episode.hlsli"
+
 // the dark target (the tissue's centre) in the probe's image, 0 at the image centre
 float target_distance(uint env) {
   const uint4 r = task_rows[env];
@@ -61,18 +63,11 @@ void apply_action(uint3 id : SV_DispatchThreadID) {
 void evaluate(uint3 id : SV_DispatchThreadID) {
   const uint env = id.x;
   if (env >= pc.envs) return;
-  const uint steps = episode_length[env] + 1;
   const float d = target_distance(env);
   const bool centred = d <= pc.success;
   const bool failed = reset_mask[env] != 0;  // flagged unhealthy by the solver
-  const bool over = steps >= pc.max_steps;
-  const bool done = pc.reset_all != 0 || centred || failed || over;
   rewards[env] = pc.reset_all != 0 ? 0.0 : prev_distance[env] - d - 0.01 + (centred ? 1.0 : 0.0);
-  terminated[env] = pc.reset_all == 0 && (centred || failed) ? 1 : 0;
-  truncated[env] = pc.reset_all == 0 && over && !(centred || failed) ? 1 : 0;
-  finished_length[env] = done && pc.reset_all == 0 ? float(steps) : 0.0;
-  episode_length[env] = done ? 0 : steps;
-  if (!done) return;
+  if (!end_step(env, centred || failed)) return;
   reset_mask[env] = 1;  // the probe goes back to its start (the engine's reset)
   probe_offset[env] = float2(0, 0);
 }

@@ -160,13 +160,14 @@ class VectorEnv:
         common.update(self.task_bindings())
         source = self.hlsl.read_text()
         passes = {}
+        # named by the file: compiler errors give its path and line, and "episode.hlsli" beside it resolves
         for entry in ("apply_action", "evaluate", "observe"):
             passes[entry] = self.engine.create_compute_pass(
-                source, name=f"{type(self).__name__}.{entry}", entry=entry, threads=self.num_envs,
+                source, name=str(self.hlsl), entry=entry, threads=self.num_envs,
                 bindings={k: v for k, v in common.items() if k in _declared(source)},
                 constants=self.task_constants(reset_all=False))
         passes["evaluate_reset_all"] = self.engine.create_compute_pass(
-            source, name=f"{type(self).__name__}.reset_all", entry="evaluate", threads=self.num_envs,
+            source, name=str(self.hlsl), entry="evaluate", threads=self.num_envs,
             bindings={k: v for k, v in common.items() if k in _declared(source)},
             constants=self.task_constants(reset_all=True))
         return passes
