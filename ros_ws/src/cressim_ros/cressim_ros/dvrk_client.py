@@ -163,7 +163,8 @@ class Arm:
     def __init__(self, ral: Ral, ns: str = "/PSM1"):
         self.ral, self.ns = ral, ns
         self._state = _Latest(keep=200)
-        self._measured_js, self._setpoint_js = _Latest(), _Latest()
+        # a few seconds of joint states, to pair each tick's measured and setpoint (same stamp)
+        self._measured_js, self._setpoint_js = _Latest(keep=1000), _Latest(keep=1000)
         self._measured_cp, self._setpoint_cp = _Latest(), _Latest()
         self.goal_reached, self.errors, self.warnings = _Latest(keep=200), _Latest(keep=500), _Latest(keep=200)
         ral.subscriber(OperatingState, f"{ns}/operating_state", self._state, EVENT)
@@ -238,6 +239,16 @@ class Arm:
             if time.monotonic() > deadline:
                 raise RuntimeError(f"{self.ns}: measured_js and measured_cp never carried the same stamp")
             time.sleep(0.001)
+
+    def joint_states_since(self, start: float) -> list[tuple[float, np.ndarray, np.ndarray]]:
+        """(stamp, setpoint, measured) positions of every tick since `start` that both topics
+        reported: what the twin's arm did with its command in that tick, whatever the wall clock."""
+        with self._setpoint_js.cond:
+            setpoints = {stamp_s(m.header): m.position for m in self._setpoint_js.history}
+        with self._measured_js.cond:
+            measured = [m for m in self._measured_js.history if stamp_s(m.header) > start]
+        return [(stamp_s(m.header), np.array(setpoints[stamp_s(m.header)]), np.array(m.position))
+                for m in measured if stamp_s(m.header) in setpoints]
 
     def measured_js_rate(self, window: float = 1.0) -> float:
         return self._measured_js.rate(window)
