@@ -222,7 +222,17 @@ class Builder {
   void frame_constraints() {
     const uint32_t np = uint32_t(m_.size());
     for (auto& f : frames_) constraint(set("stretch_shear"), {f.p0, f.p1, np + f.edge}, f.length, 0);
-    for (auto& b : pairs_) constraint(set("bend_twist"), {np + b.e0, np + b.e1}, b.bend, b.twist);
+    // bend-twist: one chain per strand, solved directly along it (three multipliers a record: x, y
+    // bending, z twist); Gauss-Seidel by colours leaves an over-constrained chain (a cable turned
+    // at both held ends) twisted in alternate pairs instead of evenly
+    auto& bt = set("bend_twist");
+    bt.multipliers = 3;
+    for (size_t i = 0; i < pairs_.size(); ++i) {
+      const auto& b = pairs_[i];
+      if (i == 0 || pairs_[i - 1].e1 != b.e0) bt.chains.insert(bt.chains.end(), {uint32_t(bt.records.size()), 0u});
+      constraint(bt, {np + b.e0, np + b.e1}, b.bend, b.twist);
+      ++bt.chains.back();
+    }
   }
 
   void surface(const std::vector<uint32_t>& tris, uint32_t first) {
@@ -400,7 +410,12 @@ ParticleModel build_particle_model(const scene::World& world, const scene::Layou
   for (auto& o : m.objects) m.has_contacts = m.has_contacts || (o.ids.y & shader::PARTICLE_SELF_COLLIDE);
 
   for (auto& s : m.sets) {
-    colour(s, m.size() + m.orientations.size());
+    if (s.chains.empty()) {
+      colour(s, m.size() + m.orientations.size());
+    } else {  // chain order is kept: one colour of all records
+      s.colour_offset = {0};
+      s.colour_count = {uint32_t(s.records.size())};
+    }
     env_colours(s, m);
   }
   return m;

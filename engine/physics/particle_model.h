@@ -18,10 +18,15 @@ namespace cressim::physics {
 // inside a colour, by env; a record's object is the object of its first particle
 // (particles.phases[i].y). Families that move positions only also have a `<shader>.block` pass:
 // one workgroup per env projects all colours (particle_solve.hlsli).
+// A family with `chains` is solved along chains instead (particle_bend_twist.comp.hlsl): each
+// chain's records, consecutive and in chain order, are solved together by one thread (a direct
+// tridiagonal solve), so colours do not apply (one colour holds all records).
 struct ConstraintSet {
   std::string name;    // buffer key particles.<name>_constraints
   std::string shader;  // built-in pass
   std::vector<shader::ParticleConstraint> records;
+  uint32_t multipliers = 1;             // XPBD multipliers per record (particles.<name>_lambdas)
+  std::vector<uint32_t> chains;         // (first record, count) of each chain, for chain-solved families
   std::vector<uint32_t> colour_offset, colour_count;  // each colour's slice of records
   std::vector<uint32_t> env_colours;   // (first, count) of each env's records per colour, env-major
   std::vector<uint32_t> object_count;  // constraints of each object

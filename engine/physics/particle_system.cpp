@@ -167,7 +167,9 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
     const auto c = int64_t(s.records.size());
     auto cb = in("", "particles." + s.name + "_constraints", words(s.records),
                  {c, int64_t(sizeof(shader::ParticleConstraint) / 4)}, DType::UINT32);
-    auto lb = make(internal, "particles." + s.name + "_lambdas", nullptr, 0, {c}, DType::FLOAT32, true, false);
+    auto lb = make(internal, "particles." + s.name + "_lambdas", nullptr, 0,
+                   s.multipliers == 1 ? std::vector<int64_t>{c} : std::vector<int64_t>{c, int64_t(s.multipliers)},
+                   DType::FLOAT32, true, false);
     // cutting: a writable flag per record, read by constraint_index() in particle_constraint.hlsli
     const std::vector<uint32_t> whole(size_t(c), 0u);
     auto cut = make(control, "control.particle_" + s.name + "_cut", whole.data(), whole.size() * 4, {c}, DType::UINT32,
@@ -177,6 +179,11 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
     b["constraints"] = cb;
     b["lambdas"] = lb;
     b["cut"] = cut;
+    if (!s.chains.empty()) {  // chain-solved: the chain table and the direct solve's per-record scratch
+      b["chains"] = in("", "particles." + s.name + "_chains", s.chains, {int64_t(s.chains.size() / 2), 2}, DType::UINT32);
+      b["chain_scratch"] = make(internal, "particles." + s.name + "_chain_scratch", nullptr, 0, {c, 2, 4},
+                                DType::FLOAT32, true, false);
+    }
     auto p = compute::create_builtin_pass(ctx, s.shader, b);
     all_.push_back(p);
     Family f{p, nullptr, &s};
@@ -246,6 +253,16 @@ void ParticleSystem::record_families(VkCommandBuffer cmd, uint32_t passes) const
       put(*f.per_env, passes, uint32_t(f.set->colour_count.size()));
       f.per_env->record(cmd);
       gpu::compute_barrier(cmd);
+      continue;
+    }
+    if (!f.set->chains.empty()) {  // a thread per chain, all records of each at once
+      const uint32_t chains = uint32_t(f.set->chains.size() / 2);
+      put(*f.per_colour, 0, chains);
+      f.per_colour->groups = {(chains + kGroup - 1) / kGroup, 1, 1};
+      for (uint32_t pass = 0; pass < passes; ++pass) {
+        f.per_colour->record(cmd);
+        gpu::compute_barrier(cmd);
+      }
       continue;
     }
     for (uint32_t pass = 0; pass < passes; ++pass)

@@ -36,14 +36,15 @@ N, LENGTH, TURN = 11, 0.2, math.pi / 2
 
 
 def _held_strands(make_engine):
-    """Four envs, a straight cable along x (no gravity) in each, turned at its x = LENGTH end by
+    """Five envs, a straight cable along x (no gravity) in each, turned at its x = LENGTH end by
     TURN about x: env 0 held at both ends with frames, env 1 held (with frame) at the turning end
     only, env 2 held at both ends by position alone, env 3 like env 1 with a given frame offset:
-    the end frame turned by a further TURN / 2."""
-    world = cressim.World(cressim.SceneLayout(4))
+    the end frame turned by a further TURN / 2, env 4 like env 0 with its middle bend-twist
+    record cut."""
+    world = cressim.World(cressim.SceneLayout(5))
     pts = np.stack([np.linspace(0, LENGTH, N), np.zeros(N), np.full(N, 1.0)], 1)
     tools = []
-    for env in range(4):
+    for env in range(5):
         world.create_entity(env=env, name="cable").add(cressim.Strand(
             pts, mass=0.001, radius=0.005, twist_compliance=1e-3, bend_compliance=1e-3, damping=2.0))
         tools.append((_tool(world, env, "holder", 0.0), _tool(world, env, "turner", LENGTH)))
@@ -51,15 +52,17 @@ def _held_strands(make_engine):
     off = engine.particle_mapping["env_offset"]
     end_frame = engine.buffer("particles.initial_orientations").read()[N - 2]
     for env, (holder, turner) in enumerate(tools):
-        if env in (0, 2):
+        if env in (0, 2, 4):
             engine.attach_particle(env=env, slot=0, particle=int(off[env]), body=holder, hold_frame=env == 0)
         offset = tuple(_mul(_about_x(TURN / 2), end_frame)) if env == 3 else None
         engine.attach_particle(env=env, slot=1, particle=int(off[env]) + N - 1, body=turner, hold_frame=env != 2,
                                frame_offset=offset)
+    chain = engine.particle_mapping["constraints"]["bend_twist"]["chains"][4]  # env 4's strand: (first row, count)
+    engine.cut_constraints("bend_twist", [int(chain[0] + chain[1] // 2)])
     step(engine, 1)
     frames = 30
     for f in range(1, frames + 1):  # TURN over half a second, then rest
-        for env in range(4):
+        for env in range(5):
             tools[env][1].transform = cressim.Transform(position=(LENGTH, 0, 1), rotation=_about_x(TURN * f / frames))
         step(engine, 1)
     step(engine, 60)
@@ -68,15 +71,18 @@ def _held_strands(make_engine):
 
 def test_held_strand_frames_follow_the_turning_body(make_engine):
     engine = _held_strands(make_engine)
-    q = engine.buffer("particles.orientations").read().reshape(4, N - 1, 4)
-    q0 = engine.buffer("particles.initial_orientations").read().reshape(4, N - 1, 4)
+    q = engine.buffer("particles.orientations").read().reshape(5, N - 1, 4)
+    q0 = engine.buffer("particles.initial_orientations").read().reshape(5, N - 1, 4)
     segment_twists = lambda e: np.array([twist_angle(q[e, i], q[e, i + 1]) for i in range(N - 2)])  # noqa: E731
-    # held at both ends: the twists of the 9 segment pairs add up to the turn (within 0.1 deg), all
-    # the same way (frames turn monotonically from one end to the other; how evenly the pairs
-    # share it is the bend-twist solve's business: see docs/particles.md)
+    # held at both ends: a uniform rod at rest twists evenly, TURN / 9 in each of the 9 segment
+    # pairs (the equilibrium of equal torsional compliances in series), within 0.1 deg
     both = segment_twists(0)
-    assert abs(both.sum() - TURN) < math.radians(0.1)
-    assert both.min() > -math.radians(0.1)
+    assert np.abs(both - TURN / (N - 2)).max() < math.radians(0.1), np.degrees(both)
+    # the middle record cut: each half follows its own held end untwisted, the cut pair takes the turn
+    cut = segment_twists(4)
+    middle = (N - 2) // 2
+    assert abs(cut[middle] - TURN) < math.radians(0.1), np.degrees(cut)
+    assert np.abs(np.delete(cut, middle)).max() < math.radians(0.1), np.degrees(cut)
     # held at the turning end only: the relaxed cable turns with the body, every frame within 0.1 deg
     one = np.array([twist_angle(q0[1, i], q[1, i]) for i in range(N - 1)])
     assert np.abs(one - TURN).max() < math.radians(0.1)
