@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <numbers>
 #include <random>
 #include <stdexcept>
@@ -152,6 +153,13 @@ void generate(const scene::World& world, scene::EntityId e, uint32_t row, uint32
   }
 }
 
+// the soft body's first particle in the particle model
+uint32_t first_particle(const scene::World& world, scene::EntityId e, const physics::ParticleModel& particles) {
+  for (size_t o = 0; o < particles.objects.size(); ++o)
+    if (particles.object_entity[o] == e) return particles.objects[o].range.x;
+  throw std::logic_error(world.describe(e) + ": its SoftBody is not in the particle model");
+}
+
 // soft carrier: each tet gets volume x density scatterers (the fraction drawn), uniform inside
 // it by barycentric weights (sorted uniforms: uniform on the simplex); inclusions are judged
 // at the rest position in the entity frame, so they deform with the tets
@@ -159,12 +167,7 @@ void generate_in_tets(const scene::World& world, scene::EntityId e, const physic
                       uint32_t tissue, UltrasoundModel& m) {
   const auto& t = world.get<scene::UltrasoundTissue>(e);
   const auto& sb = world.get<scene::SoftBody>(e);
-  if (sb.tets.empty())
-    fail(world, e, "UltrasoundTissue on a SoftBody without tets: scatterers ride on tets (give the SoftBody a TetMesh)");
-  uint32_t first = UINT32_MAX;
-  for (size_t o = 0; o < particles.objects.size(); ++o)
-    if (particles.object_entity[o] == e) first = particles.objects[o].range.x;
-  if (first == UINT32_MAX) throw std::logic_error(world.describe(e) + ": its SoftBody is not in the particle model");
+  const uint32_t first = first_particle(world, e, particles);
   const scene::Transform tf = world.has<scene::Transform>(e) ? world.get<scene::Transform>(e) : scene::Transform{};
   auto local = [&](uint32_t v) {
     return scene::Vec3{sb.positions[3 * v], sb.positions[3 * v + 1], sb.positions[3 * v + 2]};
@@ -216,6 +219,123 @@ void generate_in_tets(const scene::World& world, scene::EntityId e, const physic
   }
 }
 
+// meshfree carrier (a SoftBody without tets): the tissue is the union of the cubes of side s
+// (the median nearest-neighbour spacing) centred on the particles at rest, filled at the
+// tissue's density by rejection sampling in its bounds. Each scatterer rides on four of its
+// nearest particles that span a volume (affine weights, negative outside their tetrahedron), so
+// it follows the particles' local affine motion; scatterers with the same four share one entry
+// of the tet table. Inclusions are judged at the rest position, as for tets.
+void generate_in_particles(const scene::World& world, scene::EntityId e, const physics::ParticleModel& particles,
+                           uint32_t tissue, UltrasoundModel& m) {
+  const auto& t = world.get<scene::UltrasoundTissue>(e);
+  const auto& sb = world.get<scene::SoftBody>(e);
+  const uint32_t first = first_particle(world, e, particles), n = uint32_t(sb.positions.size() / 3);
+  if (n < 4) fail(world, e, "UltrasoundTissue on a meshfree SoftBody needs at least 4 particles");
+  const scene::Transform tf = world.has<scene::Transform>(e) ? world.get<scene::Transform>(e) : scene::Transform{};
+  using V = std::array<double, 3>;
+  std::vector<V> x(n);
+  V lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+  for (uint32_t i = 0; i < n; ++i)
+    for (int d = 0; d < 3; ++d) {
+      x[i][d] = sb.positions[3 * i + d];
+      lo[d] = std::min(lo[d], x[i][d]), hi[d] = std::max(hi[d], x[i][d]);
+    }
+  auto dist2 = [](const V& a, const V& b) {
+    return (a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]);
+  };
+  // a grid of cell s over the particles: the spacing first (brute force over a sample is enough
+  // for a median), then neighbour lookups
+  std::vector<double> nearest;
+  for (uint32_t i = 0; i < n; i += std::max<uint32_t>(1, n / 256)) {
+    double best = 1e300;
+    for (uint32_t j = 0; j < n; ++j)
+      if (j != i) best = std::min(best, dist2(x[i], x[j]));
+    nearest.push_back(std::sqrt(best));
+  }
+  std::nth_element(nearest.begin(), nearest.begin() + nearest.size() / 2, nearest.end());
+  const double s = nearest[nearest.size() / 2];
+  if (!(s > 0)) fail(world, e, "UltrasoundTissue on a meshfree SoftBody: particles coincide");
+  for (int d = 0; d < 3; ++d) lo[d] -= s / 2, hi[d] += s / 2;
+  int dims[3];
+  for (int d = 0; d < 3; ++d) dims[d] = std::max(1, int(std::ceil((hi[d] - lo[d]) / s)));
+  auto cell_of = [&](const V& p, int d) { return std::clamp(int((p[d] - lo[d]) / s), 0, dims[d] - 1); };
+  std::vector<std::vector<uint32_t>> cells(size_t(dims[0]) * dims[1] * dims[2]);
+  for (uint32_t i = 0; i < n; ++i)
+    cells[(size_t(cell_of(x[i], 2)) * dims[1] + cell_of(x[i], 1)) * dims[0] + cell_of(x[i], 0)].push_back(i);
+  // particles within two cells of p, nearest first
+  auto around = [&](const V& p) {
+    std::vector<std::pair<double, uint32_t>> near;
+    const int c[3] = {cell_of(p, 0), cell_of(p, 1), cell_of(p, 2)};
+    for (int k = std::max(0, c[2] - 2); k <= std::min(dims[2] - 1, c[2] + 2); ++k)
+      for (int j = std::max(0, c[1] - 2); j <= std::min(dims[1] - 1, c[1] + 2); ++j)
+        for (int i = std::max(0, c[0] - 2); i <= std::min(dims[0] - 1, c[0] + 2); ++i)
+          for (uint32_t q : cells[(size_t(k) * dims[1] + j) * dims[0] + i]) near.push_back({dist2(p, x[q]), q});
+    std::sort(near.begin(), near.end());
+    return near;
+  };
+  auto sub = [](const V& a, const V& b) { return V{a[0] - b[0], a[1] - b[1], a[2] - b[2]}; };
+  auto cross = [](const V& a, const V& b) {
+    return V{a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+  };
+  auto dot = [](const V& a, const V& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; };
+
+  // scatterers: the tissue's count, or density x volume (scale applies, as to the particles)
+  const double box = (hi[0] - lo[0]) * (hi[1] - lo[1]) * (hi[2] - lo[2]);
+  const double scaled = std::abs(double(tf.scale[0]) * tf.scale[1] * tf.scale[2]);
+  const double inside_estimate = std::min(box, double(n) * s * s * s);
+  const double wanted = t.count > 0 ? double(t.count) : double(t.density) * inside_estimate * scaled;
+  check_count(world, e, wanted);
+  auto rng = seeded(t, e);
+  std::uniform_real_distribution<double> uni(0, 1);
+  std::normal_distribution<float> amp(t.amplitude_mean, t.amplitude_std);
+  std::map<std::array<uint32_t, 4>, uint32_t> frames;
+  // by count: draw until that many land inside; by density: the box's worth of draws, the
+  // inside ones kept (so the count follows the true volume, not the estimate)
+  const uint64_t draws = t.count > 0 ? UINT64_MAX : uint64_t(std::llround(double(t.density) * box * scaled));
+  uint64_t kept = 0;
+  for (uint64_t k = 0; k < draws && (t.count == 0 || kept < t.count); ++k) {
+    if (t.count > 0 && k > 1000 * uint64_t(t.count) + 1000000)
+      fail(world, e, "UltrasoundTissue on a meshfree SoftBody: too few draws land in the tissue");
+    const V p{lo[0] + uni(rng) * (hi[0] - lo[0]), lo[1] + uni(rng) * (hi[1] - lo[1]), lo[2] + uni(rng) * (hi[2] - lo[2])};
+    const auto near = around(p);
+    if (near.empty()) continue;
+    const V& c = x[near[0].second];
+    if (std::abs(p[0] - c[0]) > s / 2 || std::abs(p[1] - c[1]) > s / 2 || std::abs(p[2] - c[2]) > s / 2) continue;
+    // four nearest that span a volume: a second, a third off their line, a fourth off their plane
+    std::array<uint32_t, 4> f{near[0].second, UINT32_MAX, UINT32_MAX, UINT32_MAX};
+    const double tiny = 1e-3 * s;
+    for (size_t q = 1; q < near.size() && f[3] == UINT32_MAX; ++q) {
+      const uint32_t id = near[q].second;
+      const V d = sub(x[id], x[f[0]]);
+      if (f[1] == UINT32_MAX) {
+        f[1] = id;
+      } else if (f[2] == UINT32_MAX) {
+        if (std::sqrt(dot(cross(sub(x[f[1]], x[f[0]]), d), cross(sub(x[f[1]], x[f[0]]), d))) > tiny * s) f[2] = id;
+      } else if (std::abs(dot(cross(sub(x[f[1]], x[f[0]]), sub(x[f[2]], x[f[0]])), d)) > tiny * s * s) {
+        f[3] = id;
+      }
+    }
+    if (f[3] == UINT32_MAX) fail(world, e, "UltrasoundTissue on a meshfree SoftBody: particles near (" +
+                                               std::to_string(p[0]) + ", " + std::to_string(p[1]) + ", " +
+                                               std::to_string(p[2]) + ") all lie in one plane");
+    // affine weights of p in the frame (x1 - x0, x2 - x0, x3 - x0): Cramer's rule
+    const V a = sub(x[f[1]], x[f[0]]), b = sub(x[f[2]], x[f[0]]), cc = sub(x[f[3]], x[f[0]]), r = sub(p, x[f[0]]);
+    const double det = dot(a, cross(b, cc));
+    const float w[3] = {float(dot(r, cross(b, cc)) / det), float(dot(a, cross(r, cc)) / det),
+                        float(dot(a, cross(b, r)) / det)};
+    const float ampl = amplitude(t, scene::Vec3{float(p[0]), float(p[1]), float(p[2])}, amp, rng);
+    ++kept;
+    if (ampl == 0) continue;
+    auto [it, added] = frames.try_emplace(f, uint32_t(m.tets.size()));
+    if (added) {
+      if (m.tets.size() + 1 >= shader::ULTRASOUND_TET_CARRIER) throw std::invalid_argument("more than 2^31 ultrasound tets");
+      m.tets.push_back({first + f[0], first + f[1], first + f[2], first + f[3]});
+    }
+    m.scatterers.push_back({w[0], w[1], w[2], ampl});
+    m.scatterer_carrier.push_back({it->second | shader::ULTRASOUND_TET_CARRIER, tissue});
+  }
+}
+
 }  // namespace
 
 UltrasoundModel build_ultrasound_model(const scene::World& world, const scene::LayoutMapping& mapping,
@@ -231,7 +351,10 @@ UltrasoundModel build_ultrasound_model(const scene::World& world, const scene::L
         check(world, e, t);
         const uint32_t tissue = uint32_t(m.tissue_attenuation.size());
         m.tissue_attenuation.push_back(t.attenuation);
-        if (world.has<scene::SoftBody>(e)) generate_in_tets(world, e, particles, tissue, m);
+        if (world.has<scene::SoftBody>(e) && !world.get<scene::SoftBody>(e).tets.empty())
+          generate_in_tets(world, e, particles, tissue, m);
+        else if (world.has<scene::SoftBody>(e))
+          generate_in_particles(world, e, particles, tissue, m);
         else generate(world, e, row, tissue, m);
       }
       if (!world.has<scene::UltrasoundProbe>(e)) continue;
