@@ -351,11 +351,9 @@ UltrasoundModel build_ultrasound_model(const scene::World& world, const scene::L
         check(world, e, t);
         const uint32_t tissue = uint32_t(m.tissue_attenuation.size());
         m.tissue_attenuation.push_back(t.attenuation);
-        if (world.has<scene::SoftBody>(e) && !world.get<scene::SoftBody>(e).tets.empty())
-          generate_in_tets(world, e, particles, tissue, m);
-        else if (world.has<scene::SoftBody>(e))
-          generate_in_particles(world, e, particles, tissue, m);
-        else generate(world, e, row, tissue, m);
+        if (!world.has<scene::SoftBody>(e)) generate(world, e, row, tissue, m);
+        else if (world.get<scene::SoftBody>(e).tets.empty()) generate_in_particles(world, e, particles, tissue, m);
+        else generate_in_tets(world, e, particles, tissue, m);
       }
       if (!world.has<scene::UltrasoundProbe>(e)) continue;
       uint32_t samples = 0;

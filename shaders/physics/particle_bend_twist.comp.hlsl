@@ -1,8 +1,8 @@
 // Strand bend and twist (Kugelstadt & Schoemer 2016), solved along each strand at once. Record i
 // pulls the Darboux vector Omega_i = q_i* q_{i+1} of neighbouring segment frames to its rest value
 // (straight, untwisted: the identity), C_i = Im(Omega_i): x, y bending (compliance params.x), z
-// twist (params.y). Frame updates, with delta_i = -dlambda_i (a pure quaternion):
-//   q_i += w_i q_{i+1} delta_i,  q_{i+1} -= w_{i+1} q_i delta_i.
+// twist (params.y). Its step on the two frames, with delta_i = -dlambda_i (a pure quaternion):
+//   q_i += w_i q_{i+1} delta_i,  q_{i+1} -= w_{i+1} q_i delta_i  (applied below to first order).
 // Neighbouring records share a frame, so the XPBD step of a whole chain is one linear system,
 // tridiagonal and the same for each component (Deul et al. 2018 solve rods directly for this):
 //   (w_i + w_{i+1} + a_i) dl_i - s w_i dl_{i-1} - s' w_{i+1} dl_{i+1} = -C_i - a_i lambda_i
@@ -21,6 +21,8 @@ StructuredBuffer<float> orientation_weights;
 StructuredBuffer<uint4> phases;
 StructuredBuffer<uint> edge_particles;
 StructuredBuffer<ParticleAttachment> attachments;
+StructuredBuffer<uint2> chains;               // (first record, count)
+RWStructuredBuffer<float4> chain_scratch;     // per record: (g bend, g twist, sign, on), then d' / dl
 
 static const float COMPLIANCE_FLOOR = 1e-3;
 
@@ -45,8 +47,6 @@ float frame_weight(uint e) {
     if (anchors[k] == e) return 0;
   return orientation_weights[e];
 }
-StructuredBuffer<uint2> chains;               // (first record, count)
-RWStructuredBuffer<float4> chain_scratch;     // per record: (g bend, g twist, sign, on), then d' / dl
 
 float4 darboux(uint c) {
   const ParticleConstraint rec = constraints[c];
@@ -77,7 +77,6 @@ void main(uint3 id : SV_DispatchThreadID) {
     // system is singular without compliance (the total twist between anchors cannot change),
     // and a compliance far below the weights is lost to float rounding
     const float2 a = max(float2(rec.params.x, rec.params.y) / h2, COMPLIANCE_FLOOR * max(w0, w1));
-
     const float2 diag = (w0 + w1) + a;
     const bool on = cut[c] == 0 && min(diag.x, diag.y) > 1e-20;
     float2 g = float2(0, 0);
