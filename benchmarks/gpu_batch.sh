@@ -6,6 +6,7 @@
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-soft bench-fluid  # SoftBodyPush, FluidPour
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-r bench-us  # render extras, ultrasound
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-pr          # particles drawn by the renderer
+#   source .gpu/prelude.sh; CRESSIM_TESTS=OFF bash benchmarks/gpu_batch.sh setup bench-tc bench-ppo  # PPO
 # Results (text and JSON) go to $OUT/r (default out/gpu/r). Each command has its own time limit, so
 # one slow run cannot eat the stage. `setup` also installs the pure-Python wheels the twin's
 # kinematics need (.gpu-wheels, made on the development machine: benchmarks/README.md) into
@@ -97,6 +98,20 @@ for stage in "$@"; do
       mkdir -p "$OUT/targetcenter_ppo"
       run targetcenter_ppo 150 python3 -m cressim bench TargetCenter --envs 256,1024 --mode both \
         --out "$OUT/targetcenter_ppo"
+      ;;
+    bench-tc)  # TargetCenter at the paper's counts (step from 1) and PPO (cnn 256, minibatch 256)
+      mkdir -p "$OUT/targetcenter_small" "$OUT/targetcenter_ppo"
+      run targetcenter_small 90 python3 -m cressim bench TargetCenter --envs 1,8,32 --mode step \
+        --out "$OUT/targetcenter_small"
+      run targetcenter_ppo 300 python3 -m cressim bench TargetCenter --envs ${TC_PPO_ENVS:-32,256,1024} --mode both \
+        --out "$OUT/targetcenter_ppo"
+      ;;
+    bench-ppo)  # end-to-end PPO at the paper's minibatches (the learner replays CUDA graphs)
+      for spec in "CartPole 256,1024,4096" "SoftBodyPush 512" "FluidPour 128" "UltrasoundScan 32"; do
+        read -r task counts <<< "$spec"
+        mkdir -p "$OUT/ppo_$task"
+        run "ppo_$task" 150 python3 -m cressim bench "$task" --envs "$counts" --mode ppo --device cuda --out "$OUT/ppo_$task"
+      done
       ;;
     bench-pr)  # particles drawn by the renderer: SoftBodyPush / FluidPour worlds, a 64x64 camera per env
       run particle_render 240 python3 benchmarks/bench_particle_render.py --envs 256,1024,4096 --frames 30 \

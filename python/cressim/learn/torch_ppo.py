@@ -3,7 +3,9 @@ only numpy, torch, matplotlib, pytest). Same settings and the same method names 
 rsl_rl.algorithms.PPO (act, process_env_step, compute_returns, update, save, load), so one
 training loop drives either; the update follows rsl-rl's: whole-rollout advantage
 normalisation, time-out bootstrapping, one shuffle reused by all epochs, gradients clipped
-separately for actor and critic."""
+separately for actor and critic. On CUDA the policy step and the minibatch update are replayed
+as CUDA graphs (cuda_graph.py): the networks are small enough that launching kernels one by one
+would cost more than running them."""
 from __future__ import annotations
 
 import math
@@ -14,6 +16,7 @@ from torch import nn
 from torch.distributions import Normal
 
 from .config import PPOConfig
+from .cuda_graph import Captured
 
 
 def mlp(inputs: int, hidden: tuple, outputs: int) -> nn.Sequential:
@@ -68,7 +71,9 @@ class TorchPPO:
         self.critic = network(cfg, num_obs, obs_shape, 1).to(self.device)
         self.log_std = nn.Parameter(torch.full((num_actions,), cfg.init_log_std, device=self.device))
         self.actor_params = [*self.actor.parameters(), self.log_std]
-        self.optimizer = torch.optim.Adam(chain(self.actor_params, self.critic.parameters()), lr=cfg.lr)
+        # capturable: the step count stays on the device, so the update can be a CUDA graph
+        self.optimizer = torch.optim.Adam(chain(self.actor_params, self.critic.parameters()), lr=cfg.lr,
+                                          capturable=self.device.type == "cuda")
         self.learning_rate = cfg.lr
         self.num_mini_batches = cfg.num_mini_batches(num_envs)
         T, N = cfg.rollout, num_envs
@@ -76,20 +81,32 @@ class TorchPPO:
         # observations are stored as they come: a float rollout of uint8 images would be 4x larger
         self.obs, self.actions = z(num_obs, dtype=obs_dtype), z(num_actions)
         self.log_prob, self.values, self.rewards, self.returns = z(), z(), z(), z()
+        self.advantages = z()
         self.dones = z(dtype=torch.bool)
         self.step = 0
+        # the graphs' fixed inputs: this step's observations, one minibatch's sample indices
+        self._act_obs = torch.zeros(N, num_obs, device=self.device, dtype=obs_dtype)
+        self._minibatch = torch.zeros(T * N // self.num_mini_batches, device=self.device, dtype=torch.long)
+        self._loss_sums = torch.zeros(3, device=self.device)  # value, surrogate, entropy; read once per update
+        self._policy_step = Captured(self._sample_policy, self.device)
+        self._learn_step = Captured(self._learn_minibatch, self.device)
 
     def _dist(self, x: torch.Tensor) -> Normal:
-        return Normal(self.actor(x), self.log_std.exp())
+        # no argument checks: they read values back to the host, a sync per call (and no graph)
+        return Normal(self.actor(x), self.log_std.exp(), validate_args=False)
+
+    def _sample_policy(self):
+        x = self._act_obs
+        dist = self._dist(x)
+        a = dist.rsample()  # loc + scale * N(0, 1): the same draws as sample(), without its check of scale
+        return a, dist.log_prob(a).sum(-1), self.critic(x).squeeze(-1)
 
     def act(self, obs) -> torch.Tensor:
         x, t = obs["policy"], self.step
-        dist = self._dist(x)
-        a = dist.sample()
-        self.obs[t], self.actions[t] = x, a
-        self.log_prob[t] = dist.log_prob(a).sum(-1)
-        self.values[t] = self.critic(x).squeeze(-1)
-        return a
+        self._act_obs.copy_(x)
+        a, log_prob, value = self._policy_step()
+        self.obs[t].copy_(x), self.actions[t].copy_(a), self.log_prob[t].copy_(log_prob), self.values[t].copy_(value)
+        return self.actions[t]
 
     def process_env_step(self, obs, rewards, dones, extras) -> None:
         # a truncated episode is not a failure: add the discounted value of where it stopped
@@ -108,34 +125,37 @@ class TorchPPO:
             self.returns[t] = adv + self.values[t]
             next_values = self.values[t]
         a = self.returns - self.values
-        self.advantages = (a - a.mean()) / (a.std() + 1e-8)
+        self.advantages.copy_((a - a.mean()) / (a.std() + 1e-8))
 
-    def update(self) -> dict:
-        c, n = self.cfg, self.num_mini_batches
-        flat = lambda x: x.flatten(0, 1)  # noqa: E731
+    def _learn_minibatch(self) -> None:
+        """One optimizer step on the samples indexed by self._minibatch."""
+        c, b = self.cfg, self._minibatch
+        flat = lambda x: x.flatten(0, 1)[b]  # noqa: E731
         obs, actions, old_logp = flat(self.obs), flat(self.actions), flat(self.log_prob)
         returns, advantages = flat(self.returns), flat(self.advantages)
-        size = obs.shape[0] // n
+        dist = self._dist(obs)
+        ratio = torch.exp(dist.log_prob(actions).sum(-1) - old_logp)
+        surrogate = torch.max(-advantages * ratio, -advantages * ratio.clamp(1 - c.clip, 1 + c.clip)).mean()
+        value = (returns - self.critic(obs).squeeze(-1)).pow(2).mean()
+        entropy = dist.entropy().sum(-1).mean()
+        loss = surrogate + c.value_coef * value - c.entropy_coef * entropy
+        self.optimizer.zero_grad()
+        loss.backward()
+        nn.utils.clip_grad_norm_(self.actor_params, c.max_grad_norm)
+        nn.utils.clip_grad_norm_(self.critic.parameters(), c.max_grad_norm)
+        self.optimizer.step()
+        self._loss_sums += torch.stack([value, surrogate, entropy]).detach()
+
+    def update(self) -> dict:
+        c, n, size = self.cfg, self.num_mini_batches, self._minibatch.numel()
         order = torch.randperm(n * size, device=self.device)
-        sums = torch.zeros(3, device=self.device)  # value, surrogate, entropy; one sync at the end
+        self._loss_sums.zero_()
         for _ in range(c.epochs):
             for i in range(n):
-                b = order[i * size:(i + 1) * size]
-                dist = self._dist(obs[b])
-                ratio = torch.exp(dist.log_prob(actions[b]).sum(-1) - old_logp[b])
-                adv = advantages[b]
-                surrogate = torch.max(-adv * ratio, -adv * ratio.clamp(1 - c.clip, 1 + c.clip)).mean()
-                value = (returns[b] - self.critic(obs[b]).squeeze(-1)).pow(2).mean()
-                entropy = dist.entropy().sum(-1).mean()
-                loss = surrogate + c.value_coef * value - c.entropy_coef * entropy
-                self.optimizer.zero_grad()
-                loss.backward()
-                nn.utils.clip_grad_norm_(self.actor_params, c.max_grad_norm)
-                nn.utils.clip_grad_norm_(self.critic.parameters(), c.max_grad_norm)
-                self.optimizer.step()
-                sums += torch.stack([value, surrogate, entropy]).detach()
+                self._minibatch.copy_(order[i * size:(i + 1) * size])
+                self._learn_step()
         self.step = 0
-        value, surrogate, entropy = (sums / (c.epochs * n)).tolist()
+        value, surrogate, entropy = (self._loss_sums / (c.epochs * n)).tolist()
         return {"value": value, "surrogate": surrogate, "entropy": entropy}
 
     def train_mode(self) -> None:
