@@ -1,5 +1,6 @@
 #include "render/render_model.h"
 
+#include "render/mip_chain.h"
 #include "render/particle_geometry.h"
 
 #include <algorithm>
@@ -47,6 +48,7 @@ RenderModel build_render_model(const scene::World& world, const scene::LayoutMap
     const size_t first = m.texels.size();
     m.texels.resize(first + size_t(t.width) * t.height);
     std::memcpy(m.texels.data() + first, t.rgba.data(), t.rgba.size());  // little-endian RGBA8 words
+    m.textures.back().extent.w = append_mip_chain(m.texels, t.width, t.height);
   }
   const auto& layout = world.layout();
   const uint32_t slots = layout.max_lights_per_env;

@@ -55,7 +55,7 @@ struct EnvLighting {
 };
 
 struct TextureInfo {
-  uint4 extent;  // x first texel in render.texels, y width, z height
+  uint4 extent;  // x first texel in render.texels, y width, z height, w mip levels (each after the last)
 };
 
 CRESSIM_SHADER_END

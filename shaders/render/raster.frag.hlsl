@@ -17,7 +17,7 @@ PSOut main(Varyings i) {
   // meshes whose vertices come from a buffer have no normals: the triangle's, from derivatives
   const float3 n = r.maps.y != 0 ? cross(ddy(i.world), ddx(i.world)) : i.normal;
   PSOut o;
-  o.color = encode_color(shade(r, i.world, n, i.uv, positions[cameras[i.camera].ids.x].xyz));
+  o.color = encode_color(shade(r, i.world, n, i.uv, float4(ddx(i.uv), ddy(i.uv)), positions[cameras[i.camera].ids.x].xyz));
   o.depth = i.depth;
   o.segmentation = r.ids.z;
   return o;

@@ -96,6 +96,13 @@ bool may_cover(RenderableData r, uint4 m, CameraData c, float4 eye_q, float3 eye
 
 float edge(float2 a, float2 b, float2 p) { return (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x); }
 
+// barycentrics (b1, b2) where the ray from the eye along d meets the plane of the triangle
+// v0, v0 + e1, v0 + e2 (outside the triangle too)
+float2 ray_barycentrics(float3 d, float3 v0, float3 e1, float3 e2) {
+  const float3 h = cross(d, e2), q = cross(-v0, e1);
+  return float2(dot(-v0, h), dot(d, q)) / dot(e1, h);
+}
+
 // one pixel against the (fan of the) polygon; mode 0: depth, 1: id
 void cover(Screen s, int2 px, int2 origin, uint mode, uint id, float near, float far) {
   const float2 p = float2(px) + 0.5;
@@ -208,6 +215,7 @@ void main(uint3 group : SV_GroupID, uint tid : SV_GroupIndex) {
     const float det = dot(e1, h);
     const float raster_depth = asfloat(zbuf[i]);
     float b1 = 1.0 / 3, b2 = 1.0 / 3, depth = raster_depth;
+    bool exact = false;
     if (abs(det) > 1e-20) {
       const float3 s0 = -v[0];
       const float3 q = cross(s0, e1);
@@ -218,15 +226,24 @@ void main(uint3 group : SV_GroupID, uint tid : SV_GroupIndex) {
         b1 = dot(s0, h) / det;
         b2 = dot(d, q) / det;
         depth = t;
+        exact = true;
       }
+    }
+    // the texture coordinates' change per pixel: the same plane hit by the rays one pixel over
+    float4 uv_grad = 0;
+    const float2 uv0 = vertex_uvs[vi[0]], uv1 = vertex_uvs[vi[1]] - uv0, uv2 = vertex_uvs[vi[2]] - uv0;
+    if (exact) {
+      const float2 bx = ray_barycentrics(d + float3(1 / c.intrinsics.x, 0, 0), v[0], e1, e2) - float2(b1, b2);
+      const float2 by = ray_barycentrics(d + float3(0, 1 / c.intrinsics.y, 0), v[0], e1, e2) - float2(b1, b2);
+      uv_grad = float4(bx.x * uv1 + bx.y * uv2, by.x * uv1 + by.y * uv2);
     }
     const float b0 = 1 - b1 - b2;
     const float3 world = eye_p + quat_rotate(eye_q, d * depth);
     const float3 n = r.maps.y != 0 ? quat_rotate(eye_q, cross(e1, e2))  // flat: the triangle's
                                    : b0 * world_normal(r, vi[0]) + b1 * world_normal(r, vi[1]) + b2 * world_normal(r, vi[2]);
-    const float2 uv = b0 * vertex_uvs[vi[0]] + b1 * vertex_uvs[vi[1]] + b2 * vertex_uvs[vi[2]];
+    const float2 uv = uv0 + b1 * uv1 + b2 * uv2;
     if (pc.products & 1) {
-      const uint4 bytes = uint4(round(saturate(encode_color(shade(r, world, n, uv, eye_p))) * 255));
+      const uint4 bytes = uint4(round(saturate(encode_color(shade(r, world, n, uv, uv_grad, eye_p))) * 255));
       out_rgb[at] = bytes.x | (bytes.y << 8) | (bytes.z << 16) | (bytes.w << 24);
     }
     if (pc.products & 2) out_depth[at] = depth;

@@ -6,21 +6,42 @@
 #include "image_lighting.hlsli"
 
 static const float PI = 3.14159265;
+static const uint MAX_MIP_LEVELS = 16;  // textures up to 32,768 texels a side
 
-float4 texel(TextureInfo t, int2 p) {
-  const int2 size = int2(t.extent.yz);
+float4 texel(uint first, int2 size, int2 p) {
   p = ((p % size) + size) % size;  // wrap
-  const uint w = texels[t.extent.x + uint(p.y) * t.extent.y + uint(p.x)];
+  const uint w = texels[first + uint(p.y) * uint(size.x) + uint(p.x)];
   return float4(w & 0xff, (w >> 8) & 0xff, (w >> 16) & 0xff, w >> 24) / 255.0;
 }
 
-float4 sample_texture(uint index, float2 uv) {  // bilinear, sRGB texels to linear
-  const TextureInfo t = texture_infos[index];
-  const float2 x = uv * float2(t.extent.yz) - 0.5;
-  const int2 p = int2(floor(x));
+float4 bilinear(TextureInfo t, uint level, float2 uv) {
+  uint first = t.extent.x;
+  uint2 size = t.extent.yz;
+  // levels follow one another, each half the one above; a fixed bound: looping up to `level`
+  // alone read the wrong level in lavapipe's compute rasterizer (its graphics path was right)
+  for (uint k = 0; k < MAX_MIP_LEVELS - 1; ++k) {
+    if (k >= level) break;
+    first += size.x * size.y;
+    size = max(size / 2, 1);
+  }
+  const float2 x = uv * float2(size) - 0.5;
+  const int2 p = int2(floor(x)), s = int2(size);
   const float2 f = x - float2(p);
-  const float4 c = lerp(lerp(texel(t, p), texel(t, p + int2(1, 0)), f.x),
-                        lerp(texel(t, p + int2(0, 1)), texel(t, p + int2(1, 1)), f.x), f.y);
+  return lerp(lerp(texel(first, s, p), texel(first, s, p + int2(1, 0)), f.x),
+              lerp(texel(first, s, p + int2(0, 1)), texel(first, s, p + int2(1, 1)), f.x), f.y);
+}
+
+// trilinear, sRGB texels to linear; uv_grad = (du/dx, dv/dx, du/dy, dv/dy) per pixel picks the
+// level whose texels are about a pixel wide (the larger of the two screen axes)
+float4 sample_texture(uint index, float2 uv, float4 uv_grad) {
+  const TextureInfo t = texture_infos[index];
+  const float2 size = float2(t.extent.yz);
+  const float texels_per_pixel = max(length(uv_grad.xy * size), length(uv_grad.zw * size));
+  const uint last = clamp(t.extent.w, 1u, MAX_MIP_LEVELS) - 1;
+  const float lod = clamp(log2(max(texels_per_pixel, 1e-8)), 0.0, float(last));
+  const uint k = uint(lod);
+  float4 c = bilinear(t, k, uv);
+  if (k < last && lod > k) c = lerp(c, bilinear(t, k + 1, uv), lod - k);
   return float4(pow(c.rgb, 2.2), c.a);
 }
 
@@ -60,14 +81,15 @@ float3 brdf_cos(float3 n, float3 v, float3 l, float3 base, float metallic, float
   return (diffuse + PI * d * g * f / (4 * nl * nv)) * nl;
 }
 
-// linear RGBA of a surface point seen from `eye`; n need not face the eye
-float4 shade(RenderableData r, float3 world, float3 n, float2 uv, float3 eye) {
+// linear RGBA of a surface point seen from `eye`; n need not face the eye; uv_grad: the texture
+// coordinates' change per pixel (sample_texture)
+float4 shade(RenderableData r, float3 world, float3 n, float2 uv, float4 uv_grad, float3 eye) {
   const EnvLighting env = env_lighting[r.ids.w];
   n = normalize(n);
   const float3 v = normalize(eye - world);
   if (dot(n, v) < 0) n = -n;  // two-sided
   float4 base = r.color;
-  if (r.maps.x != 0) base *= sample_texture(r.maps.x - 1, uv);
+  if (r.maps.x != 0) base *= sample_texture(r.maps.x - 1, uv, uv_grad);
   const float metallic = saturate(r.material.x), roughness = clamp(r.material.y, 0.05, 1.0);
   float3 rgb = env.map.x != 0 ? image_lighting(env, n, v, base.rgb, metallic, roughness)
                               : lerp(env.ground.rgb, env.sky.rgb, 0.5 + 0.5 * n.z) * base.rgb;

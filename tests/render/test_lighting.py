@@ -1,6 +1,7 @@
 """Lights and materials checked against the shading model's closed forms: a white matte
 surface facing a directional light, the inverse square of a point light, a spot's cone, a
-directional light's shadow, and a checker texture sampled through uvs."""
+directional light's shadow, and a checker texture sampled through uvs, magnified and minified
+(mip levels)."""
 import math
 
 import numpy as np
@@ -129,6 +130,24 @@ def test_checker_texture_through_uvs(make_engine):
     # white squares: 0.97 of the light; black ones keep the specular 0.01 (srgb 32)
     white, black = srgb(0.97), srgb(0.01)
     assert np.all(np.abs(values[0::2] - white) <= 4) and np.all(np.abs(values[1::2] - black) <= 4), values
+
+
+def test_minified_checker_averages_to_its_mean(make_engine):
+    # a one-texel 256 x 256 checker on the same 1 m plane covers 60 pixels: about 4 texels per
+    # pixel, where one bilinear lookup would alias; the mip level of about a texel per pixel
+    # holds the linear mean, 0.5: diffuse 0.96 x 0.5 + specular 0.01 of the light
+    def place(world):
+        checker = (np.indices((256, 256)).sum(0) % 2 * 255).astype(np.uint8)
+        tex = world.add_texture(cressim.Texture(np.ascontiguousarray(checker[..., None].repeat(3, 2))))
+        e = world.create_entity(env=0, name="floor")
+        e.add(cressim.Transform())
+        e.add(cressim.Renderable(world.add_mesh(cressim.Mesh.plane(0.5)), color=(1, 1, 1, 1), roughness=1.0,
+                                 texture=tex))
+        light(world, rotation=DOWN, intensity=1.0)
+
+    rgb = render(make_engine, place, fov=30)
+    inside = rgb[12:52, 12:52, 0]  # the plane spans pixels 2..61
+    assert np.abs(inside - srgb(0.49)).max() <= 4, (inside.min(), inside.max(), srgb(0.49))
 
 
 def test_shadow_and_camera_groups_split_without_changing_images(make_engine, monkeypatch):
