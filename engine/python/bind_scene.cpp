@@ -1,3 +1,4 @@
+#include <cstring>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -216,23 +217,35 @@ void bind_render_components(py::module_& m) {
            }),
            py::arg("image"), "image: (height, width, 3 or 4) uint8, sRGB, rows top to bottom; it wraps.")
       .def_readonly("width", &scene::Texture::width)
-      .def_readonly("height", &scene::Texture::height);
+      .def_readonly("height", &scene::Texture::height)
+      .def_property_readonly(
+          "image",
+          [](const scene::Texture& t) {
+            py::array_t<uint8_t> a({size_t(t.height), size_t(t.width), size_t(4)});
+            std::memcpy(a.mutable_data(), t.rgba.data(), t.rgba.size());
+            return a;
+          },
+          "A copy of the texels: (height, width, 4) uint8.");
 
   py::class_<scene::Renderable>(m, "Renderable")
       .def(py::init([](uint32_t mesh, std::array<float, 4> color, float metallic, float roughness, uint32_t seg,
-                       int32_t texture) {
-             return scene::Renderable{mesh, color, metallic, roughness, seg, texture};
+                       int32_t texture, int32_t normal_map, float normal_scale) {
+             return scene::Renderable{mesh, color, metallic, roughness, seg, texture, normal_map, normal_scale};
            }),
            py::arg("mesh"), py::kw_only(), py::arg("color") = std::array<float, 4>{0.8f, 0.8f, 0.8f, 1.0f},
            py::arg("metallic") = 0.f, py::arg("roughness") = 0.5f, py::arg("segmentation_id") = 0u,
-           py::arg("texture") = -1,
+           py::arg("texture") = -1, py::arg("normal_map") = -1, py::arg("normal_scale") = 1.f,
            "Drawn by its env's cameras; segmentation_id 0: entity id + 1 (0 is the background). color: linear "
-           "base colour; metallic/roughness: GGX material; texture: a world.add_texture index (-1: none).")
+           "base colour; metallic/roughness: GGX material; texture: a world.add_texture index (-1: none); "
+           "normal_map: a texture of tangent-space normals (RGB = xyz / 2 + 0.5, green toward the image's top, "
+           "read as linear values), normal_scale scaling their x and y.")
       .def_readwrite("mesh", &scene::Renderable::mesh)
       .def_readwrite("color", &scene::Renderable::color)
       .def_readwrite("metallic", &scene::Renderable::metallic)
       .def_readwrite("roughness", &scene::Renderable::roughness)
       .def_readwrite("texture", &scene::Renderable::texture)
+      .def_readwrite("normal_map", &scene::Renderable::normal_map)
+      .def_readwrite("normal_scale", &scene::Renderable::normal_scale)
       .def_readwrite("segmentation_id", &scene::Renderable::segmentation_id);
 
   py::class_<scene::Camera>(m, "Camera")
@@ -483,6 +496,7 @@ void bind_scene(py::module_& m) {
       .def_property_readonly("rigid_body", [](const Entity& e) { return e.world->get<scene::RigidBody>(e.id); })
       .def_property_readonly("collider", [](const Entity& e) { return e.world->get<scene::Collider>(e.id); })
       .def_property_readonly("joint", [](const Entity& e) { return e.world->get<scene::Joint>(e.id); })
+      .def_property_readonly("renderable", [](const Entity& e) { return e.world->get<scene::Renderable>(e.id); })
       .def("__repr__", [](const Entity& e) { return "<Entity " + e.world->describe(e.id) + ">"; });
 
   py::class_<scene::World, std::shared_ptr<scene::World>>(m, "World")

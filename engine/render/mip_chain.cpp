@@ -15,8 +15,9 @@ std::array<float, 256> decode_table() {
 
 }  // namespace
 
-uint32_t append_mip_chain(std::vector<uint32_t>& texels, uint32_t width, uint32_t height) {
-  static const std::array<float, 256> linear = decode_table();
+uint32_t append_mip_chain(std::vector<uint32_t>& texels, uint32_t width, uint32_t height, bool srgb) {
+  static const std::array<float, 256> decoded = decode_table();
+  auto linear = [&](uint32_t byte) { return srgb ? decoded[byte] : byte / 255.f; };
   uint32_t levels = 1;
   size_t above = texels.size() - size_t(width) * height;
   while (width > 1 || height > 1) {
@@ -32,13 +33,13 @@ uint32_t append_mip_chain(std::vector<uint32_t>& texels, uint32_t width, uint32_
         for (uint32_t sy = y0; sy < y1; ++sy)
           for (uint32_t sx = x0; sx < x1; ++sx) {
             const uint32_t v = texels[above + size_t(sy) * width + sx];
-            for (int c = 0; c < 3; ++c) sum[c] += linear[(v >> (8 * c)) & 0xff];
+            for (int c = 0; c < 3; ++c) sum[c] += linear((v >> (8 * c)) & 0xff);
             sum[3] += (v >> 24) / 255.f;  // alpha is linear already
           }
         const float n = float((x1 - x0) * (y1 - y0));
         uint32_t out = 0;
         for (int c = 0; c < 4; ++c) {
-          const float v = c < 3 ? std::pow(sum[c] / n, 1 / 2.2f) : sum[c] / n;
+          const float v = c < 3 && srgb ? std::pow(sum[c] / n, 1 / 2.2f) : sum[c] / n;
           out |= uint32_t(std::lround(std::clamp(v, 0.f, 1.f) * 255)) << (8 * c);
         }
         texels[first + size_t(y) * w + x] = out;

@@ -18,6 +18,36 @@ namespace {
   throw std::invalid_argument(w.describe(e) + ": " + what);
 }
 
+// which textures hold normals (linear values, averaged as such in their mip levels); one used
+// both ways is refused, naming the entity that uses it the second way
+std::vector<bool> normal_map_textures(const scene::World& world, const scene::LayoutMapping& mapping) {
+  const size_t n = world.textures().size();
+  std::vector<int8_t> use(n, 0);  // 0 unused, 1 colour, 2 normals
+  auto mark = [&](scene::EntityId e, int32_t texture, int8_t how, const char* field) {
+    if (texture < -1 || texture >= int32_t(n))
+      fail(world, e, std::string(field) + " " + std::to_string(texture) + " is not a texture of the world (" +
+                         std::to_string(n) + " textures; world.add_texture returns the index)");
+    if (texture < 0) return;
+    if (use[texture] != 0 && use[texture] != how)
+      fail(world, e, std::string(field) + " " + std::to_string(texture) + " is also used " +
+                         (how == 2 ? "as a colour texture" : "as a normal map") +
+                         ": normal maps hold linear values, colours sRGB; add the image twice");
+    use[texture] = how;
+  };
+  for (uint32_t row = 0; row < mapping.row_entity.size(); ++row) {
+    const scene::EntityId e = mapping.row_entity[row];
+    if (world.has<scene::Renderable>(e)) {
+      const auto& r = world.get<scene::Renderable>(e);
+      mark(e, r.texture, 1, "Renderable.texture");
+      mark(e, r.normal_map, 2, "Renderable.normal_map");
+    }
+    if (world.has<scene::EnvironmentLight>(e)) mark(e, world.get<scene::EnvironmentLight>(e).map, 1, "EnvironmentLight.map");
+  }
+  std::vector<bool> normals(n);
+  for (size_t i = 0; i < n; ++i) normals[i] = use[i] == 2;
+  return normals;
+}
+
 }  // namespace
 
 RenderModel build_render_model(const scene::World& world, const scene::LayoutMapping& mapping, uint32_t max_layers,
@@ -43,12 +73,14 @@ RenderModel build_render_model(const scene::World& world, const scene::LayoutMap
   const ParticleMeshes particle_meshes = add_particle_meshes(m, particles);
   std::map<scene::EntityId, std::vector<uint32_t>> entity_objects;
   for (uint32_t o = 0; o < particles.objects.size(); ++o) entity_objects[particles.object_entity[o]].push_back(o);
-  for (const auto& t : world.textures()) {
+  const std::vector<bool> normal_maps = normal_map_textures(world, mapping);
+  for (size_t i = 0; i < world.textures().size(); ++i) {
+    const auto& t = world.textures()[i];
     m.textures.push_back({{uint32_t(m.texels.size()), t.width, t.height, 0}});
     const size_t first = m.texels.size();
     m.texels.resize(first + size_t(t.width) * t.height);
     std::memcpy(m.texels.data() + first, t.rgba.data(), t.rgba.size());  // little-endian RGBA8 words
-    m.textures.back().extent.w = append_mip_chain(m.texels, t.width, t.height);
+    m.textures.back().extent.w = append_mip_chain(m.texels, t.width, t.height, !normal_maps[i]);
   }
   const auto& layout = world.layout();
   const uint32_t slots = layout.max_lights_per_env;
@@ -73,9 +105,6 @@ RenderModel build_render_model(const scene::World& world, const scene::LayoutMap
         lighting.sky = {a.sky[0] * a.intensity, a.sky[1] * a.intensity, a.sky[2] * a.intensity, 0};
         lighting.ground = {a.ground[0] * a.intensity, a.ground[1] * a.intensity, a.ground[2] * a.intensity, 0};
         environment = true;
-        if (a.map >= int32_t(world.textures().size()) || a.map < -1)
-          fail(world, e, "EnvironmentLight.map " + std::to_string(a.map) + " is not a texture of the world (" +
-                             std::to_string(world.textures().size()) + " textures; world.add_texture returns the index)");
         if (!(a.intensity >= 0)) fail(world, e, "EnvironmentLight.intensity must be >= 0");
         if (a.map >= 0) {  // envs with the same map and intensity share one filtered slot
           auto [it, added] = map_slots.try_emplace({float(a.map), a.intensity}, uint32_t(m.environment_maps.size()));
@@ -90,13 +119,12 @@ RenderModel build_render_model(const scene::World& world, const scene::LayoutMap
           fail(world, e, "Renderable.mesh " + std::to_string(r.mesh) + " is not a mesh of the world (" +
                              std::to_string(m.meshes.size()) + " meshes; world.add_mesh returns the index)");
         env_renderables[env].push_back(uint32_t(m.renderables.size()));
-        if (r.texture >= int32_t(world.textures().size()) || r.texture < -1)
-          fail(world, e, "Renderable.texture " + std::to_string(r.texture) + " is not a texture of the world (" +
-                             std::to_string(world.textures().size()) + " textures; world.add_texture returns the index)");
+        const uint32_t flat = m.meshes[r.mesh].positions_key.empty() ? 0u : shader::RENDER_FLAT_NORMALS;
         m.renderables.push_back({{row, r.mesh, r.segmentation_id ? r.segmentation_id : e + 1, env},
                                  {r.color[0], r.color[1], r.color[2], r.color[3]},
-                                 {r.metallic, r.roughness, 0, 0},
-                                 {uint32_t(r.texture + 1), m.meshes[r.mesh].positions_key.empty() ? 0u : 1u, 0, 0}});
+                                 {r.metallic, r.roughness, 0, r.normal_scale},
+                                 {uint32_t(r.texture + 1), flat | uint32_t(r.normal_map + 1) << shader::RENDER_NORMAL_MAP_SHIFT,
+                                  0, 0}});
         if (env_renderables[env].size() > layout.max_renderables_per_env)
           fail(world, e, "env " + std::to_string(env) + " has more renderables than SceneLayout.max_renderables_per_env = " +
                              std::to_string(layout.max_renderables_per_env));

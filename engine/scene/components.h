@@ -83,6 +83,10 @@ struct Renderable {
   float metallic = 0, roughness = 0.5f;
   uint32_t segmentation_id = 0;
   int32_t texture = -1;
+  // tangent-space normals (RGB = xyz * 0.5 + 0.5, green toward the image's top), linear texels;
+  // normal_scale scales their x and y (0: flat, as without a map)
+  int32_t normal_map = -1;
+  float normal_scale = 1;
 };
 
 // The look of a particle object (SoftBody, Strand, Fluid on the same entity), which the

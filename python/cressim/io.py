@@ -185,13 +185,20 @@ def load_mesh(path, *, scale: float = 1.0) -> cressim.Mesh:
                         np.asarray(m.vertex_normals, np.float32), uvs)
 
 
-def load_mesh_texture(path) -> cressim.Texture | None:
-    """The base-colour image a mesh file carries (a .glb's material, an .obj's map_Kd), or None."""
+def load_mesh_texture(path, which: str = "color") -> cressim.Texture | None:
+    """An image a mesh file carries, or None. which="color": the base colour (a .glb's material,
+    an .obj's map_Kd); "normal": a .glb's normal map (glTF's convention is ours: green toward the
+    image's top), for Renderable(normal_map=...)."""
     import trimesh
 
+    if which not in ("color", "normal"):
+        raise ValueError(f"load_mesh_texture(which={which!r}): use 'color' or 'normal'")
     m = trimesh.load(str(path), force="mesh", process=False)
     material = getattr(m.visual, "material", None)
-    image = getattr(material, "baseColorTexture", None) or getattr(material, "image", None)
+    if which == "normal":
+        image = getattr(material, "normalTexture", None)
+    else:
+        image = getattr(material, "baseColorTexture", None) or getattr(material, "image", None)
     if image is None:
         return None
     return cressim.Texture(np.asarray(image.convert("RGBA"), np.uint8))

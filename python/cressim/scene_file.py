@@ -14,11 +14,12 @@ line and the field. The format (every key optional unless said)::
       checker: {checker: {size: 64, squares: 8}}   # or {file: wood.png}
     materials:
       red: {color: [1, 0, 0, 1], metallic: 0, roughness: 0.5, texture: checker}
+      bumpy: {texture: checker, normal_map: bumps, normal_scale: 1}   # bumps: a texture of normals
     entities:
       - name: ground
         transform: {position: [0, 0, 0], rotation: [0, 0, 0, 1], scale: [1, 1, 1]}
         renderable: {mesh: ball, material: red, segmentation_id: 3}   # or mesh: {box: {...}},
-                                         # and color/metallic/roughness/texture inline
+                                         # and the material keys inline
         collider: {shapes: [{box: {half_extents: [1, 1, 0.1]}}], static_friction: 0.5}
         rigid_body: {mass: 1.0}
       - name: camera
@@ -49,6 +50,8 @@ import numpy as np
 import yaml
 
 import cressim
+
+MATERIAL_KEYS = ("color", "metallic", "roughness", "texture", "normal_map", "normal_scale")
 
 
 class SceneFileError(ValueError):
@@ -193,7 +196,7 @@ class _Loader:
         for name, f in (top["meshes"].items() if "meshes" in top else {}).items():
             self.meshes[name] = self.world.add_mesh(self.mesh(f))
         for name, f in (top["materials"].items() if "materials" in top else {}).items():
-            self.materials[name] = self.material(f.keys(("color", "metallic", "roughness", "texture")))
+            self.materials[name] = self.material(f.keys(MATERIAL_KEYS))
         entities = top["entities"].list() if "entities" in top else []
         environment = self.environment(top["environment"]) if "environment" in top else None
         for env in range(envs):
@@ -266,14 +269,15 @@ class _Loader:
         if "color" in m:
             c = m["color"].vec((3, 4))
             out["color"] = (*c, 1.0) if len(c) == 3 else c
-        for k in ("metallic", "roughness"):
+        for k in ("metallic", "roughness", "normal_scale"):
             if k in m:
                 out[k] = m[k].float()
-        if "texture" in m:
-            name = m["texture"].str()
-            if name not in self.textures:
-                raise m["texture"].fail(f"no texture '{name}'; textures: {', '.join(self.textures) or 'none'}")
-            out["texture"] = self.textures[name]
+        for k in ("texture", "normal_map"):
+            if k in m:
+                name = m[k].str()
+                if name not in self.textures:
+                    raise m[k].fail(f"no texture '{name}'; textures: {', '.join(self.textures) or 'none'}")
+                out[k] = self.textures[name]
         return out
 
     def environment(self, f: Field) -> cressim.EnvironmentLight:
@@ -329,7 +333,7 @@ class _Loader:
         return cressim.Transform(position=position, rotation=rotation, scale=scale)
 
     def renderable(self, f: Field) -> cressim.Renderable:
-        r = f.keys(("mesh", "material", "color", "metallic", "roughness", "texture", "segmentation_id"))
+        r = f.keys(("mesh", "material", *MATERIAL_KEYS, "segmentation_id"))
         if "mesh" not in r:
             raise f.fail("a renderable needs 'mesh' (a name from meshes, or a primitive)")
         m = r["mesh"]
@@ -349,7 +353,7 @@ class _Loader:
             if name not in self.materials:
                 raise r["material"].fail(f"no material '{name}'; materials: {', '.join(self.materials) or 'none'}")
             opts.update(self.materials[name])
-        opts.update(self.material({k: v for k, v in r.items() if k in ("color", "metallic", "roughness", "texture")}))
+        opts.update(self.material({k: v for k, v in r.items() if k in MATERIAL_KEYS}))
         if "segmentation_id" in r:
             opts["segmentation_id"] = r["segmentation_id"].int(1)
         return cressim.Renderable(mesh, **opts)

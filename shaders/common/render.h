@@ -11,10 +11,14 @@ static const uint LIGHT_DIRECTIONAL = 1, LIGHT_POINT = 2, LIGHT_SPOT = 3;  // Li
 struct RenderableData {
   uint4 ids;       // x entity row, y mesh, z segmentation id, w env
   float4 color;    // base colour, linear RGBA
-  float4 material; // x metallic, y roughness
-  uint4 maps;      // x texture index + 1 (0: none), y 1: flat normals (from the triangle),
-                   // z added to the mesh's vertex ids, w RENDER_WORLD_VERTICES
+  float4 material; // x metallic, y roughness, w normal_scale (z: a particle object's radius)
+  uint4 maps;      // x texture index + 1 (0: none), y RENDER_FLAT_NORMALS | (normal map index + 1)
+                   // << RENDER_NORMAL_MAP_SHIFT, z added to the mesh's vertex ids, w RENDER_WORLD_VERTICES
 };
+
+// RenderableData.maps.y: normals from the triangle (meshes whose vertices come from a buffer),
+// and the normal map above that bit
+static const uint RENDER_FLAT_NORMALS = 1, RENDER_NORMAL_MAP_SHIFT = 1;
 
 // RenderableData.maps.w: the vertices are world positions written each frame (particle
 // surfaces and strand tubes): no entity transform, and no bounding sphere to cull by.

@@ -35,7 +35,7 @@ void main(uint3 id : SV_DispatchThreadID) {
   const RenderableData r = renderables[pair.x];
   const CameraData c = cameras[pair.y];
   bool visible = true;
-  if (pc.enabled != 0 && r.maps.y == 0 && (r.maps.w & RENDER_WORLD_VERTICES) == 0) {
+  if (pc.enabled != 0 && (r.maps.y & RENDER_FLAT_NORMALS) == 0 && (r.maps.w & RENDER_WORLD_VERTICES) == 0) {
     const uint eye = c.ids.x, row = r.ids.x;
     const float3 centre = quat_unrotate(rotations[eye], positions[row].xyz - positions[eye].xyz);
     visible = sphere_in_view(c, centre, bounding_radius(mesh_radii[r.ids.y], scales[row].xyz), float2(0, 0), c.clip.zw);

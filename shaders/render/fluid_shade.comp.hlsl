@@ -74,7 +74,8 @@ void main(uint3 id : SV_DispatchThreadID) {
     const uint w = out_rgb[at];
     const float3 scene = pow(float3(w & 0xff, (w >> 8) & 0xff, (w >> 16) & 0xff) / 255.0, 2.2);
     // light scattered inside: the fluid's colour lit like a surface, where the scene is hidden
-    const float3 lit = shade(look, world, wn, float2(0, 0), float4(0, 0, 0, 0), eye).rgb;
+    const SurfacePoint p = {world, wn, float2(0, 0), float4(0, 0, 0, 0), float3(0, 0, 0), float3(0, 0, 0)};
+    const float3 lit = shade(look, p, eye).rgb;
     float3 rgb = scene * transmit + lit * (1 - transmit);
     const float cos_v = saturate(-dot(n, normalize(here)));
     const float fresnel = 0.02 + 0.98 * pow(1 - cos_v, 5);

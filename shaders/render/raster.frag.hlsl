@@ -14,10 +14,16 @@ struct PSOut {
 
 PSOut main(Varyings i) {
   const RenderableData r = renderables[i.renderable];
+  SurfacePoint p;
+  p.world = i.world;
+  p.dp_dx = ddx(i.world);
+  p.dp_dy = ddy(i.world);
   // meshes whose vertices come from a buffer have no normals: the triangle's, from derivatives
-  const float3 n = r.maps.y != 0 ? cross(ddy(i.world), ddx(i.world)) : i.normal;
+  p.normal = (r.maps.y & RENDER_FLAT_NORMALS) != 0 ? cross(p.dp_dy, p.dp_dx) : i.normal;
+  p.uv = i.uv;
+  p.uv_grad = float4(ddx(i.uv), ddy(i.uv));
   PSOut o;
-  o.color = encode_color(shade(r, i.world, n, i.uv, float4(ddx(i.uv), ddy(i.uv)), positions[cameras[i.camera].ids.x].xyz));
+  o.color = encode_color(shade(r, p, positions[cameras[i.camera].ids.x].xyz));
   o.depth = i.depth;
   o.segmentation = r.ids.z;
   return o;

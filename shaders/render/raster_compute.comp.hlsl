@@ -88,7 +88,7 @@ Screen setup(CameraData c, float3 v[3], int2 origin) {
 // triangles can cover a pixel of the tile); the culling pass's test, on the tile
 bool may_cover(RenderableData r, uint4 m, CameraData c, float4 eye_q, float3 eye_p, int2 origin) {
   // vertices from a buffer or particles: the mesh's radius does not bound them
-  if (r.maps.y != 0 || (r.maps.w & RENDER_WORLD_VERTICES) != 0) return true;
+  if ((r.maps.y & RENDER_FLAT_NORMALS) != 0 || (r.maps.w & RENDER_WORLD_VERTICES) != 0) return true;
   const float3 centre = quat_unrotate(eye_q, positions[r.ids.x].xyz - eye_p);
   const int2 hi = min(origin + int2(TILE_W, TILE_H), int2(pc.width, pc.height));
   return sphere_in_view(c, centre, bounding_radius(asfloat(m.w), scales[r.ids.x].xyz), float2(origin), float2(hi));
@@ -229,21 +229,26 @@ void main(uint3 group : SV_GroupID, uint tid : SV_GroupIndex) {
         exact = true;
       }
     }
-    // the texture coordinates' change per pixel: the same plane hit by the rays one pixel over
-    float4 uv_grad = 0;
+    const float b0 = 1 - b1 - b2;
     const float2 uv0 = vertex_uvs[vi[0]], uv1 = vertex_uvs[vi[1]] - uv0, uv2 = vertex_uvs[vi[2]] - uv0;
+    SurfacePoint p;
+    p.world = eye_p + quat_rotate(eye_q, d * depth);
+    p.normal = (r.maps.y & RENDER_FLAT_NORMALS) != 0
+                   ? quat_rotate(eye_q, cross(e1, e2))  // flat: the triangle's
+                   : b0 * world_normal(r, vi[0]) + b1 * world_normal(r, vi[1]) + b2 * world_normal(r, vi[2]);
+    p.uv = uv0 + b1 * uv1 + b2 * uv2;
+    // the change per pixel: the same plane hit by the rays one pixel over
+    p.uv_grad = 0;
+    p.dp_dx = p.dp_dy = 0;
     if (exact) {
       const float2 bx = ray_barycentrics(d + float3(1 / c.intrinsics.x, 0, 0), v[0], e1, e2) - float2(b1, b2);
       const float2 by = ray_barycentrics(d + float3(0, 1 / c.intrinsics.y, 0), v[0], e1, e2) - float2(b1, b2);
-      uv_grad = float4(bx.x * uv1 + bx.y * uv2, by.x * uv1 + by.y * uv2);
+      p.uv_grad = float4(bx.x * uv1 + bx.y * uv2, by.x * uv1 + by.y * uv2);
+      p.dp_dx = quat_rotate(eye_q, bx.x * e1 + bx.y * e2);
+      p.dp_dy = quat_rotate(eye_q, by.x * e1 + by.y * e2);
     }
-    const float b0 = 1 - b1 - b2;
-    const float3 world = eye_p + quat_rotate(eye_q, d * depth);
-    const float3 n = r.maps.y != 0 ? quat_rotate(eye_q, cross(e1, e2))  // flat: the triangle's
-                                   : b0 * world_normal(r, vi[0]) + b1 * world_normal(r, vi[1]) + b2 * world_normal(r, vi[2]);
-    const float2 uv = uv0 + b1 * uv1 + b2 * uv2;
     if (pc.products & 1) {
-      const uint4 bytes = uint4(round(saturate(encode_color(shade(r, world, n, uv, uv_grad, eye_p))) * 255));
+      const uint4 bytes = uint4(round(saturate(encode_color(shade(r, p, eye_p))) * 255));
       out_rgb[at] = bytes.x | (bytes.y << 8) | (bytes.z << 16) | (bytes.w << 24);
     }
     if (pc.products & 2) out_depth[at] = depth;

@@ -31,9 +31,19 @@ float4 bilinear(TextureInfo t, uint level, float2 uv) {
               lerp(texel(first, s, p + int2(0, 1)), texel(first, s, p + int2(1, 1)), f.x), f.y);
 }
 
-// trilinear, sRGB texels to linear; uv_grad = (du/dx, dv/dx, du/dy, dv/dy) per pixel picks the
-// level whose texels are about a pixel wide (the larger of the two screen axes)
-float4 sample_texture(uint index, float2 uv, float4 uv_grad) {
+// A surface point as the rasterizers see it: changes per pixel (x right, y down) pick texture
+// levels and orient normal maps.
+struct SurfacePoint {
+  float3 world;
+  float3 normal;   // need not be unit length or face the eye
+  float2 uv;
+  float4 uv_grad;  // (du/dx, dv/dx, du/dy, dv/dy)
+  float3 dp_dx, dp_dy;  // world position
+};
+
+// trilinear, the stored values (sRGB-encoded for colours); uv_grad picks the level whose
+// texels are about a pixel wide (the larger of the two screen axes)
+float4 sample_texels(uint index, float2 uv, float4 uv_grad) {
   const TextureInfo t = texture_infos[index];
   const float2 size = float2(t.extent.yz);
   const float texels_per_pixel = max(length(uv_grad.xy * size), length(uv_grad.zw * size));
@@ -42,7 +52,31 @@ float4 sample_texture(uint index, float2 uv, float4 uv_grad) {
   const uint k = uint(lod);
   float4 c = bilinear(t, k, uv);
   if (k < last && lod > k) c = lerp(c, bilinear(t, k + 1, uv), lod - k);
+  return c;
+}
+
+// a colour texture: sRGB texels to linear
+float4 sample_texture(uint index, float2 uv, float4 uv_grad) {
+  const float4 c = sample_texels(index, uv, uv_grad);
   return float4(pow(c.rgb, 2.2), c.a);
+}
+
+// the unit normal n (facing the eye) tilted by the tangent-space normal map: x along +u, y
+// toward the image's top (-v: rows grow with v), z along n. The frame comes from how position
+// and uv change across the pixel (no stored tangents): t and b are the surface gradients of u
+// and v (t . dp_dx = du/dx, ...) times the determinant, whose sign is taken back out (screen y
+// runs down here, so it is negative where the surface faces the eye), and scaled together.
+float3 apply_normal_map(RenderableData r, SurfacePoint p, float3 n) {
+  float3 m = sample_texels((r.maps.y >> RENDER_NORMAL_MAP_SHIFT) - 1, p.uv, p.uv_grad).xyz * 2 - 1;
+  m.xy *= r.material.w;
+  const float3 across_y = cross(p.dp_dy, n), across_x = cross(n, p.dp_dx);
+  const float3 t = across_y * p.uv_grad.x + across_x * p.uv_grad.z;
+  const float3 b = across_y * p.uv_grad.y + across_x * p.uv_grad.w;
+  const float scale = max(dot(t, t), dot(b, b));
+  if (!(scale > 1e-30)) return n;  // no uv change across the pixel: nothing to orient the map by
+  const float orientation = dot(p.dp_dx, across_y) < 0 ? -1.0 : 1.0;
+  const float3 tilted = (t * m.x - b * m.y) * (orientation * rsqrt(scale)) + n * m.z;
+  return dot(tilted, tilted) > 0 ? normalize(tilted) : n;
 }
 
 // fraction of a 3x3 texel neighbourhood that sees the light (1 outside the map)
@@ -81,15 +115,16 @@ float3 brdf_cos(float3 n, float3 v, float3 l, float3 base, float metallic, float
   return (diffuse + PI * d * g * f / (4 * nl * nv)) * nl;
 }
 
-// linear RGBA of a surface point seen from `eye`; n need not face the eye; uv_grad: the texture
-// coordinates' change per pixel (sample_texture)
-float4 shade(RenderableData r, float3 world, float3 n, float2 uv, float4 uv_grad, float3 eye) {
+// linear RGBA of a surface point seen from `eye`
+float4 shade(RenderableData r, SurfacePoint p, float3 eye) {
   const EnvLighting env = env_lighting[r.ids.w];
-  n = normalize(n);
+  const float3 world = p.world;
+  float3 n = normalize(p.normal);
   const float3 v = normalize(eye - world);
   if (dot(n, v) < 0) n = -n;  // two-sided
+  if ((r.maps.y >> RENDER_NORMAL_MAP_SHIFT) != 0) n = apply_normal_map(r, p, n);
   float4 base = r.color;
-  if (r.maps.x != 0) base *= sample_texture(r.maps.x - 1, uv, uv_grad);
+  if (r.maps.x != 0) base *= sample_texture(r.maps.x - 1, p.uv, p.uv_grad);
   const float metallic = saturate(r.material.x), roughness = clamp(r.material.y, 0.05, 1.0);
   float3 rgb = env.map.x != 0 ? image_lighting(env, n, v, base.rgb, metallic, roughness)
                               : lerp(env.ground.rgb, env.sky.rgb, 0.5 + 0.5 * n.z) * base.rgb;

@@ -1,7 +1,7 @@
 """Lights and materials checked against the shading model's closed forms: a white matte
 surface facing a directional light, the inverse square of a point light, a spot's cone, a
-directional light's shadow, and a checker texture sampled through uvs, magnified and minified
-(mip levels)."""
+directional light's shadow, a checker texture sampled through uvs, magnified and minified
+(mip levels), and normal maps against planes tilted for real."""
 import math
 
 import numpy as np
@@ -148,6 +148,64 @@ def test_minified_checker_averages_to_its_mean(make_engine):
     rgb = render(make_engine, place, fov=30)
     inside = rgb[12:52, 12:52, 0]  # the plane spans pixels 2..61
     assert np.abs(inside - srgb(0.49)).max() <= 4, (inside.min(), inside.max(), srgb(0.49))
+
+
+TILT = math.radians(30)
+
+
+def normal_map(world, x, y):
+    """A uniform normal map of the tangent-space normal (x, y, sqrt(1 - x^2 - y^2))."""
+    m = np.array([x, y, math.sqrt(1 - x * x - y * y)])
+    return world.add_texture(cressim.Texture(np.full((4, 4, 3), np.round((m + 1) / 2 * 255), dtype=np.uint8)))
+
+
+def lit_plane(make_engine, light_dir, *, tilt=(0.0, 0.0), rotation=(0, 0, 0, 1), scale=1.0):
+    # a matte plane seen from above under a directional light from light_dir (no ambient)
+    def place(world):
+        e = world.create_entity(env=0, name="floor")
+        e.add(cressim.Transform(rotation=rotation))
+        nm = normal_map(world, *tilt) if tilt != (0.0, 0.0) else -1
+        e.add(cressim.Renderable(world.add_mesh(cressim.Mesh.plane(0.5)), color=(1, 1, 1, 1), roughness=1.0,
+                                 normal_map=nm, normal_scale=scale))
+        light(world, position=tuple(light_dir), look_at=(0, 0, 0), intensity=1.0)
+
+    return render(make_engine, place)[S // 2 - 1:S // 2 + 1, S // 2 - 1:S // 2 + 1, 0]
+
+
+def test_normal_map_tilts_the_shading_normal_like_geometry(make_engine):
+    # at the image centre (view straight down) a flat plane whose map tilts its normal by 30 deg
+    # shades as the plane itself tilted by 30 deg: x of the map along +u (world +x), y toward the
+    # image's top (world +y on Mesh.plane, where v grows toward -y)
+    s, c = math.sin(TILT), math.cos(TILT)
+    about_y = (0, math.sin(TILT / 2), 0, math.cos(TILT / 2))  # normal to (s, 0, c)
+    about_y_back = (0, -math.sin(TILT / 2), 0, math.cos(TILT / 2))  # (-s, 0, c)
+    about_x = (-math.sin(TILT / 2), 0, 0, math.cos(TILT / 2))  # (0, s, c)
+    toward_x, toward_y = (s, 0, c), (0, s, c)
+    facing = lit_plane(make_engine, toward_x, tilt=(s, 0.0))
+    assert np.abs(facing - lit_plane(make_engine, toward_x, rotation=about_y)).max() <= 2
+    away = lit_plane(make_engine, toward_x, tilt=(-s, 0.0))
+    assert np.abs(away - lit_plane(make_engine, toward_x, rotation=about_y_back)).max() <= 2
+    assert facing.min() - away.max() > 20  # n.l 1 against 0.5: the map's x has a direction
+    up = lit_plane(make_engine, toward_y, tilt=(0.0, s))
+    assert np.abs(up - lit_plane(make_engine, toward_y, rotation=about_x)).max() <= 2
+    assert np.abs(up - facing).max() <= 2
+    # normal_scale 0: as without a map
+    assert np.abs(lit_plane(make_engine, toward_x, tilt=(s, 0.0), scale=0.0) - lit_plane(make_engine, toward_x)).max() <= 1
+
+
+def test_normal_map_errors_name_the_entity(make_engine):
+    def world_with(normal_map):
+        world = cressim.World(cressim.SceneLayout(1))
+        tex = world.add_texture(cressim.io.checker_texture())
+        e = world.create_entity(env=0, name="floor")
+        e.add(cressim.Transform())
+        e.add(cressim.Renderable(world.add_mesh(cressim.Mesh.plane(0.5)), texture=tex, normal_map=normal_map))
+        return world
+
+    with pytest.raises(Exception, match="floor.*Renderable.normal_map 0 is also used as a colour texture"):
+        make_engine(world_with(0)).prepare()
+    with pytest.raises(Exception, match="floor.*Renderable.normal_map 5 is not a texture of the world"):
+        make_engine(world_with(5)).prepare()
 
 
 def test_shadow_and_camera_groups_split_without_changing_images(make_engine, monkeypatch):

@@ -51,6 +51,8 @@ def test_cressim_render_writes_images(tmp_path, capsys):
      "entities[0].transform.position: expected 3 numbers, got 2"),
     ("envs: 1\nentities:\n  - name: a\n    light: {kind: lamp}\n", 4, "entities[0].light: Light kind 'lamp'"),
     ("envs: two\n", 1, "envs: expected an integer"),
+    ("envs: 1\nentities:\n  - name: a\n    renderable: {mesh: {sphere: {radius: 0.1}}, normal_map: bumps}\n", 4,
+     "entities[0].renderable.normal_map: no texture 'bumps'"),
     ("envs: 1\nentities:\n  - name: a\n\n    camra: {width: 8}\n", 5,
      "entities[0].camra: unknown field 'camra'"),
 ])
@@ -60,6 +62,33 @@ def test_errors_name_file_line_and_field(tmp_path, text, line, message):
     with pytest.raises(SceneFileError) as e:
         load_scene(path)
     assert str(e.value).startswith(f"{path}:{line}: {message}"), str(e.value)
+
+
+def test_materials_carry_normal_maps(tmp_path):
+    path = tmp_path / "bumpy.yaml"
+    path.write_text("envs: 1\ntextures:\n  colour: {checker: {size: 8, squares: 2}}\n"
+                    "  bumps: {checker: {size: 8, squares: 4}}\n"
+                    "materials:\n  bumpy: {texture: colour, normal_map: bumps, normal_scale: 0.5}\n"
+                    "entities:\n  - name: a\n    renderable: {mesh: {plane: {half_size: 1}}, material: bumpy}\n")
+    r = load_scene(path).entity(0).renderable
+    assert (r.texture, r.normal_map, r.normal_scale) == (0, 1, 0.5)
+
+
+def test_glb_carries_its_colour_and_normal_maps(tmp_path):
+    import trimesh
+    from PIL import Image
+
+    box = trimesh.creation.box()
+    material = trimesh.visual.material.PBRMaterial(
+        baseColorTexture=Image.fromarray(np.full((4, 4, 3), (200, 10, 10), np.uint8)),
+        normalTexture=Image.fromarray(np.full((4, 4, 3), (128, 200, 230), np.uint8)))
+    box.visual = trimesh.visual.TextureVisuals(uv=np.zeros((len(box.vertices), 2)), material=material)
+    box.export(tmp_path / "box.glb")
+    colour, normals = (io.load_mesh_texture(tmp_path / "box.glb", which) for which in ("color", "normal"))
+    assert tuple(colour.image[0, 0]) == (200, 10, 10, 255) and tuple(normals.image[3, 3]) == (128, 200, 230, 255)
+    assert io.load_mesh_texture("scenes/meshes/torus.obj", "normal") is None
+    with pytest.raises(ValueError, match="which='bump'"):
+        io.load_mesh_texture(tmp_path / "box.glb", "bump")
 
 
 def test_mesh_file_loads_through_trimesh():
