@@ -94,7 +94,15 @@ bool may_cover(RenderableData r, uint4 m, CameraData c, float4 eye_q, float3 eye
   return sphere_in_view(c, centre, bounding_radius(asfloat(m.w), scales[r.ids.x].xyz), float2(origin), float2(hi));
 }
 
-float edge(float2 a, float2 b, float2 p) { return (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x); }
+// the edge function, exactly antisymmetric in a and b: the two triangles sharing an edge get
+// opposite values at a pixel centre, rounding (and fused multiply-adds) included, so a centre
+// on the edge cannot be missed by both (the NVIDIA compiler left such holes along diagonals)
+float edge(float2 a, float2 b, float2 p) {
+  const bool swap = a.x > b.x || (a.x == b.x && a.y > b.y);
+  const float2 lo = swap ? b : a, hi = swap ? a : b;
+  const float e = (hi.x - lo.x) * (p.y - lo.y) - (hi.y - lo.y) * (p.x - lo.x);
+  return swap ? -e : e;
+}
 
 // barycentrics (b1, b2) where the ray from the eye along d meets the plane of the triangle
 // v0, v0 + e1, v0 + e2 (outside the triangle too)
