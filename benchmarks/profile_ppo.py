@@ -14,20 +14,14 @@ import torch
 from cressim.learn.bench import _make
 from cressim.learn.config import ppo_config
 from cressim.learn.learner import make_learner
-from cressim.learn.rollout import sync
+from cressim.learn.rollout import collect_rollout, sync
 from cressim.learn.vec_env import CressimVecEnv
 
 
 def timed_update(venv, alg, steps: int) -> tuple[float, float]:
     """(rollout seconds, learning seconds) of one update, the device drained between them."""
-    obs = venv.get_observations()
     t0 = time.perf_counter()
-    with torch.inference_mode():
-        for _ in range(steps):
-            actions = alg.act(obs)
-            obs, rewards, dones, extras = venv.step(actions)
-            alg.process_env_step(obs, rewards, dones, extras)
-        alg.compute_returns(obs)
+    collect_rollout(venv, alg, steps)
     sync(venv.device)
     t1 = time.perf_counter()
     alg.update()

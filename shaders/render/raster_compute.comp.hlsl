@@ -104,11 +104,13 @@ float edge(float2 a, float2 b, float2 p) {
   return swap ? -e : e;
 }
 
-// barycentrics (b1, b2) where the ray from the eye along d meets the plane of the triangle
-// v0, v0 + e1, v0 + e2 (outside the triangle too)
-float2 ray_barycentrics(float3 d, float3 v0, float3 e1, float3 e2) {
+// where the ray from the eye along d meets the plane of the triangle v0, v0 + e1, v0 + e2
+// (Moller-Trumbore; outside the triangle too): barycentrics b1, b2, the ray parameter (depth,
+// as d.z = 1) and the determinant (0: the ray runs along the plane; then the rest is not finite)
+float4 ray_plane(float3 d, float3 v0, float3 e1, float3 e2) {
   const float3 h = cross(d, e2), q = cross(-v0, e1);
-  return float2(dot(-v0, h), dot(d, q)) / dot(e1, h);
+  const float det = dot(e1, h);
+  return float4(float3(dot(-v0, h), dot(d, q), dot(e2, q)) / det, det);
 }
 
 // one pixel against the (fan of the) polygon; mode 0: depth, 1: id
@@ -219,24 +221,13 @@ void main(uint3 group : SV_GroupID, uint tid : SV_GroupIndex) {
       v[j] = vertex_local(r, vi[j], eye_q, eye_p);
     }
     const float3 d = float3((float2(px) + 0.5 - c.intrinsics.zw) / c.intrinsics.xy, 1);  // z = 1: t is depth
-    const float3 e1 = v[1] - v[0], e2 = v[2] - v[0], h = cross(d, e2);
-    const float det = dot(e1, h);
+    const float3 e1 = v[1] - v[0], e2 = v[2] - v[0];
+    const float4 hit = ray_plane(d, v[0], e1, e2);
     const float raster_depth = asfloat(zbuf[i]);
-    float b1 = 1.0 / 3, b2 = 1.0 / 3, depth = raster_depth;
-    bool exact = false;
-    if (abs(det) > 1e-20) {
-      const float3 s0 = -v[0];
-      const float3 q = cross(s0, e1);
-      const float t = dot(e2, q) / det;
-      // a sliver (where many triangles meet, such as a sphere's pole) can win the id pass with
-      // an ill-conditioned ray hit: keep the rasterised depth and flat attributes there
-      if (abs(t - raster_depth) <= 1e-3 * raster_depth) {
-        b1 = dot(s0, h) / det;
-        b2 = dot(d, q) / det;
-        depth = t;
-        exact = true;
-      }
-    }
+    // a sliver (where many triangles meet, such as a sphere's pole) can win the id pass with
+    // an ill-conditioned ray hit: keep the rasterised depth and flat attributes there
+    const bool exact = abs(hit.w) > 1e-20 && abs(hit.z - raster_depth) <= 1e-3 * raster_depth;
+    const float b1 = exact ? hit.x : 1.0 / 3, b2 = exact ? hit.y : 1.0 / 3, depth = exact ? hit.z : raster_depth;
     const float b0 = 1 - b1 - b2;
     const float2 uv0 = vertex_uvs[vi[0]], uv1 = vertex_uvs[vi[1]] - uv0, uv2 = vertex_uvs[vi[2]] - uv0;
     SurfacePoint p;
@@ -249,8 +240,8 @@ void main(uint3 group : SV_GroupID, uint tid : SV_GroupIndex) {
     p.uv_grad = 0;
     p.dp_dx = p.dp_dy = 0;
     if (exact) {
-      const float2 bx = ray_barycentrics(d + float3(1 / c.intrinsics.x, 0, 0), v[0], e1, e2) - float2(b1, b2);
-      const float2 by = ray_barycentrics(d + float3(0, 1 / c.intrinsics.y, 0), v[0], e1, e2) - float2(b1, b2);
+      const float2 bx = ray_plane(d + float3(1 / c.intrinsics.x, 0, 0), v[0], e1, e2).xy - hit.xy;
+      const float2 by = ray_plane(d + float3(0, 1 / c.intrinsics.y, 0), v[0], e1, e2).xy - hit.xy;
       p.uv_grad = float4(bx.x * uv1 + bx.y * uv2, by.x * uv1 + by.y * uv2);
       p.dp_dx = quat_rotate(eye_q, bx.x * e1 + bx.y * e2);
       p.dp_dy = quat_rotate(eye_q, by.x * e1 + by.y * e2);

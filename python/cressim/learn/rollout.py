@@ -33,9 +33,9 @@ class EpisodeStats:
                 "mean_return": ret / n if n else math.nan}
 
 
-def run_update(venv, alg, steps: int, stats: EpisodeStats | None = None) -> dict:
-    """Steps every env `steps` times with the current policy, then runs the PPO update;
-    returns the mean losses."""
+def collect_rollout(venv, alg, steps: int, stats: EpisodeStats | None = None) -> None:
+    """Steps every env `steps` times with the current policy, storing the rollout in `alg`,
+    and computes its returns."""
     obs = venv.get_observations()
     with torch.inference_mode():
         for _ in range(steps):
@@ -45,6 +45,11 @@ def run_update(venv, alg, steps: int, stats: EpisodeStats | None = None) -> dict
             if stats is not None:
                 stats.add(rewards, dones, extras["finished_length"])
         alg.compute_returns(obs)
+
+
+def run_update(venv, alg, steps: int, stats: EpisodeStats | None = None) -> dict:
+    """A rollout, then the PPO update; returns the mean losses."""
+    collect_rollout(venv, alg, steps, stats)
     return alg.update()
 
 

@@ -105,7 +105,10 @@ class TorchPPO:
         x, t = obs["policy"], self.step
         self._act_obs.copy_(x)
         a, log_prob, value = self._policy_step()
-        self.obs[t].copy_(x), self.actions[t].copy_(a), self.log_prob[t].copy_(log_prob), self.values[t].copy_(value)
+        self.obs[t].copy_(x)
+        self.actions[t].copy_(a)
+        self.log_prob[t].copy_(log_prob)
+        self.values[t].copy_(value)
         return self.actions[t]
 
     def process_env_step(self, obs, rewards, dones, extras) -> None:
