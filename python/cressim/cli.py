@@ -27,10 +27,6 @@ def _info(args: argparse.Namespace) -> int:
 
 
 def _demo(args: argparse.Namespace) -> int:
-    if args.scene == "twin":
-        from cressim.demos.twin_session import run
-
-        return run(out_dir=args.out, seconds=args.seconds)
     if args.scene in ("soft", "fluid", "thread"):
         from cressim.demos.particles import run
 
@@ -83,11 +79,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--json", action="store_true", help="print the chosen device as JSON")
     p.set_defaults(run=_info)
     p = sub.add_parser("demo", help="the main job on the default scene")
-    p.add_argument("scene", nargs="?", default="twin", choices=("twin", "batched", "soft", "fluid", "thread"),
-                   help="twin: the PSM twin driven over ROS 2, recording MCAP (default); batched: a batched "
-                        "scene and a custom compute pass; soft, fluid, thread: particle scenes saved as "
-                        "particle-state sequences (.npz) and a few rendered frames (PNG colour, segmentation)")
-    p.add_argument("--seconds", type=float, default=2.0, help="twin: length of the servo_jp sine")
+    p.add_argument("scene", nargs="?", default="batched", choices=("batched", "soft", "fluid", "thread"),
+                   help="batched: a batched scene and a custom compute pass (default); soft, fluid, thread: "
+                        "particle scenes saved as particle-state sequences (.npz) and a few rendered frames (PNG "
+                        "colour, segmentation). The twin's demo is ROS's: `python -m cressim_ros.demo`")
     p.add_argument("--envs", type=int, default=16, help="batched: envs")
     p.add_argument("--frames", type=int, default=120, help="batched and particle scenes: frames")
     p.add_argument("--out", default="out/demo", help="folder for the demo's outputs")

@@ -74,6 +74,25 @@ def start_twin(tmp_path):
 
 
 @pytest.fixture
+def make_arms():
+    """make_arms(**config) -> cressim.twin.TwinArms (no ROS; 64x48 cameras), checked for Vulkan
+    validation messages at teardown."""
+    from cressim.twin import TwinArms, TwinConfig
+
+    made = []
+
+    def make(**config):
+        arms = TwinArms(TwinConfig(**{"camera_width": 64, "camera_height": 48, **config}))
+        made.append(arms)
+        return arms
+
+    yield make
+    for arms in made:
+        engine = arms.bodies.engine  # tests/conftest.py turns the Vulkan validation layer on
+        assert engine.validation_messages == [], "\n".join(engine.validation_messages)
+
+
+@pytest.fixture
 def make_node(ros_domain_id):
     """make_node(**params) -> a TwinNode in this process (own rclpy context, ticked by hand with
     node._tick()); closed, checked for Vulkan validation messages and destroyed at teardown."""
@@ -89,14 +108,15 @@ def make_node(ros_domain_id):
 
     def make(**params):
         params = {"camera_width": 64, "camera_height": 48, **params}
-        node = TwinNode(context=context, parameter_overrides=[Parameter(k, value=v) for k, v in params.items()])
+        node = TwinNode(context=context, threaded_sensors=False,
+                        parameter_overrides=[Parameter(k, value=v) for k, v in params.items()])
         nodes.append(node)
         return node
 
     yield make
     for node in nodes:
         node.close()
-        engine = node.bodies.engine  # tests/conftest.py turns the Vulkan validation layer on
+        engine = node.arms.bodies.engine  # tests/conftest.py turns the Vulkan validation layer on
         assert engine.validation_messages == [], "\n".join(engine.validation_messages)
         node.destroy_node()
     rclpy.try_shutdown(context=context)

@@ -69,13 +69,13 @@ def test_envs_are_independent(batched):
 def test_clock_and_tf(batched):
     twin, ral, arms = batched
     from cressim_ros.dvrk_client import _Latest
-    from cressim_ros.topics import TF_STATIC_QOS
+    from cressim_ros.topics import LATCHED_QOS
     from tf2_msgs.msg import TFMessage
 
     clock, tf, static = _Latest(keep=50), _Latest(keep=50), _Latest()
     ral.subscriber(Clock, "/clock", clock, 1)
     ral.subscriber(TFMessage, "/tf", tf, 100)
-    ral.subscriber(TFMessage, "/tf_static", static, TF_STATIC_QOS)
+    ral.subscriber(TFMessage, "/tf_static", static, LATCHED_QOS)
     assert clock.wait_for(lambda m: clock.count >= 20, 5)
     times = [m.clock.sec + m.clock.nanosec * 1e-9 for m in clock.history]
     assert times[0] > 0 and all(b > a for a, b in zip(times, times[1:]))

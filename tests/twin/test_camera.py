@@ -13,18 +13,20 @@ W, H = 96, 72
 
 
 def _render(node, ticks=5):
+    camera = node.sensors.sensors["camera"]
+    before = camera.rendered
     for _ in range(ticks):
         node._tick()
-        if node._rendered:
+        if camera.rendered > before:
             return node.camera.host_images(("color", "depth", "segmentation"))
     raise AssertionError("no camera frame rendered")
 
 
 def test_depth_at_the_image_centre_is_the_distance_to_the_tissue(make_node):
-    from cressim_ros.scenery import TISSUE_HALF
+    from cressim.twin.scenery import TISSUE_HALF
 
     node = make_node(camera_width=W, camera_height=H)
-    spec = node.bodies.scenery.camera
+    spec = node.arms.bodies.scenery.camera
     images = _render(node)
     # the optical axis from the camera towards look_at meets the tissue's top face
     p, target = np.array(spec.position), np.array(spec.look_at)
@@ -36,7 +38,7 @@ def test_depth_at_the_image_centre_is_the_distance_to_the_tissue(make_node):
     depth = images["depth"][0]
     centre = depth[H // 2 - 1: H // 2 + 1, W // 2 - 1: W // 2 + 1]  # the four pixels around the axis
     assert abs(float(centre.mean()) - expected) < 1e-3, (centre, expected)
-    ids = {name: k for k, name in node.bodies.scenery.labels.items()}
+    ids = {name: k for k, name in node.arms.bodies.scenery.labels.items()}
     assert images["segmentation"][0][H // 2, W // 2] == ids["tissue"]
     assert np.isnan(depth).any() and np.nanmin(depth) > 0  # sky: no return (REP 118), NaN
 
@@ -52,14 +54,17 @@ def test_camera_info_matches_the_field_of_view(make_node):
 
 def test_segmentation_follows_the_arm(make_node):
     node = make_node(camera_width=W, camera_height=H)
-    shaft = {v: k for k, v in node.bodies.scenery.labels.items()}["PSM1_shaft_link"]
+    shaft = {v: k for k, v in node.arms.bodies.scenery.labels.items()}["PSM1_shaft_link"]
     before = _render(node)["segmentation"][0] == shaft
     assert before.sum() > 10, "the shaft is in view"
-    node.states[0].command("enable")
-    node.states[0].homing_done()
-    from sensor_msgs.msg import JointState
+    from cressim.twin import JointCommand
 
-    node._on_servo_jp(0, JointState(position=[0.4, 0.0, 0.1, 0.0, 0.0, 0.0]))  # yaw the arm
+    arms = node.arms
+    arms.state_command(0, "enable")
+    arms.state_command(0, "home")
+    while arms.states[0].is_busy:
+        node._tick()
+    assert arms.servo_jp(0, JointCommand(position=[0.4, 0.0, 0.12, 0.0, 0.0, 0.0])) == []  # yaw the arm
     for _ in range(20):
         node._tick()
     after = _render(node)["segmentation"][0] == shaft
@@ -78,6 +83,7 @@ def test_camera_topics_are_recorded(make_node, tmp_path):
     for product in ("color", "depth", "segmentation"):
         assert counts[f"/camera/{product}/image_raw"] == counts[f"/camera/{product}/camera_info"] >= 3
     assert counts["/tf_static"] == 1 and counts["/tf"] >= 4
+    assert counts["/camera/segmentation/labels"] == 1  # latched before the recording opened
 
 
 def test_camera_size_cannot_change_while_running(make_node):

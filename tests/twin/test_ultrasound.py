@@ -11,16 +11,18 @@ SENSORS = ["joints", "tf", "ultrasound"]
 
 
 def _image(node, ticks=12):
+    sensor = node.sensors.sensors["ultrasound"]
+    before = sensor.rendered
     for _ in range(ticks):
         node._tick()
-        if node._sensed:
-            return node.bodies.engine.buffer("ultrasound0.image").read()[0]
+        if sensor.rendered > before:
+            return node.arms.bodies.engine.buffer("ultrasound0.image").read()[0]
     raise AssertionError("no ultrasound frame")
 
 
 def test_the_cyst_under_the_probe_is_dark(make_node):
     node = make_node(sensors=SENSORS, ultrasound_rate=50.0)
-    spec = node.bodies.scenery.ultrasound
+    spec = node.arms.bodies.scenery.ultrasound
     img = _image(node)
     h, w = img.shape
     # the cyst sits under the probe's centre line at half the tissue's depth (1 cm of a 2 cm image)

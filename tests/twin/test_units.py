@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 import torch
 
-from cressim_ros.arm_state import ArmState
-from cressim_ros.command_checks import joint_values, pose_matrix
-from cressim_ros.scene import SceneError, load_scene, parse_scene
-from cressim_ros.trajectory import BatchedTrajectory
+from cressim.twin.arm_state import ArmState
+from cressim.twin.command_checks import joint_values, pose_matrix
+from cressim.twin.scene import SceneError, load_scene, parse_scene
+from cressim.twin.trajectory import BatchedTrajectory
 
 REPO = Path(__file__).resolve().parents[2]
 NAMES = ("yaw", "pitch", "insertion", "roll", "wrist_pitch", "wrist_yaw")

@@ -20,17 +20,12 @@ import json
 from array import array
 
 import numpy as np
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import CameraInfo, Image
 from std_msgs.msg import String
 
+from .topics import IMAGE_QOS, LATCHED_QOS
+
 PRODUCTS = ("color", "depth", "segmentation")  # sensor groups of the `sensors` parameter
-# Images: reliable (a reliable publisher serves best-effort and reliable readers alike) but a
-# short queue, since a late frame is worth less than the next one.
-IMAGE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=2, reliability=ReliabilityPolicy.RELIABLE,
-                       durability=DurabilityPolicy.VOLATILE)
-LABELS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                        durability=DurabilityPolicy.TRANSIENT_LOCAL)
 ENCODINGS = {"color": ("rgb8", 3), "depth": ("32FC1", 4), "segmentation": ("16UC1", 2)}
 BUFFERS = {"color": "rgb", "depth": "depth", "segmentation": "segmentation"}
 
@@ -55,12 +50,15 @@ class CameraTopics:
         self.groups = sorted({g for g, _ in self.where})
         self.pubs = [{} for _ in range(num_envs)]  # env -> {product: (image pub, info pub)}
         self.infos = [self._camera_info(env) for env in range(num_envs)]
-        label_text = json.dumps({str(k): v for k, v in sorted(labels.items())})
+        self.labels = String(data=json.dumps({str(k): v for k, v in sorted(labels.items())}))
         self.label_pubs = []
         for env in range(num_envs):
-            pub = node.create_publisher(String, f"{camera_namespace(env, num_envs)}/segmentation/labels", LABELS_QOS)
-            pub.publish(String(data=label_text))
+            pub = node.create_publisher(String, self.labels_topic(env), LATCHED_QOS)
+            pub.publish(self.labels)
             self.label_pubs.append(pub)
+
+    def labels_topic(self, env: int) -> str:
+        return f"{camera_namespace(env, self.num_envs)}/segmentation/labels"
 
     def topics(self, product: str, env: int) -> tuple[str, str]:
         ns = f"{camera_namespace(env, self.num_envs)}/{product}"
@@ -93,7 +91,7 @@ class CameraTopics:
     def host_images(self, products) -> dict:
         """product -> [per env (H, W, ...) numpy image], after the frame that rendered them."""
         out = {}
-        for product in products:
+        for product in (p for p in PRODUCTS if p in products):
             per_group = {}
             for g in self.groups:
                 a = self.engine.buffer(f"camera{g}.{BUFFERS[product]}").read()  # one copy per product
@@ -107,12 +105,9 @@ class CameraTopics:
             out[product] = [per_group[g][layer] for g, layer in self.where]
         return out
 
-    def publish(self, products, stamp, record=None):
-        """Publishes the enabled products of all envs; record(topic, msg) sees each message."""
-        products = [p for p in PRODUCTS if p in products]
-        if not products:
-            return
-        images = self.host_images(products)
+    def publish(self, images: dict, stamp, record=None):
+        """Publishes host_images' products of all envs; record(topic, msg) sees each message."""
+        products = [p for p in PRODUCTS if p in images]
         s = self.spec
         for env in range(self.num_envs):
             info = self.infos[env]

@@ -13,7 +13,7 @@ import math
 import os
 from dataclasses import dataclass
 
-from .scene import DYNAMICS, ROBOTS, SENSORS, Scene
+from cressim.twin.scene import DYNAMICS, ROBOTS, SENSORS, Scene
 
 
 @dataclass(frozen=True)

@@ -1,50 +1,62 @@
-"""Topic and service names, QoS profiles and namespaces of the twin (the dVRK's, see DVRK.md).
-
-Kept in one place so that the node, the tests and docs/twin.md agree on them.
+"""The twin's topics as ROS sees them: QoS profiles and message classes of the one topic table
+(cressim.record.schema.PSM_TOPICS, which also drives the recorder and bags/README.md), and the
+namespaces of each env.
 """
 from __future__ import annotations
 
+import importlib
+
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-# Periodic state (measured_js, ...): reliable, volatile, depth 100, as the dVRK publishes them.
-PERIODIC_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE,
-                          durability=DurabilityPolicy.VOLATILE)
-# Events (operating_state, error, ...): transient local, so that a client that connects late
-# still gets the last operating state (the dVRK client waits on it right after connecting).
-EVENT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE,
-                       durability=DurabilityPolicy.TRANSIENT_LOCAL)
-# Commands: depth 1; a servo stream only ever needs the newest sample.
-COMMAND_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                         durability=DurabilityPolicy.VOLATILE)
+from cressim.record.schema import PSM_TOPICS, TOPICS_BY_NAME, TopicSpec
+
+
+def qos(spec: TopicSpec) -> QoSProfile:
+    """Reliable, as the dVRK: periodic volatile depth 100; events transient local (a late client
+    gets the last operating_state); commands volatile, servo streams latest-wins (depth 1),
+    every other command queued (depth 100: a move or state command is never dropped)."""
+    durability = DurabilityPolicy.TRANSIENT_LOCAL if spec.role == "event" else DurabilityPolicy.VOLATILE
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=spec.depth, reliability=ReliabilityPolicy.RELIABLE,
+                      durability=durability)
+
+
+def msg_class(spec: TopicSpec):
+    """'sensor_msgs/msg/JointState' -> the rclpy message class."""
+    package, kind, name = spec.msgtype.split("/")
+    return getattr(importlib.import_module(f"{package}.{kind}"), name)
+
+
+def arm_topics(role: str) -> list[TopicSpec]:
+    """Topics under each arm namespace with the given role."""
+    return [t for t in PSM_TOPICS if t.role == role and not t.name.startswith("/")]
+
+
+# Periodic arm topics by sensor group (the `sensors` parameter picks groups).
+SENSOR_TOPICS: dict[str, tuple[str, ...]] = {}
+for _t in arm_topics("state"):
+    SENSOR_TOPICS.setdefault(_t.group, ())
+    SENSOR_TOPICS[_t.group] += (_t.name,)
+
 # /clock: reliable depth 1 matches rclpy's time source (best effort) and reliable readers alike.
 CLOCK_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
                        durability=DurabilityPolicy.VOLATILE)
-
-# Periodic topics by sensor group (the `sensors` parameter picks groups).
-SENSOR_TOPICS = {
-    "joints": ("measured_js", "setpoint_js", "jaw/measured_js", "jaw/setpoint_js"),
-    "cartesian": ("measured_cp", "setpoint_cp", "local/measured_cp", "local/setpoint_cp"),
-    "velocity": ("measured_cv",),
-    "wrench": ("body/measured_cf", "spatial/measured_cf"),
-    "jacobian": ("body/jacobian", "spatial/jacobian"),
-}
-EVENT_TOPICS = ("operating_state", "desired_state", "goal_reached", "error", "warning", "status")
-# Every command topic a dVRK client may open gets a subscription (clients check that each of
-# their publishers has a peer); the ones the kinematic twin cannot do answer with a warning.
-COMMAND_TOPICS = ("state_command", "servo_jp", "servo_jr", "move_jp", "move_jr", "servo_cp", "move_cp",
-                  "jaw/servo_jp", "jaw/move_jp", "hold", "free", "servo_jf", "jaw/servo_jf", "body/servo_cf",
-                  "spatial/servo_cf", "set_base_frame", "trajectory_j/set_ratio")
-SERVICES = ("operating_state", "crtk_version", "forward_kinematics", "local/forward_kinematics",
-            "inverse_kinematics")
+# Images: reliable (a reliable publisher serves best-effort and reliable readers alike) but a
+# short queue, since a late frame is worth less than the next one.
+IMAGE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=2, reliability=ReliabilityPolicy.RELIABLE,
+                       durability=DurabilityPolicy.VOLATILE)
+# Latched once-only topics (/tf_static, /robot_description, labels): depth 1, as tf2's static
+# broadcaster and robot_state_publisher.
+LATCHED_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
 CRTK_VERSION = "1.1.0"
 CLOCK_TOPIC = "/clock"
-# tf: base -> tip of every env on /tf at the tf rate (one TFMessage per tick for all envs);
-# world -> base and world -> camera of every env once on /tf_static (transient local, depth 1,
-# as tf2's static broadcaster). tf2_msgs is built in ros_ws (no Jazzy wheel ships it).
 TF_TOPIC = "/tf"
 TF_STATIC_TOPIC = "/tf_static"
-TF_STATIC_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                           durability=DurabilityPolicy.TRANSIENT_LOCAL)
+ROBOT_DESCRIPTION_TOPIC = "/robot_description"
+DIAGNOSTICS_TOPIC = "/diagnostics"
+SERVICES = ("operating_state", "crtk_version", "forward_kinematics", "local/forward_kinematics",
+            "inverse_kinematics")
+CONSOLE_NAMESPACES = ("/console", "/system")  # dVRK 2.3 renamed the console `system`; both answer
 
 
 def env_namespaces(arm: str, num_envs: int) -> list[list[str]]:
@@ -59,5 +71,11 @@ def env_frame_prefix(env: int, num_envs: int) -> str:
     return "" if num_envs == 1 else f"env{env}/"
 
 
-__all__ = ["CLOCK_QOS", "CLOCK_TOPIC", "COMMAND_QOS", "COMMAND_TOPICS", "CRTK_VERSION", "EVENT_QOS", "EVENT_TOPICS",
-           "PERIODIC_QOS", "SENSOR_TOPICS", "SERVICES", "TF_STATIC_QOS", "TF_STATIC_TOPIC", "TF_TOPIC", "env_frame_prefix", "env_namespaces"]
+def env_topic(topic: str, env: int, num_envs: int) -> str:
+    """A global topic of one env: /camera/... for a single env, /env3/camera/... in batched mode."""
+    return topic if num_envs == 1 else f"/env{env}{topic}"
+
+
+__all__ = ["CLOCK_QOS", "CLOCK_TOPIC", "CONSOLE_NAMESPACES", "CRTK_VERSION", "DIAGNOSTICS_TOPIC", "IMAGE_QOS",
+           "LATCHED_QOS", "ROBOT_DESCRIPTION_TOPIC", "SENSOR_TOPICS", "SERVICES", "TF_STATIC_TOPIC", "TF_TOPIC",
+           "TOPICS_BY_NAME", "arm_topics", "env_frame_prefix", "env_namespaces", "env_topic", "msg_class", "qos"]

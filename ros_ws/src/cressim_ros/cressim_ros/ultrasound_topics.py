@@ -12,7 +12,7 @@ from array import array
 import numpy as np
 from sensor_msgs.msg import Image
 
-from .camera_topics import IMAGE_QOS
+from .topics import IMAGE_QOS
 
 
 def ultrasound_topic(env: int, num_envs: int) -> str:
@@ -31,8 +31,11 @@ class UltrasoundTopics:
         self.pubs = [node.create_publisher(Image, ultrasound_topic(env, num_envs), IMAGE_QOS) for env in range(num_envs)]
         self.frames = [ultrasound_frame(env, num_envs, spec.frame) for env in range(num_envs)]
 
-    def publish(self, stamp, record=None):
-        images = np.clip(self.engine.buffer("ultrasound0.image").read() * 255.0 + 0.5, 0, 255).astype(np.uint8)
+    def read(self):
+        """Every env's B-mode image as mono8, after the frame that computed them (one copy)."""
+        return np.clip(self.engine.buffer("ultrasound0.image").read() * 255.0 + 0.5, 0, 255).astype(np.uint8)
+
+    def publish(self, images, stamp, record=None):
         height, width = images.shape[1:]
         for env, pub in enumerate(self.pubs):
             m = Image()

@@ -35,7 +35,7 @@ class Scene:
     base_rotation: tuple = (0.0, 0.0, 0.0, 1.0)  # xyzw
     initial_jp: tuple = (0.0, 0.0, 0.1, 0.0, 0.0, 0.0)
     initial_jaw: float = 0.0
-    home_jp: tuple | None = None
+    home_jp: tuple | None = (0.0, 0.0, 0.12, 0.0, 0.0, 0.0)
     measured_lag: float = 0.005
     velocity_ratio: float = 0.5
     acceleration_ratio: float = 4.0

@@ -52,9 +52,9 @@ import yourdfpy
 from pytorch_kinematics.transforms import matrix_to_quaternion
 
 import cressim
-from cressim.robots import PSM_DH, dh_forward_kinematics
-
-from .scenery import ArmVisuals, CameraSpec, Scenery, UltrasoundSpec, rotation_xyzw
+from .arm_visuals import ArmVisuals
+from .dh import PSM_DH, dh_forward_kinematics
+from .kinematics import rotation_xyzw
 
 ARM_GROUP = 2  # collision group of arm links; they do not collide with each other (mask below)
 DYNAMICS = ("kinematic", "dynamic")
@@ -141,8 +141,7 @@ class ArmBodies:
 
     def __init__(self, urdf_path, num_envs: int, *, base_position, base_rotation, publish_rate: float,
                  physics_rate: float, initial_q: np.ndarray, initial_jaw: float, dof: int, device=None,
-                 dynamics: str = "kinematic", gravity=(0.0, 0.0, -9.81), camera: CameraSpec | None = None,
-                 ultrasound: UltrasoundSpec | None = None):
+                 dynamics: str = "kinematic", gravity=(0.0, 0.0, -9.81), scenery=None):
         if dynamics not in DYNAMICS:
             raise ValueError(f"dynamics {dynamics!r} is not one of {', '.join(DYNAMICS)}")
         self.num_envs, self.dof, self.dynamics = num_envs, dof, dynamics
@@ -189,15 +188,16 @@ class ArmBodies:
         # kinematic bodies follow FK (`write`): all links in kinematic mode, the rest in dynamic mode
         self.follower_links = [b.links[0].name for b in bodies if b.frame == 0]
 
-        if camera is not None:
-            layout = cressim.SceneLayout(num_envs, max_renderables_per_env=Scenery.renderables_per_env(len(bodies)),
+        plan = scenery
+        if plan is not None:
+            layout = cressim.SceneLayout(num_envs, max_renderables_per_env=plan.renderables_per_env(len(bodies)),
                                          max_lights_per_env=1, max_cameras_per_env=1)
         else:
             layout = cressim.SceneLayout(num_envs)
         world = cressim.World(layout)
         scenery = None
-        if camera is not None:  # the arm's visuals, table, tissue, light and a camera per env
-            scenery = Scenery(world, ArmVisuals(urdf, Path(urdf_path).parent, bodies, poses), camera, ultrasound)
+        if plan is not None:  # what surrounds the arm (cameras, lights, props), from the caller's plan
+            scenery = plan.build(world, ArmVisuals(urdf, Path(urdf_path).parent, bodies, poses))
         self.scenery = scenery
         body_ids = np.zeros((num_envs, len(bodies)), dtype=np.int64)
         joint_ids = np.zeros((num_envs, len(joint_specs)), dtype=np.int64)
@@ -451,6 +451,22 @@ class ArmBodies:
         if all_links:
             return {name: frame.get_matrix() for name, frame in frames.items()}
         return {name: (base @ frames[name].get_matrix())[0].cpu().numpy() for name in frames}
+
+    def urdf_joints(self, q: torch.Tensor, jaw: torch.Tensor) -> tuple[list[str], torch.Tensor]:
+        """Every moving URDF joint's name and value ((M, J)), mimic joints included: what
+        robot_state_publisher reads from /joint_states."""
+        th = torch.cat([q[:, : self.dof].to(**self._on), jaw.to(**self._on)], dim=-1) @ self._expand.T + self._shift
+        return self.chain.get_joint_parameter_names(), th
+
+    def link_transforms(self, q: torch.Tensor, jaw: torch.Tensor) -> tuple[list[tuple[str, str]], torch.Tensor]:
+        """[(parent link, child link)] of every URDF joint and (M, J, 4, 4) child in parent:
+        the transforms robot_state_publisher puts on /tf."""
+        th = torch.cat([q[:, : self.dof].to(**self._on), jaw.to(**self._on)], dim=-1) @ self._expand.T + self._shift
+        frames = self.chain.forward_kinematics(th)
+        pairs = [(j.parent, j.child) for j in self.urdf.robot.joints if j.parent in frames and j.child in frames]
+        parent = torch.stack([frames[a].get_matrix() for a, _ in pairs], dim=1)
+        child = torch.stack([frames[b].get_matrix() for _, b in pairs], dim=1)
+        return pairs, torch.linalg.solve(parent, child)
 
     def _link_poses(self, q, jaw, names):
         """(N, dof), (N, 1) -> (N, L, 4, 4): frames of `names` in the world (base pose applied)."""

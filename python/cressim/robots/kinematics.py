@@ -13,7 +13,10 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from cressim.robots import PSM, PSM_DH, PSM_JOINT_NAMES, TOOL_TIP_OFFSET, dh_forward_kinematics
+from pytorch_kinematics.transforms import matrix_to_quaternion
+
+from .dh import PSM_DH, PSM_JOINT_NAMES, TOOL_TIP_OFFSET, dh_forward_kinematics
+from .psm import PSM
 
 INTERFACE_DOF = len(PSM_JOINT_NAMES)
 
@@ -34,7 +37,7 @@ class ArmKinematics:
 
     def forward(self, q: torch.Tensor) -> torch.Tensor:
         """(M, 6) -> (M, 4, 4): tool tip in the RCM frame (PSM1_base)."""
-        return dh_forward_kinematics(q * self.present) @ self.tip
+        return dh_forward_kinematics(q * self.present, tool_tip=None) @ self.tip
 
     def jacobian(self, q: torch.Tensor):
         """(M, 6) -> (J (M, 6, 6), T (M, 4, 4)): spatial Jacobian [v; w] of the tip in PSM1_base.
@@ -97,4 +100,10 @@ def pose7_to_matrix(p: np.ndarray) -> np.ndarray:
     return T
 
 
-__all__ = ["INTERFACE_DOF", "ArmKinematics", "body_jacobian", "matrix_to_pose7", "pose7_to_matrix"]
+def rotation_xyzw(R) -> tuple:
+    """x, y, z, w of a 3x3 rotation matrix (the engine's quaternion order)."""
+    q = matrix_to_quaternion(torch.as_tensor(np.asarray(R), dtype=torch.float64))  # w, x, y, z
+    return (float(q[1]), float(q[2]), float(q[3]), float(q[0]))
+
+
+__all__ = ["INTERFACE_DOF", "ArmKinematics", "body_jacobian", "matrix_to_pose7", "pose7_to_matrix", "rotation_xyzw"]

@@ -2,10 +2,8 @@
 one camera per env, authored into the engine's world next to the arm's bodies; optionally an
 ultrasound probe on the tissue with scatterers in the tissue under it.
 
-Visuals. Each arm body gets one Renderable: the URDF visual geometry of its links (box,
-cylinder, sphere, or a mesh file through trimesh) merged into one mesh in the body's frame,
-coloured by the first link's material. The meshes are shared by all envs (the world's mesh
-table). The scenery is visual only: it has no colliders, so it never changes the arm's motion.
+Visuals. Each arm body gets one Renderable (cressim.robots.ArmVisuals: its links' URDF visual
+geometry merged into one mesh, shared by all envs). The scenery is visual only: it has no colliders, so it never changes the arm's motion.
 
 Ultrasound (`UltrasoundSpec`, when the twin starts with the `ultrasound` sensor group): a
 linear 7.5 MHz probe (laparoscopic-like, 64 lines over 19 mm, 2 cm deep) rests on the tissue
@@ -20,14 +18,12 @@ tissue and the table; `labels` maps id -> name for the `segmentation/labels` top
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
-
 import numpy as np
 import torch
 import trimesh
-from pytorch_kinematics.transforms import matrix_to_quaternion
 
 import cressim
+from cressim.robots.kinematics import rotation_xyzw
 
 TISSUE_HALF = (0.05, 0.04, 0.01)  # m: a block of tissue under the tool
 TISSUE_COLOR = (0.78, 0.38, 0.36, 1.0)
@@ -88,66 +84,30 @@ def look_at_rotation(position, target, up=(0.0, 0.0, 1.0)) -> tuple:
     return rotation_xyzw(np.stack([x, y, z], axis=1))
 
 
-def rotation_xyzw(R) -> tuple:
-    """x, y, z, w of a 3x3 rotation matrix (the engine's quaternion order)."""
-    q = matrix_to_quaternion(torch.as_tensor(np.asarray(R), dtype=torch.float64))  # w, x, y, z
-    return (float(q[1]), float(q[2]), float(q[3]), float(q[0]))
-
-
-def _geometry_mesh(geometry, urdf_dir: Path):
-    if geometry.box is not None:
-        return _unmerged_box(geometry.box.size)
-    if geometry.cylinder is not None:
-        return trimesh.creation.cylinder(radius=geometry.cylinder.radius, height=geometry.cylinder.length, sections=32)
-    if geometry.sphere is not None:
-        return trimesh.creation.icosphere(subdivisions=2, radius=geometry.sphere.radius)
-    if geometry.mesh is not None:
-        mesh = trimesh.load(urdf_dir / geometry.mesh.filename, force="mesh")
-        if geometry.mesh.scale is not None:
-            mesh.apply_scale(geometry.mesh.scale)
-        return mesh
-    return None
-
-
-def _unmerged_box(extents):
-    box = trimesh.creation.box(extents=extents)
-    box.unmerge_vertices()  # faceted: each face its own vertices, so normals are the faces'
-    return box
-
-
-class ArmVisuals:
-    """The merged visual mesh and colour of each arm body, built once and shared by all envs."""
-
-    def __init__(self, urdf, urdf_dir: Path, bodies, link_poses):
-        colors = {m.name: tuple(m.color.rgba) for m in urdf.robot.materials if m.color is not None}
-        self.meshes, self.colors, self.names = [], [], []
-        for b in bodies:
-            parts, color = [], None
-            for link in b.links:
-                rel = np.linalg.solve(b.pose, link_poses[link.name])
-                for v in link.visuals:
-                    mesh = _geometry_mesh(v.geometry, urdf_dir)
-                    if mesh is None:
-                        continue
-                    mesh.apply_transform(rel @ (v.origin if v.origin is not None else np.eye(4)))
-                    parts.append(mesh)
-                    if color is None and v.material is not None:
-                        rgba = v.material.color.rgba if v.material.color is not None else colors.get(v.material.name)
-                        color = tuple(float(c) for c in rgba) if rgba is not None else None
-            self.meshes.append(trimesh.util.concatenate(parts) if parts else None)
-            self.colors.append(color or (0.6, 0.6, 0.6, 1.0))
-            self.names.append(b.name)
-
-
 def engine_mesh(mesh: trimesh.Trimesh) -> cressim.Mesh:
     return cressim.Mesh(np.asarray(mesh.vertices, np.float32), np.asarray(mesh.faces, np.uint32),
                         np.asarray(mesh.vertex_normals, np.float32))
 
 
+@dataclass(frozen=True)
+class SceneryPlan:
+    """What cressim.robots.ArmBodies builds next to the arm: it sizes the layout with
+    `renderables_per_env` and calls `build` once the arm's bodies and visuals are known."""
+    camera: CameraSpec
+    ultrasound: UltrasoundSpec | None = None
+
+    @staticmethod
+    def renderables_per_env(num_bodies: int) -> int:
+        return num_bodies + 2  # the arm's bodies, the table and the tissue
+
+    def build(self, world, visuals) -> "Scenery":
+        return Scenery(world, visuals, self.camera, self.ultrasound)
+
+
 class Scenery:
     """Authors visuals, scenery, light and camera into a world (call `add_env` for each env)."""
 
-    def __init__(self, world, visuals: ArmVisuals, camera: CameraSpec, ultrasound: UltrasoundSpec | None = None):
+    def __init__(self, world, visuals, camera: CameraSpec, ultrasound: UltrasoundSpec | None = None):
         self.camera, self.ultrasound = camera, ultrasound
         self.visuals = visuals
         self.body_meshes = [None if m is None else world.add_mesh(engine_mesh(m)) for m in visuals.meshes]
@@ -158,10 +118,6 @@ class Scenery:
         self.labels = {k + 1: name for k, name in enumerate(visuals.names)}
         self.labels.update({self.tissue_id: "tissue", self.table_id: "table"})
         self.camera_rotation = look_at_rotation(camera.position, camera.look_at)
-
-    @staticmethod
-    def renderables_per_env(num_bodies: int) -> int:
-        return num_bodies + 2
 
     def add_body_visual(self, entity, body_index: int):
         mesh = self.body_meshes[body_index]
@@ -208,4 +164,4 @@ class Scenery:
         probe.add(u.probe())
 
 
-__all__ = ["ArmVisuals", "CameraSpec", "Scenery", "UltrasoundSpec", "engine_mesh", "look_at_rotation", "rotation_xyzw"]
+__all__ = ["SceneryPlan", "CameraSpec", "Scenery", "UltrasoundSpec", "engine_mesh", "look_at_rotation"]

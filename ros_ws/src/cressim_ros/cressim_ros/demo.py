@@ -2,12 +2,17 @@
 loopback), recording a short MCAP dataset (arm topics, tf, camera and ultrasound images) that is
 then read back with the mcap reader, summarised, and a few of its images saved as PNG.
 
-Needs the ROS 2 environment (`source ros_ws/env.sh`; `make demo` does it). The camera runs at
-320x240 and 10 Hz here, so that the demo keeps its 100 Hz on a CPU (lavapipe); the scene's
-default is 640x480 at 30 Hz.
+Needs the ROS 2 environment (`source ros_ws/env.sh`; `make demo` does it):
+
+    python -m cressim_ros.demo [--seconds 2] [--out out/demo] [--bag bags/demo]
+
+The twin runs the default scene (640x480 camera at 30 Hz) with the ultrasound probe on; on a
+CPU (lavapipe) the camera renders fewer frames than its rate (frames are skipped) while the arm
+keeps its 100 Hz.
 """
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import os
@@ -35,15 +40,15 @@ def run(out_dir: str = "out/demo", seconds: float = 2.0, bag_dir: str = "bags/de
     shutil.rmtree(bag, ignore_errors=True)
     domain = 1 + os.getpid() % 100
     sensors = "[joints, cartesian, velocity, wrench, jacobian, tf, clock, color, depth, segmentation, ultrasound]"
-    twin = Twin(domain, out / "twin.log", f"record:={bag}", "camera_width:=320", "camera_height:=240",
-                "camera_rate:=10.0", "ultrasound_rate:=5.0", f"sensors:={sensors}")
+    twin = Twin(domain, out / "twin.log", f"record:={bag}", f"sensors:={sensors}")
     ral = None
     try:
         startup = twin.wait_ready()
         ral = Ral("cressim_demo_client", domain)
         arm = Arm(ral, "/PSM1")
-        ral.check_connections(timeout=20)
-        assert arm.enable(5) and arm.home(10), f"enable/home failed: {arm.operating_state()}"
+        ral.check_connections(timeout=60)
+        # the twin is ready (its first tick published): enable and home answer within ticks
+        assert arm.enable(30) and arm.home(30), f"enable/home failed: {arm.operating_state()}"
         goal = np.array([0.2, -0.15, 0.12, 0.3, 0.2, -0.2])
         assert arm.move_jp(goal).wait(10), "move_jp did not finish"
         worst = 0.0
@@ -99,3 +104,16 @@ def save_images(bag: Path, folder: Path) -> list[Path]:
                 img = colour_segmentation(data.view(np.uint16).reshape(m.height, m.width))
             written.append(save_png(folder / f"{product}_{k:03d}.png", img))
     return written
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(prog="python -m cressim_ros.demo", description=__doc__.split("\n\n")[0])
+    p.add_argument("--seconds", type=float, default=2.0, help="length of the servo_jp sine")
+    p.add_argument("--out", default="out/demo", help="folder for the images and the summary")
+    p.add_argument("--bag", default="bags/demo", help="the recording (replaced each run)")
+    args = p.parse_args(argv)
+    return run(out_dir=args.out, seconds=args.seconds, bag_dir=args.bag)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
