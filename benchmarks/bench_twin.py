@@ -1,11 +1,18 @@
-"""The twin's batched headless mode without ROS: N PSM arms in one engine, ticked as the node
-ticks them (batched FK of every env's links, body targets written on the device, one submit of
-physics substeps, in dynamic mode joint drives set and joint values gathered), with and without
-each env's camera rendering every tick. Prints and writes ticks/s and env-ticks/s.
+"""The twin's control tick and sensors without ROS, as the node runs them: N PSM arms
+(cressim.twin.TwinArms: trajectories, measured, batched FK/Jacobians and the one device -> host
+snapshot a tick publishes) ticked by a 100 Hz loop, while cressim.twin.SensorLoop renders each
+env's camera (the default scene's 640x480 RGB, depth and segmentation at 30 Hz) on its own
+thread and copies the images to the host, as the node does before publishing them.
 
-Usage (GPU machine, after benchmarks/gpu_build.sh; needs yourdfpy and pytorch-kinematics):
-    PYTHONPATH=python:ros_ws/src/cressim_ros python3 benchmarks/bench_twin.py --envs 1,64,1024,4096 \
-        --json benchmarks/results/twin_<gpu>.json
+Two figures per row:
+- paced: the tick loop runs in real time at 100 Hz for --seconds; tick time (mean, max), the
+  tick rate held, and camera frames rendered per second (the rest skipped: a frame is never
+  waited for);
+- unpaced: ticks back to back without cameras (the tick's own cost), ticks/s and env-ticks/s.
+
+Usage (GPU machine, after benchmarks/gpu_build.sh; needs yourdfpy, pytorch-kinematics, trimesh):
+    PYTHONPATH=python python3 benchmarks/bench_twin.py --envs 1,64,1024 --json benchmarks/results/twin_<gpu>.json
+On the development machine (lavapipe) use small counts: --envs 1 --seconds 5.
 """
 from __future__ import annotations
 
@@ -16,72 +23,102 @@ import time
 import numpy as np
 import torch
 
-from cressim.robots import robot_dir
-from cressim_ros.arm_bodies import ArmBodies
-from cressim_ros.scenery import CameraSpec
-
-Q0 = np.array([0.0, 0.0, 0.1, 0.0, 0.0, 0.0])
+from cressim.twin import JointCommand, Scene, Sensor, SensorLoop, TwinArms, TwinConfig
+from cressim.twin.camera_images import PRODUCTS, CameraImages
 
 
-def run(envs: int, dynamics: str, camera: int, ticks: int, device) -> dict:
-    spec = CameraSpec(width=camera, height=camera) if camera else None
+def _drive(arms, k: int):
+    """Every env's yaw on its own sine (a servo_jp per env, as clients would send)."""
+    for env in range(min(arms.num_envs, 8)):  # commands are per env; a few keep the loop O(1)
+        q = [0.3 * np.sin(0.05 * k + env), 0.0, 0.12, 0.0, 0.0, 0.0]
+        arms.servo_jp(env, JointCommand(position=q))
+
+
+def _ready(arms):
+    for env in range(arms.num_envs):
+        arms.state_command(env, "enable")
+        arms.state_command(env, "home")
+    while any(s.is_busy for s in arms.states):
+        arms.tick()
+
+
+def run(envs: int, dynamics: str, width: int, height: int, camera_rate: float, seconds: float) -> dict:
     t0 = time.perf_counter()
-    arms = ArmBodies(robot_dir() / "psm_lnd.urdf", envs, base_position=(0, 0, 0.3), base_rotation=(0, 0, 0, 1),
-                     publish_rate=100, physics_rate=200, initial_q=Q0, initial_jaw=0.0, dof=6, dynamics=dynamics,
-                     camera=spec, device=device)
+    arms = TwinArms(TwinConfig(scene=Scene(), num_envs=envs, dynamics=dynamics, camera_width=width,
+                               camera_height=height, cameras=width > 0))
     build_s = time.perf_counter() - t0
-    dev = arms.device
-    q = torch.as_tensor(Q0, device=dev, dtype=torch.float64).repeat(envs, 1)
-    jaw = torch.zeros(envs, 1, device=dev, dtype=torch.float64)
-    phase = torch.linspace(0, 6.28, envs, device=dev, dtype=torch.float64)
+    _ready(arms)
+    row = {"envs": envs, "dynamics": dynamics, "camera": f"{width}x{height}" if width else "none",
+           "camera_rate": camera_rate, "build_s": build_s, "device": arms.bodies.engine.device["name"],
+           "torch_device": str(arms.device)}
 
-    def tick(k):
-        qk = q.clone()
-        qk[:, 0] = 0.3 * torch.sin(phase + 0.05 * k)  # every env's yaw on its own sine
-        if arms.dynamic:
-            arms.set_targets(qk, jaw)
-        arms.write(qk, jaw)
-        arms.step(render=bool(camera))
-        if arms.dynamic:
-            arms.read_joints()
-
-    for k in range(10):
-        tick(k)
-    if dev.type == "cuda":
-        torch.cuda.synchronize(dev)
+    # unpaced: the tick's own cost (no sensors)
+    n = 200
     t = time.perf_counter()
-    for k in range(ticks):
-        tick(k)
-    if dev.type == "cuda":
-        torch.cuda.synchronize(dev)
-    dt = (time.perf_counter() - t) / ticks
-    health = int((arms.health_flags() != 0).sum())
-    return {"envs": envs, "dynamics": dynamics, "camera": camera, "ticks_per_s": 1 / dt, "env_ticks_per_s": envs / dt,
-            "tick_ms": dt * 1e3, "build_s": build_s, "unhealthy_envs": health,
-            "device": arms.engine.device["name"], "torch_device": str(dev)}
+    for k in range(n):
+        _drive(arms, k)
+        arms.tick()
+        arms.snapshot()
+    dt = (time.perf_counter() - t) / n
+    row.update(unpaced_tick_ms=dt * 1e3, unpaced_ticks_per_s=1 / dt, unpaced_env_ticks_per_s=envs / dt)
+
+    if width:
+        images = CameraImages(arms.bodies.engine)
+        sensors = SensorLoop(arms, [Sensor("camera", camera_rate, render=True, read=lambda: images.read(PRODUCTS),
+                                           publish=lambda data, stamp: None)])
+        sensors.render_now()  # pipelines built before timing
+        if arms.device.type == "cpu" and not arms.dynamic:
+            sensors.lower_priority(arms.engine_threads)
+        period = 1.0 / arms.publish_rate
+        ticks, tick_s = 0, []
+        start = time.perf_counter()
+        next_t = start
+        while time.perf_counter() - start < seconds:
+            a = time.perf_counter()
+            _drive(arms, ticks)
+            arms.tick()
+            arms.snapshot()
+            sensors.offer(arms.sim_ns, stamp=ticks)
+            tick_s.append(time.perf_counter() - a)
+            ticks += 1
+            next_t += period
+            time.sleep(max(0.0, next_t - time.perf_counter()))
+        elapsed = time.perf_counter() - start
+        sensors.wait_idle(60)
+        stats = sensors.stats()["camera"]
+        sensors.close()
+        row.update(paced_tick_mean_ms=float(np.mean(tick_s)) * 1e3, paced_tick_max_ms=float(np.max(tick_s)) * 1e3,
+                   paced_ticks_per_s=ticks / elapsed, camera_frames_per_s=stats["rendered"] / elapsed,
+                   camera_frames_skipped=stats["skipped"], seconds=elapsed)
+    row["unhealthy_envs"] = int((arms.bodies.health_flags() != 0).sum())
+    return row
 
 
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--envs", default="1,64,1024")
     ap.add_argument("--dynamics", default="kinematic,dynamic")
-    ap.add_argument("--cameras", default="0,64", help="camera sizes (square); 0: no camera")
-    ap.add_argument("--ticks", type=int, default=100)
-    ap.add_argument("--device", default=None, help="torch device (default: the engine's)")
+    ap.add_argument("--camera", default="640x480", help="WxH of each env's camera (the default scene's); 0: none")
+    ap.add_argument("--camera-rate", type=float, default=30.0)
+    ap.add_argument("--seconds", type=float, default=10.0, help="paced run length")
     ap.add_argument("--json")
     args = ap.parse_args()
+    torch.set_num_threads(1)  # as the node: (N, 6) tensors gain nothing from threads
+    width, height = (0, 0) if args.camera == "0" else map(int, args.camera.split("x"))
     rows = []
     for dynamics in args.dynamics.split(","):
-        for camera in map(int, args.cameras.split(",")):
-            for envs in map(int, args.envs.split(",")):
-                row = run(envs, dynamics, camera, args.ticks, args.device)
-                rows.append(row)
-                print(f"{dynamics:9s} camera {camera:3d}  {envs:5d} envs: {row['ticks_per_s']:8.1f} ticks/s "
-                      f"{row['env_ticks_per_s']:12,.0f} env-ticks/s ({row['tick_ms']:.2f} ms/tick, built in "
-                      f"{row['build_s']:.1f} s, unhealthy {row['unhealthy_envs']})", flush=True)
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(rows, f, indent=2)
+        for envs in map(int, args.envs.split(",")):
+            row = run(envs, dynamics, width, height, args.camera_rate, args.seconds)
+            rows.append(row)
+            paced = (f"paced: {row['paced_ticks_per_s']:.1f} ticks/s, tick {row['paced_tick_mean_ms']:.2f} ms "
+                     f"(max {row['paced_tick_max_ms']:.1f}), camera {row['camera_frames_per_s']:.1f} frames/s "
+                     f"({row['camera_frames_skipped']} skipped); " if width else "")
+            print(f"{dynamics:9s} {envs:5d} envs: {paced}unpaced {row['unpaced_ticks_per_s']:,.0f} ticks/s = "
+                  f"{row['unpaced_env_ticks_per_s']:,.0f} env-ticks/s; built in {row['build_s']:.1f} s; "
+                  f"unhealthy {row['unhealthy_envs']}", flush=True)
+            if args.json:  # after every row: a later crash keeps the rows before it
+                with open(args.json, "w") as f:
+                    json.dump(rows, f, indent=2)
 
 
 if __name__ == "__main__":

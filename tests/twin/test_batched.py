@@ -80,10 +80,13 @@ def test_clock_and_tf(batched):
     times = [m.clock.sec + m.clock.nanosec * 1e-9 for m in clock.history]
     assert times[0] > 0 and all(b > a for a, b in zip(times, times[1:]))
     assert tf.wait_for(lambda m: tf.count >= 10, 5)
-    for m in tf.history:  # one message per tick with every env's base -> tip
-        assert [(t.header.frame_id, t.child_frame_id) for t in m.transforms] == [
-            ("env0/PSM1_base", "env0/PSM1"), ("env1/PSM1_base", "env1/PSM1")]
-        assert all(t.header.stamp.sec > 0 for t in m.transforms)
+    for m in tf.history:  # one message per tick: every env's base -> tip, then its URDF links
+        pairs = [(t.header.frame_id, t.child_frame_id) for t in m.transforms]
+        assert pairs[:2] == [("env0/PSM1_base", "env0/PSM1"), ("env1/PSM1_base", "env1/PSM1")]
+        for env in range(2):  # as robot_state_publisher: each link from its parent link
+            assert (f"env{env}/PSM1_base", f"env{env}/PSM1_mount_link") in pairs
+            assert (f"env{env}/PSM1_wrist_yaw_link", f"env{env}/PSM1_jaw_link") in pairs
+        assert len(pairs) == len(set(pairs)) and all(t.header.stamp.sec > 0 for t in m.transforms)
     # latched: a late subscriber still gets world -> base and world -> camera of each env
     assert static.wait_for(lambda m: True, 5)
     pairs = {(t.header.frame_id, t.child_frame_id) for t in static.msg.transforms}

@@ -16,7 +16,7 @@ from cressim.robots import canonical_joint_name
 
 # A command exactly at a limit (as printed by a client that read it from the URDF, say) is
 # fine; this much beyond is refused rather than clamped (a silently moved goal is worse).
-LIMIT_TOLERANCE = 1e-6
+LIMIT_TOLERANCE = 1e-5  # the URDF limits are rounded to 6 digits (80 degrees is 1.3962634, the limit 1.39626)
 QUATERNION_TOLERANCE = 1e-2  # |q| may differ from 1 by this (rounding in clients); it is renormalised
 
 

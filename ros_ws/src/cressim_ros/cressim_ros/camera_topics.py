@@ -23,11 +23,10 @@ import numpy as np
 from sensor_msgs.msg import CameraInfo, Image
 from std_msgs.msg import String
 
-from .topics import IMAGE_QOS, LATCHED_QOS
+from cressim.twin.camera_images import PRODUCTS, CameraImages
 
-PRODUCTS = ("color", "depth", "segmentation")  # sensor groups of the `sensors` parameter
+from .topics import IMAGE_QOS, LATCHED_QOS
 ENCODINGS = {"color": ("rgb8", 3), "depth": ("32FC1", 4), "segmentation": ("16UC1", 2)}
-BUFFERS = {"color": "rgb", "depth": "depth", "segmentation": "segmentation"}
 
 
 def camera_namespace(env: int, num_envs: int) -> str:
@@ -43,11 +42,7 @@ class CameraTopics:
 
     def __init__(self, node, engine, spec, labels: dict, num_envs: int):
         self.node, self.engine, self.spec, self.num_envs = node, engine, spec, num_envs
-        cams = engine.cameras
-        # env -> (group, layer) of its camera: images of env i are camera{group}.*[layer]
-        order = np.argsort(cams["env"])
-        self.where = [(int(cams["group"][k]), int(cams["layer"][k])) for k in order]
-        self.groups = sorted({g for g, _ in self.where})
+        self.images = CameraImages(engine)
         self.pubs = [{} for _ in range(num_envs)]  # env -> {product: (image pub, info pub)}
         self.infos = [self._camera_info(env) for env in range(num_envs)]
         self.labels = String(data=json.dumps({str(k): v for k, v in sorted(labels.items())}))
@@ -90,20 +85,7 @@ class CameraTopics:
 
     def host_images(self, products) -> dict:
         """product -> [per env (H, W, ...) numpy image], after the frame that rendered them."""
-        out = {}
-        for product in (p for p in PRODUCTS if p in products):
-            per_group = {}
-            for g in self.groups:
-                a = self.engine.buffer(f"camera{g}.{BUFFERS[product]}").read()  # one copy per product
-                if product == "color":
-                    a = a[..., :3]
-                elif product == "segmentation":
-                    a = np.minimum(a, 65535).astype(np.uint16)
-                elif product == "depth":  # REP 118: no return is NaN
-                    a = np.where(a == 0, np.float32(np.nan), a)
-                per_group[g] = a
-            out[product] = [per_group[g][layer] for g, layer in self.where]
-        return out
+        return self.images.read(products)
 
     def publish(self, images: dict, stamp, record=None):
         """Publishes host_images' products of all envs; record(topic, msg) sees each message."""
@@ -129,4 +111,4 @@ class CameraTopics:
                     record(info_topic, info)
 
 
-__all__ = ["BUFFERS", "CameraTopics", "ENCODINGS", "IMAGE_QOS", "PRODUCTS", "camera_frame", "camera_namespace"]
+__all__ = ["CameraTopics", "ENCODINGS", "IMAGE_QOS", "PRODUCTS", "camera_frame", "camera_namespace"]

@@ -530,7 +530,12 @@ class TwinNode(Node):
         except Exception:  # noqa: BLE001 - a failing tick is reported and the next one runs
             self.get_logger().error("tick failed: " + traceback.format_exc(), throttle_duration_sec=LOG_THROTTLE_S)
         self._tick_times.append(time.perf_counter() - started)
-        self._tick_ns.append(time.monotonic_ns())
+        now_ns = time.monotonic_ns()
+        if self._tick_ns and now_ns - self._tick_ns[-1] > 10 * self.arms.period_ns:
+            self.get_logger().warning(f"tick {(now_ns - self._tick_ns[-1]) * 1e-6:.0f} ms after the last one "
+                                      f"(period {self.arms.period_ns * 1e-6:g} ms): the machine is busy",
+                                      throttle_duration_sec=LOG_THROTTLE_S)
+        self._tick_ns.append(now_ns)
         if not self.ready:
             self.ready = True
             cfg = self.cfg
