@@ -2,7 +2,7 @@
 # The GPU machine's whole session in stages (device time is scarce: one call per stage or two).
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh setup tests      # build, ctest, pytest
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-a           # CartPole, rendering
-#   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-b           # ultrasound, twin
+#   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-b bench-twin  # ultrasound; the twin
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-soft bench-fluid  # SoftBodyPush, FluidPour
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-r bench-us  # render extras, ultrasound
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-pr          # particles drawn by the renderer
@@ -74,7 +74,9 @@ for stage in "$@"; do
         --out "$OUT/ultrasound_sweep"
       run ultrasound_sensor 120 python3 benchmarks/bench_ultrasound.py --envs 1,32,256,1024,4096 \
         --json "$OUT/ultrasound_sensor.json"
-      run twin 240 python3 benchmarks/bench_twin.py --envs 1,64,1024,4096 --ticks 50 --json "$OUT/twin.json"
+      ;;
+    bench-twin)  # the twin's 100 Hz tick with the default scene's 640x480 camera per env at 30 Hz
+      run twin 600 python3 benchmarks/bench_twin.py --envs 1,64,1024 --seconds 10 --json "$OUT/twin.json"
       ;;
     bench-soft)
       mkdir -p "$OUT/softbodypush" "$OUT/softbodypush_ppo"

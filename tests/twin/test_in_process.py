@@ -63,3 +63,45 @@ def test_runtime_parameter_changes(make_node):
     assert not results[0].successful and "restart" in results[0].reason
     node._tick()
     assert node.arms.sim_ns == 20_000_000
+
+
+def test_forward_kinematics_service_equals_the_urdf_model(make_node):
+    """The forward_kinematics services over DDS, for 1,000 random joint vectors, against the URDF
+    chain (pytorch-kinematics); local/ is in the RCM frame, the other in the base frame."""
+    import threading
+
+    import numpy as np
+    import rclpy
+    import torch
+    from crtk_msgs.srv import QueryForwardKinematics
+    from rclpy.executors import MultiThreadedExecutor
+
+    from cressim.robots import PSM, pose7_to_matrix
+
+    node = make_node()
+    client_node = rclpy.create_node("fk_client", context=node.context)
+    executor = MultiThreadedExecutor(context=node.context)
+    executor.add_node(node)
+    executor.add_node(client_node)
+    spinner = threading.Thread(target=executor.spin, daemon=True)
+    spinner.start()
+    try:
+        urdf = PSM(node.arms.psm.urdf_path, dtype=torch.float64)
+        q = np.random.default_rng(3).uniform(node.arms.kin.lower_np, node.arms.kin.upper_np, size=(1000, 6))
+        expected = urdf.forward_kinematics(torch.as_tensor(q)).numpy()
+        clients = {name: client_node.create_client(QueryForwardKinematics, f"/PSM1/{name}")
+                   for name in ("local/forward_kinematics", "forward_kinematics")}
+        for c in clients.values():
+            assert c.wait_for_service(timeout_sec=60)
+        for k in range(1000):
+            name = "local/forward_kinematics" if k % 2 else "forward_kinematics"  # base frame = RCM here
+            response = clients[name].call(QueryForwardKinematics.Request(jp=list(q[k])), timeout_sec=60)
+            assert response.result, response.message
+            p, o = response.cp.position, response.cp.orientation
+            T = pose7_to_matrix(np.array([p.x, p.y, p.z, o.x, o.y, o.z, o.w]))
+            assert np.abs(T - expected[k]).max() < 1e-6, (k, T, expected[k])
+        bad = clients["forward_kinematics"].call(QueryForwardKinematics.Request(jp=[0.0] * 5), timeout_sec=60)
+        assert not bad.result and "expected 6" in bad.message
+    finally:
+        executor.shutdown()
+        client_node.destroy_node()

@@ -8,19 +8,24 @@ from pathlib import Path
 
 PKG = Path(__file__).resolve().parents[1]  # ros_ws/src/cressim_ros (or its install)
 REPO = Path(__file__).resolve().parents[4] if (Path(__file__).resolve().parents[4] / "ros_ws").is_dir() else Path.cwd()
-STARTUP_TIMEOUT = 90.0  # s: torch, rclpy, the engine on lavapipe (about 8 s when the machine is idle)
+# s: torch, rclpy, the engine and its first frame on lavapipe (about 5 s when the machine is idle and
+# the driver's shader cache warm; a minute or more cold on 2 busy cores). A safety net only: the
+# twin says "ready" when its first tick is out.
+STARTUP_TIMEOUT = 600.0
 
 
 class Twin:
     """A twin node in a subprocess; `stop()` sends SIGINT and returns its exit code."""
 
-    def __init__(self, domain: int, log_path: Path, *params: str):
+    def __init__(self, domain: int, log_path: Path, *params: str, params_file: str | None = None):
         self.domain, self.log_path = domain, log_path
         env = dict(os.environ)
         env.update(ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
                    PYTHONPATH=os.pathsep.join([str(PKG), env.get("PYTHONPATH", "")]), PYTHONUNBUFFERED="1")
         env.pop("ROS_LOCALHOST_ONLY", None)
         args = [sys.executable, "-m", "cressim_ros", "--ros-args"]
+        if params_file:
+            args += ["--params-file", str(params_file)]
         for p in params:
             args += ["-p", p]
         self.log = open(log_path, "w")

@@ -6,7 +6,7 @@ would be) enables, homes and moves /env0/PSM1 back and forth over DDS. Envs 1..N
 batched learner that runs inside the twin's tick as a step hook: each tick it reads the
 engine's joint coordinates of its envs (one gather from the `joint.positions` tensor) and writes
 their setpoints (one batched write; the twin turns them into drive targets with gravity
-feed-forward), and every episode it resets its envs through the engine (`node.reset_envs`).
+feed-forward), and every episode it resets its envs through the engine (`node.arms.reset_envs`).
 
 The learner is a toy cross-entropy search, only here to show the plumbing: each training env
 runs q_cmd = q + K (q_goal - q) on yaw, pitch and insertion from the same start toward the same
@@ -38,6 +38,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # cressim_ros from
 
 from cressim_ros.dvrk_client import Arm, Ral  # noqa: E402
 from cressim_ros.twin_node import TwinNode  # noqa: E402
+from cressim.twin import TwinArms  # noqa: E402
 
 HOME = torch.tensor([0.0, 0.0, 0.12, 0.0, 0.0, 0.0], dtype=torch.float64)
 GOAL = torch.tensor([0.4, -0.3, 0.16], dtype=torch.float64)  # yaw, pitch (rad), insertion (m)
@@ -47,11 +48,11 @@ STEP_COST = 0.3  # weight of the command steps in the cost
 class CrossEntropyReach:
     """The step hook: a batched learner on envs `envs` of the twin's engine."""
 
-    def __init__(self, node: TwinNode, envs, episode_ticks: int, seed: int = 0):
-        self.node, self.episode_ticks = node, episode_ticks
-        self.envs = torch.as_tensor(envs, device=node.device)
+    def __init__(self, arms: TwinArms, envs, episode_ticks: int, seed: int = 0):
+        self.arms, self.episode_ticks = arms, episode_ticks
+        self.envs = torch.as_tensor(envs, device=arms.device)
         self.gen = torch.Generator(device="cpu").manual_seed(seed)
-        bodies = node.bodies
+        bodies = arms.bodies
         # the engine's joint coordinates (zero-copy view) and the rows of our envs' yaw, pitch, insertion
         self.positions = torch.from_dlpack(bodies.engine.buffer("joint.positions"))
         self.rows = bodies.joint_rows[self.envs, :3]
@@ -64,18 +65,18 @@ class CrossEntropyReach:
         self.K = (self.mean + self.std * torch.randn(M, 3, generator=self.gen, dtype=torch.float64)).clamp(0.01, 1.0)
         self.goal = GOAL.repeat(M, 1)
         self.cost = torch.zeros(M, dtype=torch.float64)
-        self.node.reset_envs(self.envs, HOME.repeat(M, 1))  # takes effect at this tick's engine step
+        self.arms.reset_envs(self.envs, HOME.repeat(M, 1))  # takes effect at this tick's engine step
 
-    def __call__(self, node: TwinNode):
+    def __call__(self, arms: TwinArms):
         if self.tick == 0:
             self._start_episode()
         else:
             q = self.positions[self.rows].to(torch.float64).cpu()  # (M, 3): observation, one gather
             command = q + self.K * (self.goal - q)  # the policy, batched
             self.cost += ((self.goal - q) ** 2).sum(-1) + STEP_COST * ((command - q) ** 2).sum(-1)
-            setpoint = node.setpoint[self.envs].clone()
+            setpoint = arms.setpoint[self.envs].clone()
             setpoint[:, :3] = command.to(setpoint)
-            node.setpoint[self.envs] = setpoint  # the action, one batched write
+            arms.setpoint[self.envs] = setpoint  # the action, one batched write
         self.tick += 1
         if self.tick == self.episode_ticks:  # update: the best quarter of the candidates
             elite = self.K[torch.argsort(self.cost)[: max(2, len(self.envs) // 4)]]
@@ -122,8 +123,8 @@ def main(argv=None) -> int:
     node = TwinNode(parameter_overrides=[Parameter("num_envs", value=args.envs),
                                          Parameter("dynamics", value="dynamic"),
                                          Parameter("sensors", value=["joints", "cartesian"])])
-    learner = CrossEntropyReach(node, range(1, args.envs), args.episode_ticks)
-    node.step_hooks.append(learner)
+    learner = CrossEntropyReach(node.arms, range(1, args.envs), args.episode_ticks)
+    node.arms.step_hooks.append(learner)
     executor = SingleThreadedExecutor()
     executor.add_node(node)
 

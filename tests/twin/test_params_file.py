@@ -1,0 +1,40 @@
+"""`--ros-args --params-file`: the twin reads its parameters from a ROS 2 parameters file (as
+`ros2 run ... --ros-args --params-file twin.yaml` or a launch file passes them)."""
+import pytest
+
+pytestmark = pytest.mark.ros
+
+PARAMS = """\
+cressim_twin:
+  ros__parameters:
+    arm: PSM2
+    publish_rate: 50.0
+    physics_rate: 100.0
+    use_sim_time: true
+    sensors: [joints, clock]
+"""
+
+
+def test_params_file(ros_domain_id, tmp_path):
+    from cressim_ros.dvrk_client import Ral, _Latest
+    from cressim_ros.twin_process import Twin
+    from sensor_msgs.msg import JointState
+
+    path = tmp_path / "twin.yaml"
+    path.write_text(PARAMS)
+    twin = Twin(ros_domain_id, tmp_path / "twin.log", params_file=path)
+    ral = None
+    try:
+        twin.wait_ready()
+        assert "as /PSM2, /env0/PSM2 at 50 Hz (physics 100 Hz" in twin.output()
+        ral = Ral("params_client", ros_domain_id)
+        js = _Latest(keep=20)
+        ral.subscriber(JointState, "/PSM2/measured_js", js, 100)
+        assert js.wait_for(lambda m: js.count >= 10, 60), "no /PSM2/measured_js"
+        stamps = [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in js.history]
+        # use_sim_time: stamps are the twin's simulated time, one 20 ms period per tick
+        assert {b - a for a, b in zip(stamps, stamps[1:])} == {20_000_000}, stamps
+    finally:
+        if ral is not None:
+            ral.shutdown()
+        assert twin.stop() == 0, twin.output()
