@@ -12,19 +12,23 @@ JOBS ?= $(shell nproc)
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 APT_PACKAGES := mesa-vulkan-drivers libvulkan-dev vulkan-validationlayers glslc libshaderc-dev glslang-dev \
-	spirv-tools spirv-headers cmake ninja-build g++ libgtest-dev python3-venv python3-dev
+	spirv-tools spirv-headers cmake ninja-build g++ libgtest-dev python3-venv python3-dev python3-pykdl
 # build requirements of the engine itself (pyproject's build-system), installed once into the venv
 BUILD_REQUIREMENTS := "scikit-build-core>=0.10" "pybind11>=2.12" "numpy>=1.26" ninja
 ENGINE_SOURCES := $(shell find engine shaders cmake -type f 2>/dev/null) CMakeLists.txt pyproject.toml
 
-.PHONY: all demo test test-cpp test-python deps build clean
+.PHONY: all demo test test-cpp test-python deps build clean FORCE
 all: build
 
 $(STAMPS):
 	@mkdir -p $@
 
+# the apt package list, rewritten only when it changes (so a package added here gets installed)
+$(STAMPS)/apt-packages: FORCE | $(STAMPS)
+	@echo '$(APT_PACKAGES)' | cmp -s - $@ || echo '$(APT_PACKAGES)' > $@
+
 # apt: only the packages that are missing
-$(STAMPS)/apt: | $(STAMPS)
+$(STAMPS)/apt: $(STAMPS)/apt-packages | $(STAMPS)
 	@missing=$$(for p in $(APT_PACKAGES); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \
 	if [ -n "$$missing" ]; then \
 	  echo "apt: installing $$missing"; \
@@ -42,6 +46,17 @@ $(STAMPS)/venv: $(VENV)/bin/python | $(STAMPS)
 	$(PIP) install $(BUILD_REQUIREMENTS)
 	@touch $@
 
+# PyKDL for the dVRK's own Python clients (tests/twin/test_dvrk_scripts.py): Debian's python3-pykdl
+# builds it for the system Python 3.11; link just its extension module(s) into the venv's
+# site-packages (the whole of /usr/lib/python3/dist-packages on the path would shadow numpy etc.)
+$(STAMPS)/pykdl: $(STAMPS)/venv $(STAMPS)/apt
+	@site=$$($(PY) -c 'import sysconfig; print(sysconfig.get_paths()["platlib"])'); \
+	files=$$(dpkg -L python3-pykdl | grep -E '^/usr/lib/python3/dist-packages/PyKDL[^/]*$$'); \
+	[ -n "$$files" ] || { echo "python3-pykdl installs no PyKDL module"; exit 1; }; \
+	for f in $$files; do ln -sfn "$$f" "$$site/"; done
+	$(PY) -c 'import PyKDL; PyKDL.Frame()'
+	@touch $@
+
 # the engine and the package, editable; rebuilt when engine, shader or build sources change
 $(STAMPS)/build: $(STAMPS)/venv $(ENGINE_SOURCES)
 	$(PIP) install --no-build-isolation -e ".[test]"
@@ -53,8 +68,8 @@ $(STAMPS)/ros: $(STAMPS)/build $(ROS_SOURCES)
 	bash ros_ws/build.sh $(VENV)
 	@touch $@
 
-deps: $(STAMPS)/build $(STAMPS)/ros
-build: $(STAMPS)/build $(STAMPS)/ros
+deps: $(STAMPS)/build $(STAMPS)/ros $(STAMPS)/pykdl
+build: $(STAMPS)/build $(STAMPS)/ros $(STAMPS)/pykdl
 
 # C++ unit tests (GoogleTest) in their own build tree
 build/cpp/build.ninja: $(STAMPS)/apt CMakeLists.txt engine/CMakeLists.txt
@@ -65,7 +80,7 @@ test-cpp: build/cpp/build.ninja
 	cd build/cpp && ctest --output-on-failure
 
 # ros_ws/env.sh puts rclpy, the built messages and the twin on the paths
-test-python: $(STAMPS)/build $(STAMPS)/ros
+test-python: $(STAMPS)/build $(STAMPS)/ros $(STAMPS)/pykdl
 	source ros_ws/env.sh && CRESSIM_VALIDATION=1 $(PY) -m pytest tests
 
 test: test-cpp test-python
@@ -73,7 +88,7 @@ test: test-cpp test-python
 demo: $(STAMPS)/build $(STAMPS)/ros
 	$(VENV)/bin/cressim info
 	$(VENV)/bin/cressim demo batched
-	source ros_ws/env.sh && $(VENV)/bin/cressim demo twin
+	source ros_ws/env.sh && $(PY) -m cressim_ros.demo
 
 clean:
 	rm -rf build $(STAMPS) out

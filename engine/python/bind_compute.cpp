@@ -19,7 +19,11 @@ py::dtype numpy_dtype(compute::DType t) { return py::dtype(compute::dtype_info(t
 
 py::array read(const TypedBuffer& b) {
   py::array out(numpy_dtype(b.dtype), std::vector<py::ssize_t>(b.shape.begin(), b.shape.end()));
-  gpu::readback(*b.storage->ctx, b.storage->buffer, out.mutable_data(), b.bytes());
+  void* dst = out.mutable_data();
+  // a large readback (a batch of camera images) takes long: other Python threads (the twin's
+  // control tick) run meanwhile; the engine itself is not thread-safe, callers serialise its use
+  py::gil_scoped_release release;
+  gpu::readback(*b.storage->ctx, b.storage->buffer, dst, b.bytes());
   return out;
 }
 

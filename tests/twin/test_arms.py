@@ -103,13 +103,13 @@ def test_servo_cv_moves_the_tip_along_the_twist(make_arms):
     _home(arms)
     tip0 = arms.kin.forward(arms.setpoint[:1])[0, :3, 3].clone()
     twist = SimpleNamespace(linear=SimpleNamespace(x=0.01, y=0.0, z=0.0), angular=SimpleNamespace(x=0, y=0, z=0))
-    for _ in range(5):  # a 10 mm/s stream for 0.05 s
-        assert arms.servo_cv(0, twist) == []
+    assert arms.servo_cv(0, twist) == []  # 10 mm/s, held until the next command
+    for _ in range(5):
         arms.tick()
     moved = arms.kin.forward(arms.setpoint[:1])[0, :3, 3] - tip0
     assert moved[0] == pytest.approx(0.0005, rel=0.05) and abs(float(moved[1])) < 1e-5
-    for _ in range(20):  # the stream stopped: the arm stops after SERVO_CV_TIMEOUT
-        arms.tick()
+    still = SimpleNamespace(linear=SimpleNamespace(x=0.0, y=0.0, z=0.0), angular=SimpleNamespace(x=0, y=0, z=0))
+    assert arms.servo_cv(0, still) == []  # a zero twist stops it
     held = arms.setpoint.clone()
     arms.tick()
     assert torch.equal(held, arms.setpoint)

@@ -263,7 +263,10 @@ class ArmBodies:
         self.reset_velocities = torch.from_dlpack(self.engine.buffer("control.body_reset_velocities"))
         self.reset_angular_velocities = torch.from_dlpack(
             self.engine.buffer("control.body_reset_angular_velocities"))
-        self._on = dict(device=self.device, dtype=torch.float64)
+        # the arm's kinematics and drive controller run on the CPU: (N, J) rows and small chains
+        # cost a GPU more in kernel launches and syncs than in math; only the engine's buffers
+        # (targets in, joint values out) live on its device, one copy each way per frame
+        self._on = dict(device=torch.device("cpu"), dtype=torch.float64)
         self._expand, self._shift, self.base = (t.to(**self._on) for t in (self._expand, self._shift, self.base))
         self.chain = self.chain.to(**self._on)
         if self.dynamic:
@@ -381,11 +384,11 @@ class ArmBodies:
         b.inertia = tuple(float(max(v, MIN_INERTIA)) for v in diag)
 
     def _init_dynamic(self, bodies, joint_specs, joint_ids, initial_q, initial_jaw):
-        N, dev = self.num_envs, self.device
+        N, dev = self.num_envs, self._on["device"]
         joint_entity = np.asarray(self.engine.buffer("joint.entity").read()).astype(np.int64)
         row_of_entity = {int(e): row for row, e in enumerate(joint_entity)}
         # joint_rows[env, k]: the row in joint.* / control.joint_* of joint k (dof arm joints, then blades)
-        self.joint_rows = torch.as_tensor(np.vectorize(row_of_entity.get)(joint_ids), device=dev,
+        self.joint_rows = torch.as_tensor(np.vectorize(row_of_entity.get)(joint_ids), device=self.device,
                                           dtype=torch.long).reshape(N, len(joint_specs))
         self._flat_rows = self.joint_rows.reshape(-1)
         self.joint_positions = torch.from_dlpack(self.engine.buffer("joint.positions"))
@@ -483,8 +486,8 @@ class ArmBodies:
             return
         T = self._link_poses(q.to(**self._on), jaw.to(**self._on), self.follower_links).reshape(-1, 4, 4)
         quat = matrix_to_quaternion(T[:, :3, :3])  # w, x, y, z
-        self.target_p[self.rows, :3] = T[:, :3, 3].to(self.target_p.dtype)
-        self.target_r[self.rows] = quat[:, [1, 2, 3, 0]].to(self.target_r.dtype)
+        self.target_p[self.rows, :3] = T[:, :3, 3].to(self.target_p)
+        self.target_r[self.rows] = quat[:, [1, 2, 3, 0]].to(self.target_r)
 
     def gravity_torques(self, q: torch.Tensor) -> torch.Tensor:
         """(M, >= dof) -> (M, dof): generalized gravity force on each arm joint (N m or N) from the
@@ -525,8 +528,8 @@ class ArmBodies:
         - clamped to the joint limits, and for hinges to within MAX_HINGE_STEP of the measured
           angle (the engine turns a hinge by the wrapped error, and yaw and roll span more than pi).
         """
-        idx = slice(None) if envs is None else envs
-        rows = self.joint_rows[idx]
+        idx = slice(None) if envs is None else torch.as_tensor(envs).cpu()
+        rows = self.joint_rows[idx if envs is None else idx.to(self.device)]
         last = self._last_coords[idx]
         step = self._speed * self.dt
         coords = last + torch.minimum(torch.maximum(self.coordinates(q, jaw) - last, -step), step)
@@ -543,7 +546,7 @@ class ArmBodies:
         target = torch.minimum(torch.maximum(target, self._lower), self._upper)
         here = torch.where(torch.isfinite(measured), measured, coords)
         target = torch.where(self._hinge, here + (target - here).clamp(-MAX_HINGE_STEP, MAX_HINGE_STEP), target)
-        self.joint_targets[rows.reshape(-1), 0] = target.reshape(-1).to(self.joint_targets.dtype)
+        self.joint_targets[rows.reshape(-1), 0] = target.reshape(-1).to(self.joint_targets)
 
     def set_rate(self, dt: float, substeps: int):
         """Frame time (one publish period) and substeps of the engine."""
@@ -565,22 +568,25 @@ class ArmBodies:
         """After a frame: every env's joint coordinates and rates, one gather each. The engine's
         hinge coordinate is an angle in (-pi, pi] (the roll's range is +-4.54 rad): each reading
         is unwrapped against the previous one (a joint turns far less than pi per frame)."""
-        raw = self.joint_positions[self.joint_rows].to(torch.float64)
+        both = torch.stack([self.joint_positions[self.joint_rows], self.joint_velocities[self.joint_rows]])
+        raw, rates = both.to(torch.float64).cpu()  # one device -> host copy
         prev = self._coords
         turn = raw - prev
         turn = torch.where(self._hinge, torch.remainder(turn + math.pi, 2 * math.pi) - math.pi, turn)
         self._coords = torch.where(torch.isfinite(prev), prev + turn, raw)
-        self._rates = self.joint_velocities[self.joint_rows].to(torch.float64)
+        self._rates = rates
 
     def prepare_reset(self, envs: torch.Tensor, q: torch.Tensor, jaw: torch.Tensor):
         """What the engine's next reset of `envs` does to the arm: joints at q/jaw at rest (dynamic),
         bodies without reset velocities (the twin owns its bodies' reset state)."""
-        rows = self.body_rows[envs].reshape(-1)
+        envs = torch.as_tensor(envs).cpu()
+        on_device = envs.to(self.device)
+        rows = self.body_rows[on_device].reshape(-1)
         self.reset_velocities[rows] = 0
         self.reset_angular_velocities[rows] = 0
         if self.dynamic:
-            jrows = self.joint_rows[envs].reshape(-1)
-            self.joint_reset[jrows, 0] = self.coordinates(q, jaw).reshape(-1).to(self.joint_reset.dtype)
+            jrows = self.joint_rows[on_device].reshape(-1)
+            self.joint_reset[jrows, 0] = self.coordinates(q, jaw).reshape(-1).to(self.joint_reset)
             self.joint_reset[jrows, 1] = 0
             self._bias[envs] = 0
             self._coords[envs] = self.coordinates(q, jaw)  # what the reset poses

@@ -49,9 +49,6 @@ from .sensor_loop import process_threads
 from .trajectory import BatchedTrajectory
 
 
-SERVO_CV_TIMEOUT = 0.1  # s of simulated time a servo_cv twist is held without a new one
-
-
 class ConfigError(RuntimeError):
     """A bad start-up configuration (scene or parameter); nothing was built."""
 
@@ -126,7 +123,9 @@ class TwinArms:
         self.engine_threads = process_threads() - before  # the Vulkan driver's (SensorLoop.lower_priority)
         self.dynamic = self.bodies.dynamic
         self.engine_lock = threading.Lock()
-        self.device = self.bodies.device
+        # the arms' state is (N, 6) rows and a few (N, 4, 4): kernel launches and syncs would cost a
+        # GPU more than the math, so it lives on the CPU; the engine's buffers stay on its device
+        self.device = torch.device("cpu")
         self.kin = ArmKinematics(self.psm, self.device)
         self.jaw_lower, self.jaw_upper = self.psm.jaw_limits or (0.0, 0.0)
 
@@ -143,8 +142,8 @@ class TwinArms:
         self.base_frame = torch.eye(4, **kw).repeat(N, 1, 1)  # set_base_frame: measured_cp = base @ local
         self.base_frame_np = np.tile(np.eye(4), (N, 1, 1))
         self.cp_pending = {}  # env -> local 4x4 target of the newest servo_cp (solved in the tick, batched)
-        self.cv = torch.zeros(N, 6, **kw)  # servo_cv twist (base frame) integrated each tick
-        self.cv_until = np.zeros(N, dtype=np.int64)  # sim time (ns) after which a servo_cv stream has stopped
+        self.cv = torch.zeros(N, 6, **kw)  # servo_cv twist (RCM frame) integrated each tick
+        self.cv_on = np.zeros(N, dtype=bool)
 
         self.arm_traj = BatchedTrajectory(N, INTERFACE_DOF, device=self.device)
         self.jaw_traj = BatchedTrajectory(N, 1, device=self.device)
@@ -206,7 +205,7 @@ class TwinArms:
             else:  # homing interrupted
                 self.states[env].homing = False
         self.cp_pending.pop(env, None)
-        self.cv_until[env] = 0
+        self.cv_on[env] = False
 
     def _stop_jaw_motion(self, env: int, events: list):
         if self.jaw_moving[env]:
@@ -310,9 +309,8 @@ class TwinArms:
 
     def servo_cv(self, env: int, twist) -> list[Event]:
         """A tool-tip twist (linear m/s, angular rad/s, in the measured_cp frame) that each tick
-        turns into joint rates (the Jacobian's least-squares inverse) until the next command; a
-        stream that stops for SERVO_CV_TIMEOUT of simulated time stops the arm (as a dropped
-        stream would on the dVRK)."""
+        turns into joint rates (the Jacobian's least-squares inverse), held until the next
+        command (a zero twist, hold, another servo or move); the joints stop at their limits."""
         problem = self._ready(env, "servo_cv")
         values = np.array([twist.linear.x, twist.linear.y, twist.linear.z,
                            twist.angular.x, twist.angular.y, twist.angular.z], dtype=np.float64)
@@ -324,12 +322,12 @@ class TwinArms:
         self._stop_arm_motion(env, events)
         R = self.base_frame_np[env][:3, :3]  # into the RCM frame
         self.cv[env] = torch.as_tensor(np.concatenate([R.T @ values[:3], R.T @ values[3:]]), dtype=self.cv.dtype)
-        self.cv_until[env] = self.sim_ns + int(SERVO_CV_TIMEOUT * 1e9)
+        self.cv_on[env] = bool(np.any(values != 0.0))
         self._update_busy(env, events)
         return events
 
     def _integrate_servo_cv(self, dt: float):
-        envs = np.flatnonzero(self.cv_until > self.sim_ns)
+        envs = np.flatnonzero(self.cv_on)
         if envs.size == 0:
             return
         idx = torch.as_tensor(envs, device=self.device)
@@ -478,7 +476,7 @@ class TwinArms:
                 self.bodies.set_targets(self.setpoint, self.jaw_sp)
                 self.bodies.write(self.measured, self.jaw_meas)
                 self.bodies.step()
-                q_m, qd_m, jaw_m, jawd_m = self.bodies.read_joints()
+                q_m, qd_m, jaw_m, jawd_m = (t.cpu() for t in self.bodies.read_joints())
                 dof = self.psm.dof
                 self.measured, self.measured_v = self.measured.clone(), self.measured_v.clone()
                 self.measured[:, :dof], self.measured_v[:, :dof] = q_m, qd_m
@@ -515,7 +513,7 @@ class TwinArms:
         """Envs the engine flagged in the frame just run (one small read); their measured state
         (NaN or exploded in dynamic mode) becomes the setpoint at rest, which is also where the
         engine's reset at the start of the next frame puts the arm."""
-        flags = self.bodies.health_flags()
+        flags = self.bodies.health_flags().cpu()
         bad = flags != 0
         if not bool(bad.any()):
             return

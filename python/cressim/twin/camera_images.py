@@ -21,19 +21,27 @@ class CameraImages:
 
     def read(self, products) -> dict:
         """product -> [per env (H, W, ...) numpy image]."""
+        return self.convert(self.grab(products))
+
+    def grab(self, products) -> dict:
+        """The raw outputs on the host: {product: {group: array}}. Call right after the frame
+        (the next frame overwrites them); `convert` can run later, without the engine."""
+        return {product: {g: self.engine.buffer(f"camera{g}.{BUFFERS[product]}").read() for g in self.groups}
+                for product in PRODUCTS if product in products}
+
+    def convert(self, raw: dict) -> dict:
         out = {}
-        for product in (p for p in PRODUCTS if p in products):
-            per_group = {}
-            for g in self.groups:
-                a = self.engine.buffer(f"camera{g}.{BUFFERS[product]}").read()
+        for product, per_group in raw.items():
+            images = {}
+            for g, a in per_group.items():
                 if product == "color":
                     a = a[..., :3]
                 elif product == "segmentation":
                     a = np.minimum(a, 65535).astype(np.uint16)
                 else:
                     a = np.where(a == 0, np.float32(np.nan), a)
-                per_group[g] = a
-            out[product] = [per_group[g][layer] for g, layer in self.where]
+                images[g] = a
+            out[product] = [images[g][layer] for g, layer in self.where]
         return out
 
 

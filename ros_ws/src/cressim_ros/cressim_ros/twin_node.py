@@ -163,9 +163,10 @@ class TwinNode(Node):
         if scenery.ultrasound is not None:
             self.ultrasound = UltrasoundTopics(self, engine, scenery.ultrasound, self.num_envs)
         self.robot_state = RobotStateTopics(self, arms, arms.psm.urdf_path.read_text())
-        sensors = [Sensor("camera", cfg["camera_rate"], render=True,
-                          read=lambda: self.camera.host_images(self.cfg["sensors"]),
-                          publish=lambda images, stamp: self.camera.publish(images, stamp, self._recorder_fn()))]
+        images = self.camera.images  # grabbed right after the frame, converted and published off the engine lock
+        sensors = [Sensor("camera", cfg["camera_rate"], render=True, read=lambda: images.grab(self.cfg["sensors"]),
+                          publish=lambda raw, stamp: self.camera.publish(images.convert(raw), stamp,
+                                                                         self._recorder_fn()))]
         if self.ultrasound is not None:
             sensors.append(Sensor("ultrasound", cfg["ultrasound_rate"], sense=True, read=self.ultrasound.read,
                                   publish=lambda images, stamp: self.ultrasound.publish(images, stamp,
@@ -194,7 +195,7 @@ class TwinNode(Node):
                 raise ConfigError(f"record: {exc}") from None
         self._sync_sensor_groups()
         self.sensors.render_now()  # builds every pipeline before the first tick (can take a minute cold)
-        if self.arms.device.type == "cpu" and not self.arms.dynamic:
+        if self.arms.bodies.device.type == "cpu" and not self.arms.dynamic:
             # lavapipe renders on the CPU: frames take the time the 100 Hz tick leaves (a dynamic
             # arm's physics runs on the same driver threads, so they keep their priority there)
             self.sensors.lower_priority(self.arms.engine_threads | (process_threads() - self._threads_before_engine))
@@ -542,7 +543,7 @@ class TwinNode(Node):
             self.get_logger().info(
                 f"cressim twin ready: {self.num_envs} x {self.robot} ({cfg['dynamics']} arm) as "
                 f"{', '.join(n for ns in self.namespaces for n in ns)} at {cfg['publish_rate']:g} Hz "
-                f"(physics {cfg['physics_rate']:g} Hz, device {self.arms.device})")
+                f"(physics {cfg['physics_rate']:g} Hz, engine on {self.arms.bodies.engine.device['name']})")
 
     def _publish(self, stamp):
         groups = set(self.cfg["sensors"])

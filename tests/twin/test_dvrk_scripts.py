@@ -1,0 +1,320 @@
+"""The dVRK's own Python clients, unchanged, drive the twin: each script runs as a subprocess
+(a DDS participant of its own) against a twin of its own, as a dVRK user runs it.
+
+The clients are the third-party folder of shared/third_party/README.md: `$CRESSIM_DVRK_CLIENTS`
+if set (relative to the repository root), else ../shared/third_party seen from the repository
+root; without it every test here is skipped with a message naming the folder. They need PyKDL
+(`make` links Debian's python3-pykdl into .venv: the `.make/pykdl` step) and every message of
+crtk_msgs (ros_ws). Environment of a script: PYTHONPATH = crtk_python_client/src and
+dvrk_python/src, then what ros_ws/env.sh set; ROS_VERSION=2 (crtk.ral picks its ROS 2 layer);
+the twin's ROS_DOMAIN_ID; ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST; stdin a stream of newlines
+(dvrk_psm_test.py waits for Enter 7 times).
+
+Run:
+- dvrk_python/scripts/dvrk_arm_test.py -a PSM1 (its own minimal arm: enable, home, move_jp,
+  a servo_jp sine, move_jp, servo_cp and move_cp squares);
+- dvrk_psm_test.py -a PSM1 (-a is required; -p, the servo period, defaults to 0.01 s): a
+  `dvrk.psm`; the jaw closed and opened alone, beside insert_jp and beside move_cp, a 20 s jaw
+  servo_jp sine between 20 and 80 degrees, then the jaw moves again;
+- dvrk_move_wait_test.py -a PSM1: a `dvrk.arm`; move_jp waited with wait(), then with a busy
+  loop on the handle's is_busy();
+- crtk_python_client/scripts/crtk_servo_jp_example.py, crtk_servo_cp_example.py,
+  crtk_servo_cv_example.py, crtk_move_cp_example.py (argument: the namespace, PSM1). These
+  neither enable nor home the device (a dVRK user does that from the console first), so the
+  test does it before them with crtk's own `utils` (enable, home, then move_jp to the pose the
+  dVRK scripts start Cartesian motion from: insertion 0.12 m, the other joints 0);
+- crtk_rate_example.py: no device at all (rclpy's Rate at 1 kHz for 10 s), run for completeness.
+
+Left out:
+- crtk_haptic_example.py: written for a haptic device (a force-output device such as a
+  Phantom Omni or Falcon): it servos Cartesian forces (servo_cf: a virtual box, viscosity) and
+  loops on an interactive menu until 'q';
+- crtk_teleop_example.py: needs a master device (an MTM or a haptic device, its measured_cp)
+  besides the PSM, and runs until Ctrl-C;
+- not `crtk_*_example.py`: crtk_xyz.py (keyboard jogging) and
+  crtk_simple_orientation_registration.py (a user moving an input device by hand); of the dVRK
+  scripts, those for an MTM, an ECM, a console, teleoperation or the real hardware.
+
+A script passes when it exits 0 within a safety limit (the scripts' own timeouts are their
+business; this limit only catches a hang), its output shows it ran to the end (its last
+lines) and holds none of its own failure reports (a line starting with '!', "failed",
+"error", "exception", a traceback, "timed out"), and on the twin's side: nothing was published
+on `error`, the twin is still running, and for the silent crtk examples, the motion they
+command is seen on setpoint_js / setpoint_cp (and goal_reached for move_cp). Assertion messages
+carry the script's full output.
+"""
+from __future__ import annotations
+
+import importlib.util
+import math
+import os
+import re
+import subprocess
+import sys
+import threading
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+pytestmark = pytest.mark.ros
+
+REPO = Path(__file__).resolve().parents[2]
+ARM = "PSM1"
+SCRIPT_TIMEOUT = 300.0  # s, a safety limit only: the longest script takes about 40 s here
+WAIT_TIMEOUT = 120.0  # s, safety limit on waiting for the twin's topics
+NEWLINES = "\n" * 200  # stdin: Enter, as often as a script asks
+
+# a report of the script's own failure: '  ! failed to enable', sys.exit('failed to ...'),
+# a traceback, TimeoutError('Timed out waiting for ... connections'), 'Inverse kinematic error'
+FAILURE = re.compile(r"^\s*!|\bfail|\berror|\bexception|\btraceback|\btimed out|\btimeout", re.I | re.M)
+
+
+def clients_folder() -> Path:
+    value = os.environ.get("CRESSIM_DVRK_CLIENTS")
+    return (REPO / value).resolve() if value else (REPO.parent / "shared" / "third_party").resolve()
+
+
+@pytest.fixture(scope="module")
+def clients() -> Path:
+    folder = clients_folder()
+    needed = [folder / "crtk_python_client" / "src" / "crtk", folder / "dvrk_python" / "src" / "dvrk"]
+    if not all(p.is_dir() for p in needed):
+        pytest.skip(f"the dVRK's Python clients are not in {folder} (crtk_python_client/, dvrk_python/): "
+                    "set CRESSIM_DVRK_CLIENTS to the folder that holds them")
+    if importlib.util.find_spec("PyKDL") is None:
+        pytest.fail("PyKDL is not importable in this Python: `make .make/pykdl` links Debian's "
+                    "python3-pykdl into .venv (apt-get install python3-pykdl first)", pytrace=False)
+    import crtk_msgs.msg
+    if not hasattr(crtk_msgs.msg, "CartesianImpedance"):
+        pytest.fail("crtk_msgs lacks CartesianImpedance (`import dvrk` needs every CRTK message): "
+                    "rebuild ros_ws (`bash ros_ws/build.sh .venv`)", pytrace=False)
+    return folder
+
+
+def script_env(clients: Path, domain: int) -> dict:
+    env = dict(os.environ)
+    paths = [str(clients / "crtk_python_client" / "src"), str(clients / "dvrk_python" / "src")]
+    env.update(PYTHONPATH=os.pathsep.join(paths + [p for p in [env.get("PYTHONPATH")] if p]),
+               ROS_VERSION="2", ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+               PYTHONUNBUFFERED="1")
+    env.pop("ROS_LOCALHOST_ONLY", None)
+    env.pop("ROS_STATIC_PEERS", None)
+    return env
+
+
+def run_python(args: list[str], env: dict, cwd: Path) -> tuple[int | None, str]:
+    """(exit status or None after the safety limit, stdout and stderr together)."""
+    try:
+        done = subprocess.run([sys.executable, *args], input=NEWLINES, stdout=subprocess.PIPE,
+                              stderr=subprocess.STDOUT, text=True, env=env, cwd=cwd, timeout=SCRIPT_TIMEOUT)
+        return done.returncode, done.stdout
+    except subprocess.TimeoutExpired as exc:  # run() killed it
+        out = exc.stdout or b""
+        out = out.decode(errors="replace") if isinstance(out, bytes) else out
+        return None, out + f"\n[killed after the {SCRIPT_TIMEOUT:.0f} s safety limit]"
+
+
+# Before a crtk example: the device enabled, homed and at the dVRK scripts' Cartesian start pose,
+# with crtk's own client code (the dVRK console's buttons, for a user).
+PREPARE = f"""
+import sys, numpy, crtk
+class Arm:
+    def __init__(self, ral):
+        self.crtk_utils = crtk.utils(self, ral, 5.0)
+        self.crtk_utils.add_operating_state()
+        self.crtk_utils.add_setpoint_js()
+        self.crtk_utils.add_move_jp()
+ral = crtk.ral('cressim_prepare', '{ARM}')
+arm = Arm(ral)
+def run():
+    ral.check_connections(60.0)
+    if not arm.enable(60.0):
+        sys.exit('! enable timed out, operating state: ' + repr(arm.operating_state()))
+    if not arm.home(60.0):
+        sys.exit('! home timed out, operating state: ' + repr(arm.operating_state()))
+    jp, _ = arm.setpoint_jp(wait_timeout=60.0)
+    goal = numpy.zeros(len(jp))
+    goal[2] = 0.12
+    if not arm.move_jp(goal).wait(timeout=120.0):
+        sys.exit('! move_jp to the start pose did not finish')
+    print('prepared at', arm.setpoint_jp()[0].round(6).tolist())
+ral.spin_and_execute(run)
+"""
+
+
+class TwinWatch:
+    """What the twin publishes (rclpy context of its own): everything on `error`, goal_reached,
+    setpoint_js and setpoint_cp positions, in arrival order. Subscribes to no command topic, so
+    that a script's check_connections still waits for the twin itself."""
+
+    def __init__(self, domain: int):
+        import rclpy
+        from geometry_msgs.msg import PoseStamped
+        from rclpy.context import Context
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+        from sensor_msgs.msg import JointState
+        from std_msgs.msg import Bool, String
+
+        self.rclpy = rclpy
+        self.context = Context()
+        rclpy.init(context=self.context, domain_id=domain)
+        self.node = rclpy.create_node("dvrk_scripts_watch", context=self.context)
+        self.cv = threading.Condition()
+        self.errors: list[str] = []
+        self.goal_reached: list[bool] = []
+        self.jp: list[list[float]] = []
+        self.cp: list[tuple[float, float, float]] = []
+        event = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
+                           durability=DurabilityPolicy.TRANSIENT_LOCAL)  # every one since the twin started
+        periodic = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
+
+        def keep(store, value):
+            def callback(msg):
+                with self.cv:
+                    store.append(value(msg))
+                    self.cv.notify_all()
+            return callback
+
+        ns = f"/{ARM}"
+        self.subscriptions = [
+            self.node.create_subscription(String, f"{ns}/error", keep(self.errors, lambda m: m.data), event),
+            self.node.create_subscription(Bool, f"{ns}/goal_reached", keep(self.goal_reached, lambda m: m.data), event),
+            self.node.create_subscription(JointState, f"{ns}/setpoint_js", keep(self.jp, lambda m: list(m.position)),
+                                          periodic),
+            self.node.create_subscription(PoseStamped, f"{ns}/setpoint_cp",
+                                          keep(self.cp, lambda m: (m.pose.position.x, m.pose.position.y,
+                                                                   m.pose.position.z)), periodic),
+        ]
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self.running = True
+        self.thread = threading.Thread(target=self._spin, daemon=True)
+        self.thread.start()
+
+    def _spin(self):
+        while self.running and self.context.ok():
+            self.executor.spin_once(timeout_sec=0.05)
+
+    def mark(self) -> dict:
+        with self.cv:
+            return {"goal_reached": len(self.goal_reached), "jp": len(self.jp), "cp": len(self.cp)}
+
+    def wait_samples(self, n: int) -> bool:
+        """Wait for n more setpoint_js and setpoint_cp messages (ticks of the twin)."""
+        with self.cv:
+            jp, cp = len(self.jp) + n, len(self.cp) + n
+            return self.cv.wait_for(lambda: len(self.jp) >= jp and len(self.cp) >= cp, WAIT_TIMEOUT)
+
+    def since(self, mark: dict) -> dict:
+        with self.cv:
+            return {"goal_reached": self.goal_reached[mark["goal_reached"]:], "jp": self.jp[mark["jp"]:],
+                    "cp": self.cp[mark["cp"]:], "errors": list(self.errors)}
+
+    def close(self):
+        self.running = False
+        self.thread.join(timeout=10)
+        self.executor.shutdown()
+        self.node.destroy_node()
+        self.rclpy.try_shutdown(context=self.context)
+
+
+def swept(values, index) -> float:
+    column = [v[index] for v in values]
+    return max(column) - min(column) if column else 0.0
+
+
+# What the silent crtk examples command, as the twin's setpoints show it (90 % of the amplitude:
+# the twin samples a 200 Hz command stream at its own rate).
+def servo_jp_sine(seen) -> list[str]:  # joints 0 and 1: +-10 degrees
+    want = 0.9 * 2 * math.radians(10.0)
+    return [f"setpoint_js joint {j} swept {swept(seen['jp'], j):.4f} rad, expected about {want / 0.9:.4f}"
+            for j in (0, 1) if swept(seen["jp"], j) < want]
+
+
+def servo_cp_cosine(seen) -> list[str]:  # x and y: 0 .. 4 cm and back
+    return [f"setpoint_cp {'xy'[k]} swept {swept(seen['cp'], k):.4f} m, expected about 0.04"
+            for k in (0, 1) if swept(seen["cp"], k) < 0.9 * 0.04]
+
+
+def move_cp_diagonal(seen) -> list[str]:  # +2 cm, -2 cm in x and y, back: three moves
+    problems = servo_cp_cosine(seen)
+    if sum(seen["goal_reached"]) < 3:
+        problems.append(f"goal_reached true {sum(seen['goal_reached'])} times, expected 3 (one per move_cp)")
+    return problems
+
+
+def servo_cv_x(seen) -> list[str]:  # 1 mm/s along x for 10 s, then zero
+    return ([] if swept(seen["cp"], 0) >= 0.8 * 0.01 else
+            [f"setpoint_cp x moved {swept(seen['cp'], 0):.4f} m, expected about 0.01 (1 mm/s for 10 s)"])
+
+
+@dataclass(frozen=True)
+class Script:
+    path: str  # in the clients folder
+    args: tuple = ()
+    ends: tuple = ()  # (text, times): what the script prints when it gets to the end
+    prepare: bool = False  # enable, home and go to the Cartesian start pose first
+    check: object = None  # check(seen) -> problems, from what the twin published meanwhile
+
+
+SCRIPTS = {
+    "dvrk_arm_test": Script("dvrk_python/scripts/dvrk_arm_test.py", ("-a", ARM),
+                            ends=(("< move_cp complete", 1), (">> illustrating user defined shutdown callback", 1))),
+    "dvrk_psm_test": Script("dvrk_python/scripts/dvrk_psm_test.py", ("-a", ARM),
+                            ends=(("starting jaw servo", 1), ("moving back (3)", 2))),
+    "dvrk_move_wait_test": Script("dvrk_python/scripts/dvrk_move_wait_test.py", ("-a", ARM),
+                                  ends=(("--> You can change the trajectory velocity", 1),)),
+    "crtk_servo_jp_example": Script("crtk_python_client/scripts/crtk_servo_jp_example.py", (ARM,),
+                                    prepare=True, check=servo_jp_sine),
+    "crtk_servo_cp_example": Script("crtk_python_client/scripts/crtk_servo_cp_example.py", (ARM,),
+                                    prepare=True, check=servo_cp_cosine),
+    "crtk_servo_cv_example": Script("crtk_python_client/scripts/crtk_servo_cv_example.py", (ARM,),
+                                    prepare=True, check=servo_cv_x),
+    "crtk_move_cp_example": Script("crtk_python_client/scripts/crtk_move_cp_example.py", (ARM,),
+                                   prepare=True, check=move_cp_diagonal),
+    "crtk_rate_example": Script("crtk_python_client/scripts/crtk_rate_example.py",
+                                ends=(("Completed in", 1),)),
+}
+
+
+def _report(name, rc, output, problems, twin) -> str:
+    tail = "\n".join(twin.output().splitlines()[-30:])
+    return (f"{name}: " + "; ".join(problems) + f"\n----- exit status {rc}, its output:\n{output}"
+            f"\n----- the twin's log (last lines):\n{tail}")
+
+
+@pytest.mark.parametrize("name", list(SCRIPTS))
+def test_dvrk_script(name, clients, ros_domain_id, start_twin, tmp_path):
+    script = SCRIPTS[name]
+    twin = start_twin(ros_domain_id)
+    env = script_env(clients, ros_domain_id)
+    watch = TwinWatch(ros_domain_id)
+    try:
+        assert watch.wait_samples(1), f"no setpoint_js/setpoint_cp from the twin:\n{twin.output()}"
+        if script.prepare:
+            rc, output = run_python(["-c", PREPARE], env, tmp_path)
+            assert rc == 0 and "prepared at" in output and not FAILURE.search(output), \
+                _report(f"{name} (enable, home, start pose before it)", rc, output, ["preparing failed"], twin)
+        mark = watch.mark()
+        rc, output = run_python([str(clients / script.path), *script.args], env, tmp_path)
+        # the twin's messages about the script's last commands: a few ticks later they are here
+        assert watch.wait_samples(20), f"the twin stopped publishing:\n{twin.output()}"
+        seen = watch.since(mark)
+    finally:
+        watch.close()
+
+    problems = []
+    if rc != 0:
+        problems.append("no exit status (killed)" if rc is None else f"exit status {rc}")
+    problems += [f"its output reports a failure: {line.strip()!r}" for line in output.splitlines()
+                 if FAILURE.search(line)][:5]
+    problems += [f"it did not get to the end: {text!r} printed {output.count(text)} times, expected {n}"
+                 for text, n in script.ends if output.count(text) < n]
+    problems += [f"the twin published on error: {e!r}" for e in seen["errors"][:5]]
+    if script.check is not None:
+        problems += script.check(seen)
+    if not twin.alive():
+        problems.append("the twin exited")
+    assert not problems, _report(name, rc, output, problems, twin)
