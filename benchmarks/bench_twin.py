@@ -50,7 +50,7 @@ def run(envs: int, dynamics: str, width: int, height: int, camera_rate: float, s
     _ready(arms)
     row = {"envs": envs, "dynamics": dynamics, "camera": f"{width}x{height}" if width else "none",
            "camera_rate": camera_rate, "build_s": build_s, "device": arms.bodies.engine.device["name"],
-           "torch_device": str(arms.device)}
+           "engine_torch_device": str(arms.bodies.device)}
 
     # unpaced: the tick's own cost (no sensors)
     n = 200
@@ -64,10 +64,10 @@ def run(envs: int, dynamics: str, width: int, height: int, camera_rate: float, s
 
     if width:
         images = CameraImages(arms.bodies.engine)
-        sensors = SensorLoop(arms, [Sensor("camera", camera_rate, render=True, read=lambda: images.read(PRODUCTS),
-                                           publish=lambda data, stamp: None)])
+        sensors = SensorLoop(arms, [Sensor("camera", camera_rate, render=True, read=lambda: images.grab(PRODUCTS),
+                                           publish=lambda raw, stamp: images.convert(raw))])
         sensors.render_now()  # pipelines built before timing
-        if arms.device.type == "cpu" and not arms.dynamic:
+        if arms.bodies.device.type == "cpu" and not arms.dynamic:
             sensors.lower_priority(arms.engine_threads)
         period = 1.0 / arms.publish_rate
         ticks, tick_s = 0, []
