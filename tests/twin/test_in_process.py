@@ -79,6 +79,7 @@ def test_forward_kinematics_service_equals_the_urdf_model(make_node):
     from cressim.robots import PSM, pose7_to_matrix
 
     node = make_node()
+    node.timer.cancel()  # services only: no ticks on the executor's threads
     client_node = rclpy.create_node("fk_client", context=node.context)
     executor = MultiThreadedExecutor(context=node.context)
     executor.add_node(node)
@@ -104,4 +105,69 @@ def test_forward_kinematics_service_equals_the_urdf_model(make_node):
         assert not bad.result and "expected 6" in bad.message
     finally:
         executor.shutdown()
+        spinner.join(timeout=30)
         client_node.destroy_node()
+
+
+def test_diagnostics_are_published(make_node):
+    import rclpy
+    from diagnostic_msgs.msg import DiagnosticArray
+    from rclpy.executors import SingleThreadedExecutor
+
+    node = make_node(camera_rate=100.0)
+    client = rclpy.create_node("diagnostics_client", context=node.context)
+    got = []
+    client.create_subscription(DiagnosticArray, "/diagnostics", got.append, 10)
+    executor = SingleThreadedExecutor(context=node.context)
+    executor.add_node(client)
+    try:
+        for _ in range(200):
+            if got:
+                break
+            node._next_diagnostics = 0.0  # due every tick here, not once a second
+            node._tick()
+            executor.spin_once(timeout_sec=0.05)
+        assert got, "no /diagnostics"
+        status = {s.name: {kv.key: kv.value for kv in s.values} for s in got[-1].status}
+        assert {"cressim_twin: tick", "cressim_twin: camera", "cressim_twin: commands"} <= set(status)
+        assert float(status["cressim_twin: tick"]["target rate (Hz)"]) == 100.0, status
+    finally:
+        executor.shutdown()
+        client.destroy_node()
+
+
+def test_robot_description_joint_states_and_link_tf(make_node):
+    """What robot_state_publisher would give, so RViz shows the arm: the URDF latched, every URDF
+    joint (mimics included) on /joint_states, each link on /tf from its parent."""
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.qos import DurabilityPolicy, QoSProfile
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import String
+    from tf2_msgs.msg import TFMessage
+
+    node = make_node(arm="PSM2")
+    client = rclpy.create_node("rviz_like", context=node.context)
+    got = {"description": [], "joints": [], "tf": []}
+    client.create_subscription(String, "/robot_description", got["description"].append,
+                               QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL))
+    client.create_subscription(JointState, "/joint_states", got["joints"].append, 10)
+    client.create_subscription(TFMessage, "/tf", got["tf"].append, 10)
+    executor = SingleThreadedExecutor(context=node.context)
+    executor.add_node(client)
+    try:
+        for _ in range(200):
+            if all(got.values()):
+                break
+            node._tick()
+            executor.spin_once(timeout_sec=0.05)
+        assert all(got.values()), {k: len(v) for k, v in got.items()}
+        text = got["description"][0].data
+        assert "PSM2_base" in text and "PSM1_" not in text  # the arm's name, as its frames on /tf_static
+        names = set(got["joints"][-1].name)
+        assert {"yaw", "pitch", "pitch_top", "pitch_front", "pitch_bottom", "insertion", "jaw_1", "jaw_2"} <= names
+        pairs = {(t.header.frame_id, t.child_frame_id) for t in got["tf"][-1].transforms}
+        assert ("PSM2_base", "PSM2_mount_link") in pairs and ("PSM2_wrist_yaw_link", "PSM2_jaw_link") in pairs
+    finally:
+        executor.shutdown()
+        client.destroy_node()

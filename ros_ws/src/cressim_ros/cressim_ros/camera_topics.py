@@ -20,13 +20,17 @@ import json
 from array import array
 
 import numpy as np
-from sensor_msgs.msg import CameraInfo, Image
+from sensor_msgs.msg import CameraInfo, CompressedImage, Image
 from std_msgs.msg import String
 
 from cressim.twin.camera_images import PRODUCTS, CameraImages
 
+from .image_compression import compress_depth, compress_image, depth_quantization_for
 from .topics import IMAGE_QOS, LATCHED_QOS
 ENCODINGS = {"color": ("rgb8", 3), "depth": ("32FC1", 4), "segmentation": ("16UC1", 2)}
+# image_transport's transports beside image_raw: `compressed` (JPEG colour, 16-bit PNG labels)
+# and `compressedDepth`; encoded only while someone subscribes, as image_transport does
+COMPRESSED = {"color": "compressed", "depth": "compressedDepth", "segmentation": "compressed"}
 
 
 def camera_namespace(env: int, num_envs: int) -> str:
@@ -67,7 +71,18 @@ class CameraTopics:
                 if product in PRODUCTS and product not in self.pubs[env]:
                     image, info = self.topics(product, env)
                     self.pubs[env][product] = (self.node.create_publisher(Image, image, IMAGE_QOS),
-                                               self.node.create_publisher(CameraInfo, info, IMAGE_QOS))
+                                               self.node.create_publisher(CameraInfo, info, IMAGE_QOS),
+                                               self.node.create_publisher(
+                                                   CompressedImage, f"{image}/{COMPRESSED[product]}", IMAGE_QOS))
+
+    def _compress(self, product, image, header) -> CompressedImage:
+        if product == "color":
+            return compress_image(image, "jpeg", header=header)
+        if product == "segmentation":
+            return compress_image(image, "png", header=header)
+        # inverse-depth steps fine enough that the camera's near plane still fits in 16 bits
+        q = depth_quantization_for(self.spec.near, self.spec.far)
+        return compress_depth(image, depth_max=self.spec.far, depth_quantization=q, header=header)
 
     def _camera_info(self, env: int) -> CameraInfo:
         s = self.spec
@@ -102,9 +117,11 @@ class CameraTopics:
                 img.is_bigendian = 0
                 img.step = s.width * size
                 img.data = array("B", np.ascontiguousarray(images[product][env]).tobytes())
-                image_pub, info_pub = self.pubs[env][product]
+                image_pub, info_pub, compressed_pub = self.pubs[env][product]
                 image_pub.publish(img)
                 info_pub.publish(info)
+                if compressed_pub.get_subscription_count():
+                    compressed_pub.publish(self._compress(product, images[product][env], img.header))
                 if record is not None:
                     image_topic, info_topic = self.topics(product, env)
                     record(image_topic, img)

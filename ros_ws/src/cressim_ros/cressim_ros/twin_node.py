@@ -53,10 +53,7 @@ from cressim.twin.scene import DEFAULT_SCENE, SceneError, load_scene
 
 from . import params as P
 from .camera_topics import PRODUCTS, CameraTopics, camera_frame
-try:
-    from .diagnostics import build_diagnostics
-except ImportError:  # TEMP
-    build_diagnostics = None
+from .diagnostics import build_diagnostics
 from .recorder import RecordingUnavailable, open_recorder
 from .robot_state import RobotStateTopics
 from .topics import (CLOCK_QOS, CLOCK_TOPIC, CONSOLE_NAMESPACES, CRTK_VERSION, DIAGNOSTICS_TOPIC, LATCHED_QOS,
@@ -176,6 +173,7 @@ class TwinNode(Node):
         self._tick_ns = collections.deque(maxlen=500)  # steady time of each tick, for the rate
         self._next_tf_ns = 0
         self._next_diagnostics = 0.0
+        self._last_statistics = None
         self._create_event_publishers()
         self._create_sensor_publishers()
         self._create_subscriptions()
@@ -607,8 +605,10 @@ class TwinNode(Node):
             self.clock_pub.publish(clock)
 
     def _publish_diagnostics(self, stamp):
-        if build_diagnostics:
-            self.diagnostics_pub.publish(build_diagnostics(self.statistics(), stamp=stamp))
+        stats = self.statistics()  # frames and refusals over the last period, not since the start
+        self.diagnostics_pub.publish(build_diagnostics(stats, stamp=stamp, previous=self._last_statistics,
+                                                       window_s=DIAGNOSTICS_PERIOD_S))
+        self._last_statistics = stats
 
     def statistics(self) -> dict:
         """Tick time, rates and counts of the last ticks (for /diagnostics and the shutdown log)."""

@@ -10,8 +10,9 @@ from __future__ import annotations
 from array import array
 
 import numpy as np
-from sensor_msgs.msg import Image
+from sensor_msgs.msg import CompressedImage, Image
 
+from .image_compression import compress_image
 from .topics import IMAGE_QOS
 
 
@@ -29,6 +30,9 @@ class UltrasoundTopics:
         probes = engine.ultrasound_probes
         self.layers = [int(probes["layer"][k]) for k in np.argsort(probes["env"])]  # env -> layer
         self.pubs = [node.create_publisher(Image, ultrasound_topic(env, num_envs), IMAGE_QOS) for env in range(num_envs)]
+        # image_transport's `compressed` (PNG: speckle is what JPEG loses), only while subscribed
+        self.compressed_pubs = [node.create_publisher(CompressedImage, f"{ultrasound_topic(env, num_envs)}/compressed",
+                                                      IMAGE_QOS) for env in range(num_envs)]
         self.frames = [ultrasound_frame(env, num_envs, spec.frame) for env in range(num_envs)]
 
     def read(self):
@@ -43,6 +47,8 @@ class UltrasoundTopics:
             m.height, m.width, m.encoding, m.is_bigendian, m.step = height, width, "mono8", 0, width
             m.data = array("B", images[self.layers[env]].tobytes())
             pub.publish(m)
+            if self.compressed_pubs[env].get_subscription_count():
+                self.compressed_pubs[env].publish(compress_image(images[self.layers[env]], "png", header=m.header))
             if record is not None:
                 record(ultrasound_topic(env, self.num_envs), m)
 
