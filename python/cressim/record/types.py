@@ -25,7 +25,8 @@ from rosbags.typesys.store import Typestore
 
 CRTK_MSG_DIR_ENV = "CRESSIM_CRTK_MSG_DIR"  # overrides where crtk_msgs/msg/*.msg are read from
 
-# Fallback copy of ros_ws/src/crtk_msgs/msg (comments dropped); tests check it is in sync.
+# Fallback copy of the crtk_msgs types the twin publishes, from ros_ws/src/crtk_msgs/msg (comments
+# dropped), for an install without the checkout; tests check it is in sync.
 CRTK_MSGS_FALLBACK = {
     "crtk_msgs/msg/OperatingState": (
         "std_msgs/Header header\n"
