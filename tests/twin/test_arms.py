@@ -134,3 +134,16 @@ def test_forward_kinematics_equals_the_urdf_model(make_arms):
                       [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
         assert np.abs(pose[:3] - expected[k, :3, 3]).max() < 1e-6
         assert np.abs(R - expected[k, :3, :3]).max() < 1e-6, k
+
+
+def test_stale_check_uses_the_arrival_time_in_the_stamps_clock():
+    from cressim.twin.command_checks import stale_refusal
+    wall = 1_800_000_000 * 10**9
+    assert stale_refusal(wall - 900_000_000, wall, 0, 1.0, what="servo_jp") is None  # 0.9 s old on arrival
+    problem = stale_refusal(wall - 1_500_000_000, wall, 0, 1.0, what="servo_jp")
+    assert problem.startswith("servo_jp refused: stale command, stamped 1.5 s before it arrived")
+    # a client on /clock stamps in simulated time: compared with the twin's simulated time
+    assert stale_refusal(5 * 10**9, wall, 5_500_000_000, 1.0, what="move_jp") is None
+    assert "stamped 2 s" in stale_refusal(5 * 10**9, wall, 7 * 10**9, 1.0, what="move_jp")
+    assert stale_refusal(0, wall, 0, 1.0, what="x") is None  # unstamped
+    assert stale_refusal(1, wall, 0, 0.0, what="x") is None  # check off

@@ -38,3 +38,18 @@ def test_params_file(ros_domain_id, tmp_path):
         if ral is not None:
             ral.shutdown()
         assert twin.stop() == 0, twin.output()
+
+
+def test_docs_show_the_parameter_table():
+    """docs/twin.md's parameter table is generated from the node's parameter specs."""
+    from pathlib import Path
+
+    from cressim.twin.scene import load_scene
+    from cressim_ros import params
+
+    repo = Path(__file__).resolve().parents[2]
+    doc = (repo / "docs" / "twin.md").read_text()
+    begin, end = doc.index("<!-- params:begin"), doc.index("<!-- params:end -->")
+    table = doc[doc.index("\n", begin) + 1:end]
+    expected = params.markdown(load_scene(str(repo / "scenes" / "psm_twin.yaml")))
+    assert table.strip() == expected.strip(), "regenerate it: cressim_ros.params.markdown(scene)"

@@ -6,7 +6,8 @@
     events = arms.tick()                           # one control period for every env
     snap = arms.snapshot()                         # what a tick publishes (host numpy, one copy)
 
-State. Every env's joints are rows of batched tensors on the engine's device: setpoint and
+State. Every env's joints are rows of batched CPU tensors (a tick's arm math costs less than a
+GPU launch; the engine's buffers stay on its device, one copy each way per frame): setpoint and
 measured (N, 6), jaw (N, 1), their velocities, the base frames (N, 4, 4), the trajectories. A
 command for env i validates its input (O(dof), numpy) and writes row i; `tick` advances all envs
 together: trajectories, measured (a first-order lag of the setpoint, or the engine's jointed arm

@@ -95,14 +95,21 @@ def pose_matrix(pose, *, what: str):
     return T, None
 
 
-def stale_refusal(stamp, now_ns: int, max_age_s: float, *, what: str) -> str | None:
-    """A command stamped more than max_age_s before now is refused (a zero stamp is 'unstamped')."""
-    stamp_ns = stamp.sec * 1_000_000_000 + stamp.nanosec
+WALL_CLOCK_WINDOW_NS = 86_400 * 10**9  # a stamp this close to the wall clock is a wall-clock stamp
+
+
+def stale_refusal(stamp_ns: int, received_ns: int, sim_ns: int, max_age_s: float, *, what: str) -> str | None:
+    """A command stamped more than max_age_s before it arrived is refused. Its age is taken at
+    arrival (not when the twin gets to it) in the clock it was stamped in: the wall clock, or
+    the simulated time for clients on /clock. A zero stamp is 'unstamped'."""
     if max_age_s <= 0 or stamp_ns == 0:
         return None
-    age = (now_ns - stamp_ns) * 1e-9
+    if abs(received_ns - stamp_ns) < WALL_CLOCK_WINDOW_NS:
+        age = (received_ns - stamp_ns) * 1e-9
+    else:
+        age = (sim_ns - stamp_ns) * 1e-9
     if age > max_age_s:
-        return f"{what} refused: stale command, stamped {age:.3g} s ago (limit {max_age_s:g} s)"
+        return f"{what} refused: stale command, stamped {age:.3g} s before it arrived (limit {max_age_s:g} s)"
     return None
 
 

@@ -111,4 +111,18 @@ def _check_one(spec: Spec, value) -> str | None:
     return None
 
 
-__all__ = ["BY_NAME", "SPECS", "Spec", "check", "defaults"]
+def markdown(scene: Scene) -> str:
+    """The parameter table of docs/twin.md (a test keeps the two equal)."""
+    values = defaults(scene)
+    rows = ["| parameter | meaning | default (scene file) | at run time |", "|---|---|---|---|"]
+    for spec in SPECS:
+        value = values[spec.name]
+        shown = ", ".join(value) if isinstance(value, list) else (f"{value:g}" if isinstance(value, float) else value)
+        if spec.name == "scene":
+            shown = "psm_twin.yaml"
+        shown = f"`{shown}`" if shown != "" else "(off)"
+        rows.append(f"| `{spec.name}` | {spec.description} | {shown} | {'yes' if spec.runtime else 'no'} |")
+    return "\n".join(rows) + "\n"
+
+
+__all__ = ["BY_NAME", "SPECS", "Spec", "check", "defaults", "markdown"]

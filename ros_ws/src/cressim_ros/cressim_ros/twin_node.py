@@ -48,6 +48,7 @@ from crtk_msgs.srv import QueryForwardKinematics, QueryInverseKinematics, Trigge
 
 from cressim.robots import PSM_JOINT_NAMES
 from cressim.twin import ConfigError, Sensor, SensorLoop, StateReport, TwinArms, TwinConfig
+from cressim.twin.command_checks import stale_refusal
 from cressim.twin.sensor_loop import process_threads
 from cressim.twin.scene import DEFAULT_SCENE, SceneError, load_scene
 
@@ -64,7 +65,6 @@ from .ultrasound_topics import UltrasoundTopics, ultrasound_frame
 ERROR_INTERVAL_S = 0.05  # the same refusal (env, kind) goes to `error` at most this often
 LOG_THROTTLE_S = 1.0
 DIAGNOSTICS_PERIOD_S = 1.0
-SYSTEM_CLOCK_WINDOW_NS = 86_400 * 10**9  # a stamp this close to the wall clock is a wall-clock stamp
 # arm commands the twin cannot carry out: answered on `warning` (clients still find a peer)
 UNSUPPORTED = {"free": "free (a compliant arm)", "servo_jf": "joint effort control",
                "jaw/servo_jf": "jaw effort control", "body/servo_cf": "wrench control",
@@ -186,13 +186,16 @@ class TwinNode(Node):
         self._publish_static_tf()
         for env in range(self.num_envs):
             self._emit(self._latched_events(env))
-        if cfg["record"]:
+        recorder = None
+        if cfg["record"]:  # opened now (a bad path fails at once), written from the first tick on
             try:
-                self._open_recording(open_recorder(cfg["record"]))
+                recorder = open_recorder(cfg["record"])
             except (RecordingUnavailable, OSError, ValueError) as exc:
                 raise ConfigError(f"record: {exc}") from None
         self._sync_sensor_groups()
         self.sensors.render_now()  # builds every pipeline before the first tick (can take a minute cold)
+        if recorder is not None:
+            self._open_recording(recorder)
         if self.arms.bodies.device.type == "cpu" and not self.arms.dynamic:
             # lavapipe renders on the CPU: frames take the time the 100 Hz tick leaves (a dynamic
             # arm's physics runs on the same driver threads, so they keep their priority there)
@@ -408,24 +411,13 @@ class TwinNode(Node):
         log(line, throttle_duration_sec=LOG_THROTTLE_S)
 
     def _stale(self, kind: str, msg, info) -> str | None:
-        """Why a stamped command is too old when it arrived (None: fresh, or unstamped). Its age
-        is taken at arrival (the middleware's receive time), in the clock it was stamped in:
-        the wall clock, or the simulated time for clients on /clock."""
-        limit = self.scene.stale_command_after
+        """Why a stamped command was too old when the middleware received it (None: fresh)."""
         header = getattr(msg, "header", None)
-        if header is None or limit <= 0:
-            return None
-        stamp_ns = header.stamp.sec * 1_000_000_000 + header.stamp.nanosec
-        if stamp_ns == 0:
+        if header is None:
             return None
         received = (info or {}).get("received_timestamp") or time.time_ns()
-        if abs(received - stamp_ns) < SYSTEM_CLOCK_WINDOW_NS:
-            age = (received - stamp_ns) * 1e-9
-        else:
-            age = (self.arms.sim_ns - stamp_ns) * 1e-9
-        if age > limit:
-            return f"{kind} refused: stale command, stamped {age:.3g} s before it arrived (limit {limit:g} s)"
-        return None
+        return stale_refusal(header.stamp.sec * 1_000_000_000 + header.stamp.nanosec, received, self.arms.sim_ns,
+                             self.scene.stale_command_after, what=kind)
 
     # ------------------------------------------------------------------ subscriptions
     def _on_command(self, kind, handler, env, msg, info):
