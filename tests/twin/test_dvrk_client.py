@@ -17,7 +17,7 @@ import pytest
 import torch
 
 from cressim.robots import PSM
-from twin_fixtures import KEEP_RATE, baseline_rate
+from twin_fixtures import keeps_publishing
 
 pytestmark = pytest.mark.ros
 
@@ -72,9 +72,8 @@ def test_dvrk_client_session(session):
     ral.check_connections(timeout=20)
     assert arm._measured_js.wait_for(lambda m: True, 20), "no measured_js"
     assert arm._state.wait_for(lambda m: m.state == "DISABLED", 5), "no initial operating_state (transient local)"
-    # the twin ticks at 100 Hz when the machine lets it; on 2 loaded cores it may reach less, and
-    # then simulated time (settling) stretches in wall time
-    baseline = baseline_rate(arm)
+    # the twin ticks at 100 Hz when the machine lets it; on loaded cores it reaches less, and then
+    # simulated time (settling) stretches in wall time: every wait below counts ticks
     settle = tol["settle"]
 
     assert arm.enable(5), f"enable timed out: {arm.operating_state()}"
@@ -169,6 +168,6 @@ def test_dvrk_client_session(session):
     # --- what the session saw: stamps never zero, no errors, data kept flowing
     assert all(stamp_s(m.header) > 0 for m in arm.states_since(0.0))
     assert arm.errors.count == 0, [m.data for m in arm.errors.history]
-    assert arm.measured_js_rate(1.0) > 0.5 * baseline, (arm.measured_js_rate(1.0), baseline)  # still flowing
+    assert keeps_publishing(arm), "measured_js stopped"
     assert twin.alive()
     print(f"servo_jp lag {lag:.4f} rad; twin start-up {twin.startup_s:.1f} s, client session {time.monotonic() - t0:.1f} s")

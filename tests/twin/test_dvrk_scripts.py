@@ -55,6 +55,7 @@ import threading
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 pytestmark = pytest.mark.ros
@@ -68,6 +69,10 @@ NEWLINES = "\n" * 200  # stdin: Enter, as often as a script asks
 # a report of the script's own failure: '  ! failed to enable', sys.exit('failed to ...'),
 # a traceback, TimeoutError('Timed out waiting for ... connections'), 'Inverse kinematic error'
 FAILURE = re.compile(r"^\s*!|\bfail|\berror|\bexception|\btraceback|\btimed out|\btimeout", re.I | re.M)
+# ... except dvrk_arm_test's note that setpoint_cp, read right after a servo_cp, is more than 2 mm
+# from it "(might be due to latency)": a twin on a loaded machine answers a few ticks later (the
+# script goes on; the servo_cp motion is checked from the twin's setpoint_cp instead)
+LATENCY_NOTE = re.compile(r"Inverse kinematic error in position \[\d+\]: [0-9.e-]+ \(might be due to latency\)$")
 
 
 def clients_folder() -> Path:
@@ -246,8 +251,15 @@ def move_cp_diagonal(seen) -> list[str]:  # +2 cm, -2 cm in x and y, back: three
 
 
 def servo_cv_x(seen) -> list[str]:  # 1 mm/s along x for 10 s, then zero
-    return ([] if swept(seen["cp"], 0) >= 0.8 * 0.01 else
-            [f"setpoint_cp x moved {swept(seen['cp'], 0):.4f} m, expected about 0.01 (1 mm/s for 10 s)"])
+    # the twin integrates the twist over simulated time, one 10 ms period a tick: 10 um a tick
+    # while it is on, however many ticks a loaded machine fits in the script's 10 s
+    steps = np.diff([v[0] for v in seen["cp"]])
+    moving = steps[np.abs(steps) > 1e-7]
+    if len(moving) < 100:
+        return [f"setpoint_cp x moved on {len(moving)} ticks, expected a twist held for seconds"]
+    per_tick = float(np.median(moving))
+    return ([] if abs(per_tick - 1e-5) < 0.05e-5 else
+            [f"setpoint_cp x moved {per_tick * 1e6:.2f} um a tick, expected 10 (1 mm/s x 10 ms)"])
 
 
 @dataclass(frozen=True)
@@ -261,7 +273,8 @@ class Script:
 
 SCRIPTS = {
     "dvrk_arm_test": Script("dvrk_python/scripts/dvrk_arm_test.py", ("-a", ARM),
-                            ends=(("< move_cp complete", 1), (">> illustrating user defined shutdown callback", 1))),
+                            ends=(("< move_cp complete", 1), (">> illustrating user defined shutdown callback", 1)),
+                            check=servo_cp_cosine),
     "dvrk_psm_test": Script("dvrk_python/scripts/dvrk_psm_test.py", ("-a", ARM),
                             ends=(("starting jaw servo", 1), ("moving back (3)", 2))),
     "dvrk_move_wait_test": Script("dvrk_python/scripts/dvrk_move_wait_test.py", ("-a", ARM),
@@ -309,7 +322,7 @@ def test_dvrk_script(name, clients, ros_domain_id, start_twin, tmp_path):
     if rc != 0:
         problems.append("no exit status (killed)" if rc is None else f"exit status {rc}")
     problems += [f"its output reports a failure: {line.strip()!r}" for line in output.splitlines()
-                 if FAILURE.search(line)][:5]
+                 if FAILURE.search(line) and not LATENCY_NOTE.search(line.strip())][:5]
     problems += [f"it did not get to the end: {text!r} printed {output.count(text)} times, expected {n}"
                  for text, n in script.ends if output.count(text) < n]
     problems += [f"the twin published on error: {e!r}" for e in seen["errors"][:5]]

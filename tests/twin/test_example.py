@@ -13,7 +13,7 @@ EXAMPLE = Path(__file__).resolve().parents[2] / "ros_ws" / "src" / "cressim_ros"
 
 def test_train_beside_twin_example(ros_domain_id, tmp_path):
     run = subprocess.run([sys.executable, str(EXAMPLE), "--envs", "4", "--seconds", "3", "--episode-ticks", "25"],
-                         capture_output=True, text=True, timeout=120, cwd=tmp_path)
+                         capture_output=True, text=True, timeout=600, cwd=tmp_path)  # a safety limit
     out = run.stdout + run.stderr
     assert run.returncode == 0, out
     assert "episode   2:" in out and "learner: " in out, out

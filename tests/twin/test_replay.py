@@ -20,8 +20,9 @@ def test_replay_of_the_sample_bag_against_the_twin(ros_domain_id, start_twin, tm
     report = tmp_path / "report.json"
     response = tmp_path / "response"
     run = subprocess.run([sys.executable, "-m", "cressim", "replay", str(REPO / "bags" / "psm1_sample"),
-                          "--enable", "--out", str(response), "--json", str(report)],
-                         env=env, capture_output=True, text=True, timeout=180)
+                          "--enable", "--out", str(response), "--json", str(report),
+                          "--clock", "sim", "--wait", "120"],  # simulated time: however busy the machine
+                         env=env, capture_output=True, text=True, timeout=600)  # a safety limit
     assert run.returncode == 0, run.stdout + run.stderr
     errors = json.loads(report.read_text())["errors"]
     for table in errors.values():  # versus the commands, and versus the bag's own measured_js

@@ -7,21 +7,12 @@ from cressim_ros.twin_process import Twin
 TEST_CAMERA = ("camera_width:=64", "camera_height:=48", "camera_rate:=2.0")
 
 
-# "Keeps publishing at its rate" is checked against the rate the same twin reached before the
-# test's commands, on the same machine, not against a wall-clock number: on 2 loaded cores
-# lavapipe, DDS and the client share the CPU and the absolute rate varies (the brief: no test
-# asserts a timing).
-KEEP_RATE = 0.7
-
-
-def baseline_rate(arm, window: float = 2.0) -> float:
-    """measured_js rate over `window` s of quiet publishing (after waiting that long)."""
-    import time
-
-    time.sleep(window)
-    rate = arm.measured_js_rate(window)
-    assert rate > 0, "the twin does not publish measured_js"
-    return rate
+# "Keeps publishing" is counted in ticks, never in Hz: on 2 loaded cores lavapipe, DDS and the
+# client share the CPU and the rate is whatever the machine gives (rates are benchmarks' business).
+def keeps_publishing(arm, ticks: int = 50, timeout: float = 120.0) -> bool:
+    """measured_js keeps coming: `ticks` more messages (one per tick, however slowly the machine
+    runs the twin; the timeout only catches a stalled twin)."""
+    return arm.wait_measured(ticks, timeout=timeout)
 
 
 def module_twin(request, tmp_path_factory, domain, *params):

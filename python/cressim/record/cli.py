@@ -65,6 +65,9 @@ def add_replay_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
     p.add_argument("--hold", default="zoh", choices=("zoh", "linear"), help="reference between commands")
     p.add_argument("--loopback", action="store_true",
                    help="no ROS: replay into an in-process first-order model (tests the pipeline)")
+    p.add_argument("--clock", default="wall", choices=("wall", "sim"),
+                   help="time the commands and samples by the wall clock, or by the twin's /clock (simulated "
+                        "time: a twin slowed by a busy machine gets each command at the same simulated time)")
     p.add_argument("--wait", type=float, default=10.0, help="seconds to wait for the twin's topics")
     p.add_argument("--json", metavar="FILE", help="also write the error tables as JSON")
     return p
@@ -198,14 +201,14 @@ def replay_main(args: argparse.Namespace) -> int:
                 print(f"cressim replay: {problem} (or use --loopback)", file=sys.stderr)
                 return 2
             types = {c.topic: c.msgtype for c in commands}
-            link = RclpyTwinLink(types, ns=args.ns, recorder=recorder)
+            link = RclpyTwinLink(types, ns=args.ns, recorder=recorder, sim_clock=args.clock == "sim")
             missing = link.wait_for_twin(args.wait)
             if missing:
                 print("cressim replay: the twin is not there: " + ", ".join(missing), file=sys.stderr)
                 return 3
             link.drain()
             publish = link.publish
-        result = replay(commands, publish, link, rate=args.rate, settle=args.settle)
+        result = replay(commands, publish, link, rate=args.rate, settle=args.settle, clock=link.clock)
     finally:
         if link is not None and hasattr(link, "close"):
             link.close()

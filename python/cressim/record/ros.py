@@ -126,9 +126,13 @@ class RclpyTwinLink:
     published commands and every state/event topic the twin publishes are recorded too."""
 
     def __init__(self, command_types: dict[str, str], *, ns: str = DEFAULT_NAMESPACE, recorder=None,
-                 clock: Callable[[], float] = time.monotonic, node_name: str = "cressim_replay"):
+                 clock: Callable[[], float] = time.monotonic, node_name: str = "cressim_replay",
+                 sim_clock: bool = False):
         self.ns = ns.strip("/")
-        self.clock = clock
+        # sim_clock: the twin's /clock (simulated seconds) times commands and samples, so a twin
+        # that a busy machine slows down still gets each command at the same simulated time
+        self.clock = self.sim_time if sim_clock else clock
+        self._sim_ns = None
         self.recorder = recorder
         self._lock = threading.Lock()
         self._samples: list = []
@@ -142,6 +146,8 @@ class RclpyTwinLink:
                 message_class(msgtype), self.topic(rel), _qos("command", depth=depth))
             if recorder is not None:
                 recorder.add_topic(self.topic(rel), msgtype)
+        if sim_clock:
+            self._node.subscribe_raw("/clock", "rosgraph_msgs/msg/Clock", self._on_clock, _qos("state", best_effort=True))
         for spec in PSM_TOPICS:
             if spec.role == "command":
                 continue
@@ -151,6 +157,14 @@ class RclpyTwinLink:
 
     def topic(self, rel: str) -> str:
         return rel if rel.startswith("/") else f"/{self.ns}/{rel}"
+
+    def _on_clock(self, data: bytes) -> None:
+        clock = _types.decode(data, "rosgraph_msgs/msg/Clock").clock
+        self._sim_ns = clock.sec * 1_000_000_000 + clock.nanosec
+
+    def sim_time(self) -> float:
+        """The twin's simulated time (s) as last seen on /clock; 0 before the first."""
+        return (self._sim_ns or 0) * 1e-9
 
     def _callback(self, rel: str, topic: str, msgtype: str):
         measured = rel in ("measured_js", "jaw/measured_js")
@@ -188,6 +202,8 @@ class RclpyTwinLink:
                 flowing = any(rel == "measured_js" for rel, _, _ in self._samples)
             if not flowing:
                 missing.append(self.topic("measured_js") + " (no data)")
+            if self.clock == self.sim_time and self._sim_ns is None:
+                missing.append("/clock (no data: the twin publishes it with the clock sensor group)")
             if not missing or time.monotonic() >= deadline:
                 return missing
             time.sleep(0.05)

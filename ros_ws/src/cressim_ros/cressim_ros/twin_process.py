@@ -12,6 +12,9 @@ REPO = Path(__file__).resolve().parents[4] if (Path(__file__).resolve().parents[
 # the driver's shader cache warm; a minute or more cold on 2 busy cores). A safety net only: the
 # twin says "ready" when its first tick is out.
 STARTUP_TIMEOUT = 600.0
+# s: a clean shutdown (the sensor thread's last frame, the recording's last chunk); on a loaded
+# machine it takes seconds. A safety net only, before SIGKILL.
+STOP_TIMEOUT = 120.0
 
 
 class Twin:
@@ -33,7 +36,8 @@ class Twin:
         self.started = time.monotonic()
 
     def output(self) -> str:
-        self.log.flush()
+        if not self.log.closed:
+            self.log.flush()
         return self.log_path.read_text()
 
     def wait_ready(self, timeout: float = STARTUP_TIMEOUT):
@@ -53,7 +57,7 @@ class Twin:
         if self.proc.poll() is None:
             self.proc.send_signal(signal.SIGINT)
             try:
-                self.proc.wait(timeout=15)
+                self.proc.wait(timeout=STOP_TIMEOUT)
             except subprocess.TimeoutExpired:
                 self.proc.kill()
                 self.proc.wait()
