@@ -63,7 +63,7 @@ struct Adding {
 // The constraint families, in solve order. A family is its name here, the records its builder
 // below appends, and shaders/physics/particle_<name>.comp.hlsl; the solver (particle_system.cpp)
 // makes buffers, cut flags, passes and dispatches from the set table without naming any family.
-constexpr const char* kConstraintFamilies[] = {"distance", "volume", "bend", "stretch_shear", "bend_twist"};
+constexpr const char* kConstraintFamilies[] = {"tet", "distance", "volume", "bend", "stretch_shear", "bend_twist"};
 
 class Builder {
  public:
@@ -125,22 +125,94 @@ class Builder {
     }
   }
 
+  float signed_volume(const uint32_t q[4]) const {
+    const float4 &x0 = m_.positions[q[0]], &x1 = m_.positions[q[1]], &x2 = m_.positions[q[2]], &x3 = m_.positions[q[3]];
+    const Vec3 e1{x1.x - x0.x, x1.y - x0.y, x1.z - x0.z}, e2{x2.x - x0.x, x2.y - x0.y, x2.z - x0.z},
+        e3{x3.x - x0.x, x3.y - x0.y, x3.z - x0.z};
+    return (e1[0] * (e2[1] * e3[2] - e2[2] * e3[1]) - e1[1] * (e2[0] * e3[2] - e2[2] * e3[0]) +
+            e1[2] * (e2[0] * e3[1] - e2[1] * e3[0])) / 6;
+  }
+
+  // Stable Neo-Hookean tets (Smith et al. 2018, without the log term): per unit rest volume
+  //   psi = mu/2 (tr(F^T F) - 3) + lambda/2 (det F - alpha)^2,  alpha = 1 + mu / lambda,
+  // whose small-strain limit is linear elasticity with Lame parameters mu and lambda - mu; so
+  // lambda is the Lame lambda of (E, nu) plus mu. Each record keeps (V0, mu, lambda, alpha) and the
+  // inverse rest shape matrix Dm^-1 (3 rows); each corner gets a quarter of the tet's mass.
+  void elastic_tets(const Adding& a, const scene::SoftBody& sb, uint32_t n) {
+    const double E = sb.youngs_modulus, nu = sb.poisson_ratio;
+    const double mu = E / (2 * (1 + nu)), lame = E * nu / ((1 + nu) * (1 - 2 * nu)), lambda = lame + mu;
+    std::vector<double> mass(n, 0.0);
+    auto& tets = set("tet");
+    tets.rows_per_record = 3;
+    for (size_t t = 0; t < sb.tets.size(); t += 4) {
+      uint32_t q[4] = {a.first + sb.tets[t], a.first + sb.tets[t + 1], a.first + sb.tets[t + 2], a.first + sb.tets[t + 3]};
+      float vol = signed_volume(q);
+      if (!(std::abs(vol) > 1e-18f)) fail(a.world, a.entity, "SoftBody.tets[" + std::to_string(t / 4) + "] has no volume");
+      if (vol < 0) std::swap(q[2], q[3]), vol = -vol;
+      // Dm = [x1 - x0, x2 - x0, x3 - x0] (columns), inverted in double
+      double D[3][3];
+      for (int c = 0; c < 3; ++c) {
+        const float4 &xc = m_.positions[q[c + 1]], &x0 = m_.positions[q[0]];
+        D[0][c] = double(xc.x) - x0.x, D[1][c] = double(xc.y) - x0.y, D[2][c] = double(xc.z) - x0.z;
+      }
+      const double det = D[0][0] * (D[1][1] * D[2][2] - D[1][2] * D[2][1]) - D[0][1] * (D[1][0] * D[2][2] - D[1][2] * D[2][0]) +
+                         D[0][2] * (D[1][0] * D[2][1] - D[1][1] * D[2][0]);
+      double B[3][3];
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) {
+          // inverse = adjugate / det: B[r][c] = cofactor(c, r) / det
+          const int r1 = (c + 1) % 3, r2 = (c + 2) % 3, c1 = (r + 1) % 3, c2 = (r + 2) % 3;
+          B[r][c] = (D[r1][c1] * D[r2][c2] - D[r1][c2] * D[r2][c1]) / det;
+        }
+      constraint(tets, {q[0], q[1], q[2], q[3]}, vol, float(mu), float(lambda));
+      tets.records.back().params.w = float(1 + mu / lambda);
+      for (int r = 0; r < 3; ++r) tets.record_rows.push_back({float(B[r][0]), float(B[r][1]), float(B[r][2]), 0});
+      for (uint32_t k : q) mass[k - a.first] += sb.density * vol / 4;
+    }
+    for (uint32_t i = 0; i < n; ++i) {
+      if (!(mass[i] > 0))
+        fail(a.world, a.entity, "SoftBody particle " + std::to_string(i) + " belongs to no tet (an elastic body's "
+                                "mass comes from its tets)");
+      m_.positions[a.first + i].w = float(1 / mass[i]);
+      m_.phases[a.first + i].w |= shader::PARTICLE_ELASTIC;
+    }
+  }
+
   void soft_body(const Adding& a, const scene::SoftBody& sb) {
     const uint32_t n = uint32_t(sb.positions.size() / 3);
+    const bool elastic = sb.youngs_modulus != 0;
     if (n == 0) fail(a.world, a.entity, "SoftBody.positions is empty");
-    if (!(sb.mass > 0)) fail(a.world, a.entity, "SoftBody.mass must be positive");
     if (!(sb.radius > 0)) fail(a.world, a.entity, "SoftBody.radius must be positive");
-    if (sb.distance_compliance < 0 || sb.volume_compliance < 0) fail(a.world, a.entity, "SoftBody compliances must be >= 0");
     if (sb.tets.size() % 4) fail(a.world, a.entity, "SoftBody.tets needs 4 indices per tet");
     if (sb.triangles.size() % 3) fail(a.world, a.entity, "SoftBody.triangles needs 3 indices per triangle");
-    add_particles(a, sb.positions, n, 1 / sb.mass, shader::PARTICLE_SOLID,
+    if (elastic) {
+      if (sb.tets.empty())
+        fail(a.world, a.entity, "SoftBody.youngs_modulus needs tets (a meshfree body has no volume elements: give "
+                                "distance_compliance instead)");
+      if (!(sb.youngs_modulus > 0 && std::isfinite(sb.youngs_modulus)))
+        fail(a.world, a.entity, "SoftBody.youngs_modulus must be a positive finite number of pascals, got " +
+                                    std::to_string(sb.youngs_modulus));
+      if (!(sb.poisson_ratio >= 0 && sb.poisson_ratio < 0.5f))
+        fail(a.world, a.entity, "SoftBody.poisson_ratio must be in [0, 0.5), got " + std::to_string(sb.poisson_ratio));
+      if (!(sb.density > 0 && std::isfinite(sb.density)))
+        fail(a.world, a.entity, "SoftBody.density must be a positive finite number of kg/m^3, got " + std::to_string(sb.density));
+    } else {
+      if (!(sb.mass > 0 && std::isfinite(sb.mass))) fail(a.world, a.entity, "SoftBody.mass must be positive");
+      if (!(sb.distance_compliance >= 0 && sb.volume_compliance >= 0 && std::isfinite(sb.distance_compliance) &&
+            std::isfinite(sb.volume_compliance)))
+        fail(a.world, a.entity, "SoftBody compliances must be finite and >= 0");
+    }
+    add_particles(a, sb.positions, n, elastic ? 0.f : 1 / sb.mass, shader::PARTICLE_SOLID,
                   sb.self_collision ? shader::PARTICLE_SELF_COLLIDE : 0u, "SoftBody.positions");
-    fix(a, sb.fixed, n, "SoftBody.fixed");
     for (uint32_t v : sb.tets)
       if (v >= n) fail(a.world, a.entity, "SoftBody.tets names particle " + std::to_string(v) + " of " + std::to_string(n));
     for (uint32_t v : sb.triangles)
       if (v >= n) fail(a.world, a.entity, "SoftBody.triangles names particle " + std::to_string(v) + " of " + std::to_string(n));
-    if (!sb.tets.empty()) {
+    if (elastic) {
+      elastic_tets(a, sb, n);
+      fix(a, sb.fixed, n, "SoftBody.fixed");
+    } else if (!sb.tets.empty()) {
+      fix(a, sb.fixed, n, "SoftBody.fixed");
       // every tet edge once, and every tet's volume
       std::set<std::pair<uint32_t, uint32_t>> edges;
       for (size_t t = 0; t < sb.tets.size(); t += 4)
@@ -149,16 +221,13 @@ class Builder {
       for (auto [i, j] : edges) distance(a.first + i, a.first + j, sb.distance_compliance);
       for (size_t t = 0; t < sb.tets.size(); t += 4) {
         const uint32_t q[4] = {a.first + sb.tets[t], a.first + sb.tets[t + 1], a.first + sb.tets[t + 2], a.first + sb.tets[t + 3]};
-        const float4 &x0 = m_.positions[q[0]], &x1 = m_.positions[q[1]], &x2 = m_.positions[q[2]], &x3 = m_.positions[q[3]];
-        const Vec3 e1{x1.x - x0.x, x1.y - x0.y, x1.z - x0.z}, e2{x2.x - x0.x, x2.y - x0.y, x2.z - x0.z},
-            e3{x3.x - x0.x, x3.y - x0.y, x3.z - x0.z};
-        const float vol = (e1[0] * (e2[1] * e3[2] - e2[2] * e3[1]) - e1[1] * (e2[0] * e3[2] - e2[2] * e3[0]) +
-                           e1[2] * (e2[0] * e3[1] - e2[1] * e3[0])) / 6;
+        const float vol = signed_volume(q);
         if (std::abs(vol) < 1e-15f) fail(a.world, a.entity, "SoftBody.tets[" + std::to_string(t / 4) + "] has no volume");
         if (vol > 0) constraint(set("volume"), {q[0], q[1], q[2], q[3]}, vol, sb.volume_compliance);
         else constraint(set("volume"), {q[0], q[1], q[3], q[2]}, -vol, sb.volume_compliance);
       }
     } else {
+      fix(a, sb.fixed, n, "SoftBody.fixed");
       // meshfree: k nearest neighbours (each pair once)
       if (sb.neighbors < 1) fail(a.world, a.entity, "SoftBody.neighbors must be at least 1 for a meshfree body");
       std::set<std::pair<uint32_t, uint32_t>> pairs;
@@ -278,6 +347,49 @@ void colour(ConstraintSet& s, size_t particles) {
   std::vector<uint32_t> cursor = s.colour_offset;
   for (size_t c = 0; c < s.records.size(); ++c) sorted[cursor[colour_of[c]]++] = s.records[c];
   s.records = std::move(sorted);
+}
+
+// vertex-solved families: colour the particles so that no two of a colour share a record
+// (greedy, lowest free colour), group them by colour and list each one's (record, corner)s
+void colour_vertices(ConstraintSet& s, size_t particles) {
+  std::vector<std::vector<uint32_t>> corners(particles);
+  for (uint32_t r = 0; r < s.records.size(); ++r) {
+    const auto& p = s.records[r].particles;
+    const uint32_t ids[4] = {p.x, p.y, p.z, p.w};
+    for (uint32_t k = 0; k < 4; ++k) corners[ids[k]].push_back(r * 4 + k);
+  }
+  std::vector<uint32_t> colour_of(particles, NONE);
+  std::vector<uint32_t> used;  // used[c] == i: colour c is taken by a neighbour of particle i
+  uint32_t colours = 0;
+  for (uint32_t i = 0; i < particles; ++i) {
+    if (corners[i].empty()) continue;
+    used.resize(colours + 1, NONE);
+    for (uint32_t rc : corners[i]) {
+      const auto& p = s.records[rc / 4].particles;
+      for (uint32_t j : {p.x, p.y, p.z, p.w})
+        if (colour_of[j] != NONE) used[colour_of[j]] = i;
+    }
+    uint32_t k = 0;
+    while (used[k] == i) ++k;
+    colour_of[i] = k;
+    colours = std::max(colours, k + 1);
+  }
+  s.vertex_colour_count.assign(colours, 0);
+  for (uint32_t i = 0; i < particles; ++i)
+    if (colour_of[i] != NONE) ++s.vertex_colour_count[colour_of[i]];
+  s.vertex_colour_offset.assign(colours, 0);
+  for (uint32_t k = 1; k < colours; ++k) s.vertex_colour_offset[k] = s.vertex_colour_offset[k - 1] + s.vertex_colour_count[k - 1];
+  std::vector<uint32_t> cursor = s.vertex_colour_offset;
+  s.vertices.assign(cursor.empty() ? 0 : cursor.back() + s.vertex_colour_count.back(), 0);
+  for (uint32_t i = 0; i < particles; ++i)
+    if (colour_of[i] != NONE) s.vertices[cursor[colour_of[i]]++] = i;
+  s.vertex_records.clear();
+  s.vertex_corners.clear();
+  for (uint32_t i : s.vertices) {
+    s.vertex_records.push_back(uint32_t(s.vertex_corners.size()));
+    s.vertex_records.push_back(uint32_t(corners[i].size()));
+    s.vertex_corners.insert(s.vertex_corners.end(), corners[i].begin(), corners[i].end());
+  }
 }
 
 // each env's slice of each colour: records are built env by env and the colouring is stable
@@ -410,7 +522,11 @@ ParticleModel build_particle_model(const scene::World& world, const scene::Layou
   for (auto& o : m.objects) m.has_contacts = m.has_contacts || (o.ids.y & shader::PARTICLE_SELF_COLLIDE);
 
   for (auto& s : m.sets) {
-    if (s.chains.empty()) {
+    if (s.rows_per_record) {  // vertex-solved: particles are coloured, records stay in one colour
+      colour_vertices(s, m.size());
+      s.colour_offset = {0};
+      s.colour_count = {uint32_t(s.records.size())};
+    } else if (s.chains.empty()) {
       colour(s, m.size() + m.orientations.size());
     } else {  // chain order is kept: one colour of all records
       s.colour_offset = {0};

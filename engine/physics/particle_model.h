@@ -30,6 +30,15 @@ struct ConstraintSet {
   std::vector<uint32_t> colour_offset, colour_count;  // each colour's slice of records
   std::vector<uint32_t> env_colours;   // (first, count) of each env's records per colour, env-major
   std::vector<uint32_t> object_count;  // constraints of each object
+  // A vertex-solved family (particle_tet.comp.hlsl) is solved per particle instead: each thread
+  // moves one particle by a Newton step on the energy of the records around it, so particles are
+  // coloured (no two of a colour share a record) and records are not.
+  std::vector<shader::float4> record_rows;      // rows_per_record extra rows of each record
+  uint32_t rows_per_record = 0;
+  std::vector<uint32_t> vertices;               // the solved particles, grouped by colour
+  std::vector<uint32_t> vertex_colour_offset, vertex_colour_count;
+  std::vector<uint32_t> vertex_records;         // (first, count) into vertex_corners, per entry of `vertices`
+  std::vector<uint32_t> vertex_corners;         // record * 4 + corner of the particle in it
 };
 
 struct ParticleModel {

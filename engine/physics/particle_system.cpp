@@ -179,6 +179,15 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
     b["constraints"] = cb;
     b["lambdas"] = lb;
     b["cut"] = cut;
+    if (s.rows_per_record) {  // vertex-solved: the records' extra rows, the coloured particles and their corners
+      b["record_rows"] = in("", "particles." + s.name + "_rows", s.record_rows,
+                            {c, int64_t(s.rows_per_record), 4}, DType::FLOAT32);
+      b["vertices"] = in("", "particles." + s.name + "_vertices", s.vertices, {int64_t(s.vertices.size())}, DType::UINT32);
+      b["vertex_records"] = in("", "particles." + s.name + "_vertex_records", s.vertex_records,
+                               {int64_t(s.vertices.size()), 2}, DType::UINT32);
+      b["vertex_corners"] = in("", "particles." + s.name + "_vertex_corners", s.vertex_corners,
+                               {int64_t(s.vertex_corners.size())}, DType::UINT32);
+    }
     if (!s.chains.empty()) {  // chain-solved: the chain table and the direct solve's per-record scratch
       b["chains"] = in("", "particles." + s.name + "_chains", s.chains, {int64_t(s.chains.size() / 2), 2}, DType::UINT32);
       b["chain_scratch"] = make(internal, "particles." + s.name + "_chain_scratch", nullptr, 0, {c, 2, 4},
@@ -253,6 +262,17 @@ void ParticleSystem::record_families(VkCommandBuffer cmd, uint32_t passes) const
       put(*f.per_env, passes, uint32_t(f.set->colour_count.size()));
       f.per_env->record(cmd);
       gpu::compute_barrier(cmd);
+      continue;
+    }
+    if (!f.set->vertices.empty()) {  // a thread per particle of a colour, colour after colour
+      for (uint32_t pass = 0; pass < passes; ++pass)
+        for (size_t k = 0; k < f.set->vertex_colour_count.size(); ++k) {
+          const uint32_t count = f.set->vertex_colour_count[k];
+          put(*f.per_colour, f.set->vertex_colour_offset[k], count);
+          f.per_colour->groups = {(count + kGroup - 1) / kGroup, 1, 1};
+          f.per_colour->record(cmd);
+          gpu::compute_barrier(cmd);
+        }
       continue;
     }
     if (!f.set->chains.empty()) {  // a thread per chain, all records of each at once

@@ -88,9 +88,10 @@ void bind_particles(py::module_& m) {
       });
 
   py::class_<scene::SoftBody>(m, "SoftBody")
-      .def(py::init([](py::object shape, py::object tets, py::object triangles, py::object fixed, float mass,
-                       float distance_compliance, float volume_compliance, uint32_t neighbors, float damping, float radius,
-                       float friction, bool self_collision) {
+      .def(py::init([](py::object shape, py::object tets, py::object triangles, py::object fixed, py::object youngs_modulus,
+                       float poisson_ratio, float density, py::object mass, py::object distance_compliance,
+                       py::object volume_compliance, uint32_t neighbors, float damping, float radius, float friction,
+                       bool self_collision) {
              scene::SoftBody s;
              if (py::isinstance<TetMesh>(shape)) {
                const auto& t = shape.cast<const TetMesh&>();
@@ -101,22 +102,48 @@ void bind_particles(py::module_& m) {
                s.triangles = indices(triangles, 3, "SoftBody triangles");
              }
              s.fixed = indices(fixed, 1, "SoftBody fixed");
-             s.mass = mass, s.distance_compliance = distance_compliance, s.volume_compliance = volume_compliance;
+             // the expert (compliance) model: asked for by a compliance, and the only one without tets
+             const bool compliance = !distance_compliance.is_none() || !volume_compliance.is_none() || s.tets.empty();
+             if (compliance && !youngs_modulus.is_none())
+               throw py::value_error(s.tets.empty()
+                                         ? "SoftBody: youngs_modulus needs tets (a meshfree body is tied by distance "
+                                           "constraints: give distance_compliance)"
+                                         : "SoftBody: give either youngs_modulus (the material) or compliances (the "
+                                           "expert XPBD model), not both");
+             if (!compliance && !mass.is_none())
+               throw py::value_error("SoftBody: an elastic body's mass comes from density x volume; give density "
+                                     "(kg/m^3), or compliances for the per-particle mass model");
+             if (compliance) {
+               s.youngs_modulus = 0;
+               if (!distance_compliance.is_none()) s.distance_compliance = distance_compliance.cast<float>();
+               if (!volume_compliance.is_none()) s.volume_compliance = volume_compliance.cast<float>();
+               if (!mass.is_none()) s.mass = mass.cast<float>();
+             } else if (!youngs_modulus.is_none()) {
+               s.youngs_modulus = youngs_modulus.cast<float>();
+             }
+             s.poisson_ratio = poisson_ratio, s.density = density;
              s.neighbors = neighbors, s.damping = damping, s.radius = radius, s.friction = friction;
              s.self_collision = self_collision;
              return s;
            }),
            py::arg("shape"), py::arg("tets") = py::none(), py::arg("triangles") = py::none(), py::kw_only(),
-           py::arg("fixed") = py::none(), py::arg("mass") = 0.01f, py::arg("distance_compliance") = 1e-4f,
-           py::arg("volume_compliance") = 1e-4f, py::arg("neighbors") = 8u, py::arg("damping") = 0.f,
+           py::arg("fixed") = py::none(), py::arg("youngs_modulus") = py::none(), py::arg("poisson_ratio") = 0.45f,
+           py::arg("density") = 1000.f, py::arg("mass") = py::none(), py::arg("distance_compliance") = py::none(),
+           py::arg("volume_compliance") = py::none(), py::arg("neighbors") = 8u, py::arg("damping") = 0.f,
            py::arg("radius") = 0.02f, py::arg("friction") = 0.5f, py::arg("self_collision") = false,
            "A soft body: shape is a TetMesh, or an (n, 3) array of particle positions (entity frame) with tets "
            "(m, 4) and surface triangles (k, 3), or without tets a meshfree body tied to its `neighbors` nearest "
-           "particles. fixed: particle indices clamped in place. Compliances are XPBD compliances of the strain "
-           "constraints |d|/L - 1 and V/V0 - 1.")
+           "particles. fixed: particle indices clamped in place. A tet mesh is an elastic material: stable "
+           "Neo-Hookean with youngs_modulus (Pa, default 10 kPa), poisson_ratio (default 0.45) and density (kg/m^3, "
+           "default 1000; the mass is density x volume). Expert model (meshfree bodies, or when a compliance is "
+           "given): XPBD compliances of the strain constraints |d|/L - 1 and V/V0 - 1 (defaults 1e-4) and a mass per "
+           "particle (kg, default 0.01).")
       .def_property_readonly("particle_count", [](const scene::SoftBody& s) { return s.positions.size() / 3; })
       .def_property_readonly("positions", [](const scene::SoftBody& s) { return points_of(s.positions); })
       .def_readonly("mass", &scene::SoftBody::mass)
+      .def_readonly("youngs_modulus", &scene::SoftBody::youngs_modulus)
+      .def_readonly("poisson_ratio", &scene::SoftBody::poisson_ratio)
+      .def_readonly("density", &scene::SoftBody::density)
       .def_readonly("radius", &scene::SoftBody::radius);
 
   py::class_<scene::Fluid>(m, "Fluid")

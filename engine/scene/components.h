@@ -204,12 +204,19 @@ struct UltrasoundTissue {
 // A tetrahedral soft body (tets given) or a meshfree one (no tets: each particle is tied to its
 // k nearest neighbours by distance constraints). triangles: the surface for rendering (local
 // particle indices); fixed: particles with infinite mass (clamped).
+// A tet-meshed body is an elastic material by default: stable Neo-Hookean energy per unit volume
+// (Young's modulus, Poisson's ratio), mass from density, solved per vertex (docs/particles.md).
+// youngs_modulus = 0 selects the expert model instead: XPBD strain constraints with the given
+// compliances and a mass per particle (meshfree bodies always use it).
 struct SoftBody {
   std::vector<float> positions;     // x y z per particle
   std::vector<uint32_t> tets;       // 4 per tetrahedron
   std::vector<uint32_t> triangles;  // 3 per surface triangle
   std::vector<uint32_t> fixed;
-  float mass = 0.01f;               // per particle (kg)
+  float youngs_modulus = 10e3f;     // Pa (soft tissue: 1e3 .. 1e5); 0: compliance model
+  float poisson_ratio = 0.45f;      // in [0, 0.5)
+  float density = 1000;             // kg/m^3; the tets' mass, lumped to their corners
+  float mass = 0.01f;               // per particle (kg), compliance model
   float distance_compliance = 1e-4f;
   float volume_compliance = 1e-4f;
   uint32_t neighbors = 8;           // meshfree: k

@@ -30,9 +30,10 @@ line and the field. The format (every key optional unless said)::
         light: {kind: directional, intensity: 2.5, shadows: true, shadow_extent: 1.5}
       - name: tissue                     # particles (entity frame), drawn from the physics buffers
         transform: {position: [0, 0, 0.1]}
-        soft_body: {box: {half_extents: [0.08, 0.08, 0.08], cells: [3, 3, 3]}, radius: 0.02, mass: 0.01,
-                    distance_compliance: 1e-4, volume_compliance: 1e-4, damping: 0, friction: 0.5}
-                                         # or cylinder: {radius, half_height, cells_across, cells_along}
+        soft_body: {box: {half_extents: [0.08, 0.08, 0.08], cells: [3, 3, 3]}, radius: 0.02,
+                    youngs_modulus: 10e3, poisson_ratio: 0.45, density: 1000, damping: 0, friction: 0.5}
+                                         # or cylinder: {radius, half_height, cells_across, cells_along};
+                                         # expert model: mass (per particle), distance_compliance, volume_compliance
         material: {color: [0.8, 0.35, 0.3], roughness: 0.4, segmentation_id: 5}   # or a name
       - name: blood
         fluid: {block: {counts: [10, 6, 2], spacing: 0.03, origin: [-0.1, -0.2, 0.015]}, radius: 0.015,
@@ -371,8 +372,8 @@ class _Loader:
                 for k, v in c.items()}
 
     def soft_body(self, f: Field) -> cressim.SoftBody:
-        c = f.keys(("box", "cylinder", "radius", "mass", "distance_compliance", "volume_compliance", "damping",
-                    "friction", "fixed"))
+        c = f.keys(("box", "cylinder", "radius", "youngs_modulus", "poisson_ratio", "density", "mass",
+                    "distance_compliance", "volume_compliance", "damping", "friction", "fixed"))
         shapes = [k for k in ("box", "cylinder") if k in c]
         if len(shapes) != 1:
             raise f.fail("a soft_body needs one of: box, cylinder")
@@ -385,7 +386,11 @@ class _Loader:
             b = self._need(g, g.keys(keys), keys, "cylinder")
             mesh = cressim.TetMesh.cylinder(b["radius"].float(), b["half_height"].float(), b["cells_across"].int(1),
                                             b["cells_along"].int(1))
-        return cressim.SoftBody(mesh, **self._options({k: v for k, v in c.items() if k not in shapes}, lists=("fixed",)))
+        try:  # the material-or-compliance choice is checked by the constructor
+            return cressim.SoftBody(mesh, **self._options({k: v for k, v in c.items() if k not in shapes},
+                                                          lists=("fixed",)))
+        except ValueError as exc:
+            raise f.fail(str(exc)) from None
 
     def fluid(self, f: Field) -> cressim.Fluid:
         c = f.keys(("block", "radius", "budget", "rest_density", "viscosity", "cohesion", "surface_tension",

@@ -21,6 +21,7 @@ static const uint PARTICLE_MAX_NEIGHBORS = 64;
 
 static const uint PARTICLE_ACTIVE = 1;        // inactive slots (fluid budget) neither move nor collide
 static const uint PARTICLE_SELF_COLLIDE = 2;  // collides with particles of its own object
+static const uint PARTICLE_ELASTIC = 4;       // moved by an elastic energy (particle_tet): integrated without gravity
 
 // Every constraint family stores records of this shape: up to 4 particles and family-specific
 // parameters. Records are grouped by colour (no two constraints of a colour share a particle),

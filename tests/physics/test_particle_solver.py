@@ -59,6 +59,6 @@ def test_solver_settings_are_checked(make_engine):
     world = cressim.World(cressim.SceneLayout(1))
     big = world.create_entity(env=0, name="big")
     big.add(cressim.Transform(position=(0, 0, 1)))
-    big.add(cressim.SoftBody(cressim.TetMesh.box((0.2, 0.2, 0.2), (10, 10, 10)), mass=0.01))
+    big.add(cressim.SoftBody(cressim.TetMesh.box((0.2, 0.2, 0.2), (10, 10, 10))))
     with pytest.raises(ValueError, match="env 0 has 1331"):
         start(world, make_engine, particle_solver="workgroup")

@@ -1,0 +1,72 @@
+// Elastic tets (stable Neo-Hookean, particle_model.cpp elastic_tets), solved per particle as in
+// Vertex Block Descent (Chen et al. 2024): a thread takes one particle of the colour and moves it
+// by a Newton step on its share of the substep's incremental potential
+//   G(x) = m / (2 h^2) |x - y|^2 + sum over its tets of V0 psi(F),   y = x_prev + h v (inertia),
+// with the other corners held. Particles of one colour share no tet, so the threads do not race.
+// The energy is a function of positions alone (no multipliers carried through the substep): a
+// body at rest is at the energy's minimum whatever the iteration count, so stiffness does not
+// follow the solver budget as it does with XPBD constraints solved short of convergence.
+//
+// Per tet: F = Ds Dm^-1, Ds = [x1 - x0, x2 - x0, x3 - x0]; corner k moves F by u b_k^T with b_k
+// the row k-1 of Dm^-1 (b_0 = minus their sum). With P = mu F + lambda (J - alpha) cof(F):
+//   force on corner k   = -V0 P b_k
+//   Hessian of corner k = V0 (mu |b_k|^2 I + lambda c c^T),  c = cof(F) b_k
+// (det F is linear along u b_k^T, so the J term adds no curvature: the block is positive definite
+// and needs no projection).
+#include "cressim/layout.h"
+#include "cressim/particle.h"
+
+[[vk::push_constant]] ConstantBuffer<ParticleConstants> pc;
+StructuredBuffer<ParticleConstraint> constraints;  // particles; params (V0, mu, lambda, alpha)
+StructuredBuffer<float4> record_rows;              // Dm^-1, 3 rows a tet
+StructuredBuffer<uint> cut;                        // control.particle_tet_cut: nonzero removes the tet
+StructuredBuffer<uint> vertices;                   // particles grouped by colour
+StructuredBuffer<uint2> vertex_records;            // (first, count) into vertex_corners
+StructuredBuffer<uint> vertex_corners;             // tet * 4 + corner
+StructuredBuffer<uint4> phases;
+StructuredBuffer<float4> prev_positions;
+StructuredBuffer<float4> velocities;
+RWStructuredBuffer<float4> positions;
+
+[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
+void main(uint3 id : SV_DispatchThreadID) {
+  if (id.x >= pc.item_count) return;
+  const uint v = pc.item_offset + id.x, i = vertices[v];
+  const float4 xi = positions[i];
+  if (xi.w <= 0 || (phases[i].w & PARTICLE_ACTIVE) == 0) return;  // fixed, kinematic or inactive
+  const float h = pc.gravity.w, m_h2 = 1 / (xi.w * h * h);
+  const float3 y = prev_positions[i].xyz + h * velocities[i].xyz;  // velocities hold v + h g here
+  float3 f = m_h2 * (y - xi.xyz);
+  float3x3 H = float3x3(m_h2, 0, 0, 0, m_h2, 0, 0, 0, m_h2);
+  const uint2 range = vertex_records[v];
+  for (uint n = 0; n < range.y; ++n) {
+    const uint rc = vertex_corners[range.x + n], t = rc >> 2, k = rc & 3;
+    if (cut[t] != 0) continue;
+    const ParticleConstraint rec = constraints[t];
+    const float3 x0 = positions[rec.particles.x].xyz;
+    const float3 d1 = positions[rec.particles.y].xyz - x0, d2 = positions[rec.particles.z].xyz - x0,
+                 d3 = positions[rec.particles.w].xyz - x0;
+    const float3 r0 = record_rows[3 * t].xyz, r1 = record_rows[3 * t + 1].xyz, r2 = record_rows[3 * t + 2].xyz;
+    // columns of F = d1 r0^T + d2 r1^T + d3 r2^T
+    const float3 f0 = d1 * r0.x + d2 * r1.x + d3 * r2.x;
+    const float3 f1 = d1 * r0.y + d2 * r1.y + d3 * r2.y;
+    const float3 f2 = d1 * r0.z + d2 * r1.z + d3 * r2.z;
+    const float3 c0 = cross(f1, f2), c1 = cross(f2, f0), c2 = cross(f0, f1);  // columns of cof(F)
+    const float J = dot(f0, c0);
+    const float3 b = k == 0 ? -(r0 + r1 + r2) : (k == 1 ? r0 : (k == 2 ? r1 : r2));
+    const float V0 = rec.params.x, mu = rec.params.y, lambda = rec.params.z, alpha = rec.params.w;
+    const float3 Fb = f0 * b.x + f1 * b.y + f2 * b.z;
+    const float3 cb = c0 * b.x + c1 * b.y + c2 * b.z;
+    f -= V0 * (mu * Fb + lambda * (J - alpha) * cb);
+    const float s = V0 * mu * dot(b, b), l = V0 * lambda;
+    H += float3x3(s + l * cb.x * cb.x, l * cb.x * cb.y, l * cb.x * cb.z,
+                  l * cb.y * cb.x, s + l * cb.y * cb.y, l * cb.y * cb.z,
+                  l * cb.z * cb.x, l * cb.z * cb.y, s + l * cb.z * cb.z);
+  }
+  // H is symmetric positive definite: solve H dx = f by its adjugate
+  const float3 a0 = cross(H[1], H[2]), a1 = cross(H[2], H[0]), a2 = cross(H[0], H[1]);
+  const float det = dot(H[0], a0);
+  if (!(det > 0)) return;
+  const float3 dx = (a0 * f.x + a1 * f.y + a2 * f.z) / det;
+  positions[i].xyz = xi.xyz + dx;
+}

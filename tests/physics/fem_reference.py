@@ -1,0 +1,28 @@
+"""The independent reference for elastic soft bodies: scikit-fem (a finite element library)
+solving static linear elasticity under gravity on the same tet mesh, with P1 (linear) tets as the
+engine's or P2 (quadratic) ones as the converged answer. Small-strain scenes only: at the strains
+the tests use (about 1 %) the engine's Neo-Hookean material is linear elasticity to well within
+their tolerance."""
+import numpy as np
+from skfem import Basis, ElementTetP1, ElementTetP2, ElementVector, LinearForm, MeshTet, condense, solve
+from skfem.models.elasticity import lame_parameters, linear_elasticity
+
+
+def static_displacement(points, tets, clamped, youngs_modulus, poisson_ratio, density, gravity=(0.0, 0.0, -9.81),
+                        quadratic=False):
+    """(n, 3) displacement of every mesh vertex at static equilibrium under the body's weight;
+    `clamped(x)` ((3, m) points -> m bools) selects the boundary facets held in place."""
+    mesh = MeshTet(np.asarray(points, dtype=np.float64).T, np.asarray(tets, dtype=np.int64).T)
+    basis = Basis(mesh, ElementVector(ElementTetP2() if quadratic else ElementTetP1()))
+    K = linear_elasticity(*lame_parameters(youngs_modulus, poisson_ratio)).assemble(basis)
+    g = np.asarray(gravity, dtype=np.float64) * density
+
+    @LinearForm
+    def weight(v, _):
+        return g[0] * v[0] + g[1] * v[1] + g[2] * v[2]
+
+    f = weight.assemble(basis)
+    u = solve(*condense(K, f, D=basis.get_dofs(clamped).all()))
+    # the vertex dofs, x y z per vertex (the nodal dofs come first, interleaved by component)
+    return u[basis.nodal_dofs].T.copy()
+

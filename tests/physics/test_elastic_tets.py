@@ -1,0 +1,105 @@
+"""Elastic soft bodies in physical units (Young's modulus, Poisson's ratio, density) against an
+independent finite element reference (scikit-fem, fem_reference.py) on the same tet mesh, at the
+default solver settings and at two resolutions; the static shape does not follow the iteration
+count. Each scene settles under gravity with a little velocity damping (it does not change the
+static shape) and is measured after 3 s of simulated time."""
+import numpy as np
+import pytest
+
+import cressim
+
+from .fem_reference import static_displacement
+from .particle_scenes import positions, start, step
+
+DENSITY = 1000.0
+SETTLE_FRAMES = 180  # 3 s at the default 60 Hz
+
+
+def _settle(make_engine, mesh, clamped, youngs_modulus, poisson_ratio, **settings):
+    """Static displacement of every particle of a body clamped where `clamped` says."""
+    world = cressim.World(cressim.SceneLayout(1))
+    rest = np.asarray(mesh.positions, dtype=np.float64)
+    body = world.create_entity(env=0, name="tissue")
+    body.add(cressim.Transform(position=(0, 0, 1)))
+    body.add(cressim.SoftBody(mesh, fixed=np.nonzero(clamped(rest.T))[0], youngs_modulus=youngs_modulus,
+                              poisson_ratio=poisson_ratio, density=DENSITY, damping=5.0))
+    engine = start(world, make_engine, **settings)
+    step(engine, SETTLE_FRAMES)
+    return positions(engine) - (rest + [0, 0, 1]), rest
+
+
+def _reference(mesh, rest, clamped, youngs_modulus, poisson_ratio):
+    return static_displacement(rest, np.asarray(mesh.tets), clamped, youngs_modulus, poisson_ratio, DENSITY)
+
+
+@pytest.mark.parametrize("cells", [(8, 2, 2), (16, 4, 4)])
+def test_cantilever_sags_as_the_fem_reference(make_engine, cells):
+    # 60 x 30 x 30 mm, 100 kPa, clamped at x = -30 mm: about 2 mm of sag (small strain)
+    mesh = cressim.TetMesh.box((0.03, 0.015, 0.015), cells)
+
+    def clamped(x):
+        return x[0] < -0.03 + 1e-6
+
+    u, rest = _settle(make_engine, mesh, clamped, 1e5, 0.3)
+    ref = _reference(mesh, rest, clamped, 1e5, 0.3)
+    tip = rest[:, 0] > 0.03 - 1e-6
+    sag, ref_sag = -u[tip, 2].mean(), -ref[tip, 2].mean()
+    assert 1e-3 < ref_sag < 4e-3
+    assert abs(sag - ref_sag) / ref_sag < 0.05, (sag, ref_sag)
+
+
+@pytest.mark.parametrize("cells", [(2, 2, 8), (4, 4, 16)])
+def test_column_compressed_by_its_weight_as_the_fem_reference(make_engine, cells):
+    # 20 x 20 x 80 mm of 20 kPa tissue (nu 0.45, the default) standing on its clamped base
+    mesh = cressim.TetMesh.box((0.01, 0.01, 0.04), cells)
+
+    def clamped(x):
+        return x[2] < -0.04 + 1e-6
+
+    u, rest = _settle(make_engine, mesh, clamped, 2e4, 0.45)
+    ref = _reference(mesh, rest, clamped, 2e4, 0.45)
+    top = rest[:, 2] > 0.04 - 1e-6
+    drop, ref_drop = -u[top, 2].mean(), -ref[top, 2].mean()
+    assert 5e-4 < ref_drop < 3e-3
+    assert abs(drop - ref_drop) / ref_drop < 0.05, (drop, ref_drop)
+
+
+def test_stiffness_does_not_follow_the_iteration_count(make_engine):
+    mesh = cressim.TetMesh.box((0.03, 0.015, 0.015), (8, 2, 2))
+
+    def clamped(x):
+        return x[0] < -0.03 + 1e-6
+
+    tip = np.asarray(mesh.positions)[:, 0] > 0.03 - 1e-6
+    sags = [-_settle(make_engine, mesh, clamped, 1e5, 0.3, particle_iterations=n)[0][tip, 2].mean() for n in (1, 8)]
+    assert abs(sags[0] - sags[1]) / sags[1] < 0.02, sags
+
+
+def test_mass_is_density_times_volume(make_engine):
+    world = cressim.World(cressim.SceneLayout(1))
+    for k, cells in enumerate(((2, 2, 2), (5, 5, 5))):
+        world.create_entity(env=0, name=f"block{k}").add(
+            cressim.SoftBody(cressim.TetMesh.box((0.02, 0.03, 0.04), cells), density=1060.0))
+    engine = start(world, make_engine)
+    inv_mass = engine.buffer("particles.positions").read()[:, 3]
+    first = 27  # the coarse block's particles come first
+    for part in (inv_mass[:first], inv_mass[first:]):
+        assert (1 / part).sum() == pytest.approx(1060.0 * 0.04 * 0.06 * 0.08, rel=1e-5)
+
+
+def test_material_values_are_checked(make_engine):
+    mesh = cressim.TetMesh.box((0.01, 0.01, 0.01), (1, 1, 1))
+    with pytest.raises(ValueError, match="either youngs_modulus .* or compliances"):
+        cressim.SoftBody(mesh, youngs_modulus=1e4, distance_compliance=1e-3)
+    with pytest.raises(ValueError, match="mass comes from density"):
+        cressim.SoftBody(mesh, mass=0.01)
+    with pytest.raises(ValueError, match="youngs_modulus needs tets"):
+        cressim.SoftBody(np.eye(3), youngs_modulus=1e4)
+    for field, kwargs in (("poisson_ratio must be in \\[0, 0.5\\)", dict(poisson_ratio=0.5)),
+                          ("youngs_modulus must be a positive finite", dict(youngs_modulus=float("nan"))),
+                          ("youngs_modulus must be a positive finite", dict(youngs_modulus=-1.0)),
+                          ("density must be a positive finite", dict(density=0.0))):
+        world = cressim.World(cressim.SceneLayout(2))
+        world.create_entity(env=1, name="liver").add(cressim.SoftBody(mesh, **kwargs))
+        with pytest.raises(ValueError, match=f"entity 0 'liver' in env 1: SoftBody.{field}"):
+            make_engine(world).prepare()
