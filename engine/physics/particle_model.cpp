@@ -63,7 +63,8 @@ struct Adding {
 // The constraint families, in solve order. A family is its name here, the records its builder
 // below appends, and shaders/physics/particle_<name>.comp.hlsl; the solver (particle_system.cpp)
 // makes buffers, cut flags, passes and dispatches from the set table without naming any family.
-constexpr const char* kConstraintFamilies[] = {"distance", "volume", "bend", "stretch_shear", "bend_twist"};
+// Strand stretch goes last: solved along each strand, it has the final say on segment lengths.
+constexpr const char* kConstraintFamilies[] = {"distance", "volume", "bend", "stretch_shear", "bend_twist", "stretch"};
 
 class Builder {
  public:
@@ -193,7 +194,11 @@ class Builder {
     add_particles(a, s.points, n, 1 / s.mass, shader::PARTICLE_STRAND, s.self_collision ? shader::PARTICLE_SELF_COLLIDE : 0u,
                   "Strand.points");
     fix(a, s.fixed, n, "Strand.fixed");
-    for (uint32_t i = 0; i + 1 < n; ++i) distance(a.first + i, a.first + i + 1, s.stretch_compliance);
+    // segment lengths: one chain per strand, solved directly along it (particle_stretch.comp.hlsl)
+    auto& stretch = set("stretch");
+    stretch.chains.insert(stretch.chains.end(), {uint32_t(stretch.records.size()), n - 1});
+    for (uint32_t p = a.first; p + 1 < a.first + n; ++p)
+      constraint(stretch, {p, p + 1}, dist(m_.positions[p], m_.positions[p + 1]), s.stretch_compliance);
     // bending toward straight (threads and cables rest straight, whatever their authored path)
     for (uint32_t i = 0; i + 2 < n; ++i) {
       const uint32_t p = a.first + i;
