@@ -304,10 +304,11 @@ void env_colours(ConstraintSet& s, const ParticleModel& m) {
   }
 }
 
-float poly6(float r, float h) {
+// the fluid passes' density kernel (shaders/physics/particle_fluid.hlsli)
+float spiky(float r, float h) {
   if (r >= h) return 0;
-  const float x = h * h - r * r;
-  return 315.f / (64.f * std::numbers::pi_v<float> * std::pow(h, 9.f)) * x * x * x;
+  const float x = h - r;
+  return 15.f / (std::numbers::pi_v<float> * std::pow(h, 6.f)) * x * x * x;
 }
 
 }  // namespace
@@ -320,7 +321,7 @@ float fluid_particle_mass(float radius, float rest_density) {
   double sum = 0;
   for (int i = -3; i <= 3; ++i)
     for (int j = -3; j <= 3; ++j)
-      for (int k = -3; k <= 3; ++k) sum += poly6(d * std::sqrt(float(i * i + j * j + k * k)), h);
+      for (int k = -3; k <= 3; ++k) sum += spiky(d * std::sqrt(float(i * i + j * j + k * k)), h);
   return float(rest_density / sum);
 }
 

@@ -19,7 +19,7 @@ void wall_layers(Kernel K, float r, float m, float d, out float density, out flo
       const float sites = q == 0 ? 1 : 4, R2 = z * z + 4 * r * r * q;
       if (R2 >= K.h2) continue;
       const float R = sqrt(R2);
-      density += sites * m * poly6(K, R2);
+      density += sites * m * spiky(K, R2);
       slope += sites * m * K.spiky * (K.h - R) * (K.h - R) * z / R;
     }
   }

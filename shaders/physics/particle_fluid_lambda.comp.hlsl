@@ -43,7 +43,7 @@ void main(uint3 id : SV_DispatchThreadID) {
       const float4 xj = positions[j];
       const float3 r = xi - xj.xyz;
       const float m = particle_mass(xj);
-      density += m * poly6(K, dot(r, r));
+      density += m * spiky(K, dot(r, r));
       if (j != i) {
         const float3 g = (m / rho0) * spiky_gradient(K, r);
         grad_i += g;
