@@ -63,7 +63,9 @@ struct Adding {
 // The constraint families, in solve order. A family is its name here, the records its builder
 // below appends, and shaders/physics/particle_<name>.comp.hlsl; the solver (particle_system.cpp)
 // makes buffers, cut flags, passes and dispatches from the set table without naming any family.
-constexpr const char* kConstraintFamilies[] = {"tet", "distance", "volume", "bend", "stretch_shear", "bend_twist"};
+// Strand stretch goes last: solved along each strand, it has the final say on segment lengths.
+constexpr const char* kConstraintFamilies[] = {"tet", "distance", "volume", "bend", "stretch_shear", "bend_twist",
+                                               "stretch"};
 
 class Builder {
  public:
@@ -262,7 +264,11 @@ class Builder {
     add_particles(a, s.points, n, 1 / s.mass, shader::PARTICLE_STRAND, s.self_collision ? shader::PARTICLE_SELF_COLLIDE : 0u,
                   "Strand.points");
     fix(a, s.fixed, n, "Strand.fixed");
-    for (uint32_t i = 0; i + 1 < n; ++i) distance(a.first + i, a.first + i + 1, s.stretch_compliance);
+    // segment lengths: one chain per strand, solved directly along it (particle_stretch.comp.hlsl)
+    auto& stretch = set("stretch");
+    stretch.chains.insert(stretch.chains.end(), {uint32_t(stretch.records.size()), n - 1});
+    for (uint32_t p = a.first; p + 1 < a.first + n; ++p)
+      constraint(stretch, {p, p + 1}, dist(m_.positions[p], m_.positions[p + 1]), s.stretch_compliance);
     // bending toward straight (threads and cables rest straight, whatever their authored path)
     for (uint32_t i = 0; i + 2 < n; ++i) {
       const uint32_t p = a.first + i;
@@ -411,10 +417,11 @@ void env_colours(ConstraintSet& s, const ParticleModel& m) {
   }
 }
 
-float poly6(float r, float h) {
+// the fluid passes' density kernel (shaders/physics/particle_fluid.hlsli)
+float spiky(float r, float h) {
   if (r >= h) return 0;
-  const float x = h * h - r * r;
-  return 315.f / (64.f * std::numbers::pi_v<float> * std::pow(h, 9.f)) * x * x * x;
+  const float x = h - r;
+  return 15.f / (std::numbers::pi_v<float> * std::pow(h, 6.f)) * x * x * x;
 }
 
 }  // namespace
@@ -427,7 +434,7 @@ float fluid_particle_mass(float radius, float rest_density) {
   double sum = 0;
   for (int i = -3; i <= 3; ++i)
     for (int j = -3; j <= 3; ++j)
-      for (int k = -3; k <= 3; ++k) sum += poly6(d * std::sqrt(float(i * i + j * j + k * k)), h);
+      for (int k = -3; k <= 3; ++k) sum += spiky(d * std::sqrt(float(i * i + j * j + k * k)), h);
   return float(rest_density / sum);
 }
 

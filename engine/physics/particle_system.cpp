@@ -328,7 +328,7 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
   for (uint32_t s = 0; s < substeps; ++s) {
     // passes that look at moving bodies see them where they are at the end of this substep
     const float done = float(s + 1) / float(substeps);
-    for (auto* p : {gather_.get(), attach_.get()})
+    for (auto* p : {gather_.get(), attach_.get(), fluid_lambda_.get(), neighbors_.get()})
       if (p) std::memcpy(p->constants.data() + offsetof(shader::ParticleConstants, grid) + 4, &done, 4);
     for (VkBuffer b : per_substep_clears_) vkCmdFillBuffer(cmd, b, 0, VK_WHOLE_SIZE, 0);
     run(integrate_);

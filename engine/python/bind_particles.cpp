@@ -255,7 +255,7 @@ void bind_particles(py::module_& m) {
       "Particle objects (entity, env, kind, first particle, count), each env's particle range, the surface "
       "triangles (global particle indices, each object's slice), and each constraint set's colour ranges of "
       "particles.<name>_constraints rows (a row's object is its first particle's), constraints per object, XPBD "
-      "multipliers per row and, for a family solved along chains (bend_twist), each chain's (first row, count).")
+      "multipliers per row and, for a family solved along chains (bend_twist, stretch), each chain's (first row, count).")
       .def("attach_particle",
            [](runtime::Engine& e, uint32_t env, uint32_t slot, uint32_t particle, py::object body, float compliance,
               bool hold_frame, std::optional<std::array<float, 4>> frame_offset) {

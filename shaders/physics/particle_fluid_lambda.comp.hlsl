@@ -1,8 +1,10 @@
 // Position-based fluids, per iteration: each fluid particle's SPH density and its constraint's
 // multiplier, C = max(rho / rho0 - 1, 0) (Macklin & Mueller 2013; unilateral, so the free
-// surface is not pulled together).
+// surface is not pulled together). Rigid walls add their density (particle_fluid_boundary.hlsli).
 #include "cressim/layout.h"
 #include "cressim/particle.h"
+#include "cressim/quat.h"
+#include "cressim/rigid.h"
 
 [[vk::push_constant]] ConstantBuffer<ParticleConstants> pc;
 StructuredBuffer<ParticleObject> objects;
@@ -10,9 +12,17 @@ StructuredBuffer<uint4> phases;
 StructuredBuffer<float4> positions;
 RWStructuredBuffer<float> densities;
 RWStructuredBuffer<float> fluid_lambdas;
+StructuredBuffer<EnvRigidRange> env_rigid_ranges;
+StructuredBuffer<ColliderModel> colliders;
+StructuredBuffer<float4> body_positions;
+StructuredBuffer<float4> body_rotations;
+StructuredBuffer<float4> body_linear_velocities;
+StructuredBuffer<float4> body_angular_velocities;
 
 #include "particle_neighbor_list.hlsli"
 #include "particle_fluid.hlsli"
+#include "particle_collide.hlsli"
+#include "particle_fluid_boundary.hlsli"
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
 void main(uint3 id : SV_DispatchThreadID) {
@@ -24,14 +34,16 @@ void main(uint3 id : SV_DispatchThreadID) {
   const Kernel K = make_kernel(o.material.x);
   const float rho0 = o.material.w;
   const float3 xi = positions[i].xyz;
-  float density = 0, sum_squares = 0;
-  float3 grad_i = float3(0, 0, 0);
+  float density, sum_squares = 0;
+  float3 grad_i;
+  fluid_boundary(xi, ph.z, o.material.x, particle_mass(positions[i]), K, density, grad_i);
+  grad_i /= rho0;
   FOR_EACH_NEIGHBOR(i, j, {
     if (phases[j].x == PARTICLE_FLUID) {
       const float4 xj = positions[j];
       const float3 r = xi - xj.xyz;
       const float m = particle_mass(xj);
-      density += m * poly6(K, dot(r, r));
+      density += m * spiky(K, dot(r, r));
       if (j != i) {
         const float3 g = (m / rho0) * spiky_gradient(K, r);
         grad_i += g;
