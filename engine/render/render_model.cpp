@@ -2,6 +2,7 @@
 
 #include "render/mip_chain.h"
 #include "render/particle_geometry.h"
+#include "scene/authoring_error.h"
 
 #include <algorithm>
 #include <cmath>
@@ -15,7 +16,7 @@ namespace cressim::render {
 namespace {
 
 [[noreturn]] void fail(const scene::World& w, scene::EntityId e, const std::string& what) {
-  throw std::invalid_argument(w.describe(e) + ": " + what);
+  throw scene::AuthoringError(w, e, what);
 }
 
 // which textures hold normals (linear values, averaged as such in their mip levels); one used

@@ -42,6 +42,23 @@ uint32_t World::add_texture(Texture texture) {
   return uint32_t(textures_.size() - 1);
 }
 
+void World::set_source(EntityId e, const std::string& field, std::string where) {
+  check(e);
+  sources_[e][field] = std::move(where);
+}
+
+std::string World::source_of(EntityId e, const std::string& field) const {
+  auto it = sources_.find(e);
+  if (it == sources_.end()) return "";
+  // "Collider.shapes[0].size" -> "Collider.shapes[0]" -> "Collider.shapes" -> "Collider" -> ""
+  for (std::string f = field;;) {
+    if (auto s = it->second.find(f); s != it->second.end()) return s->second;
+    if (f.empty()) return "";
+    const size_t cut = f.find_last_of(".[");
+    f.resize(cut == std::string::npos ? 0 : cut);
+  }
+}
+
 std::string World::describe(EntityId e) const {
   std::string s = "entity " + std::to_string(e);
   if (e < names_.size() && !names_[e].empty()) s += " '" + names_[e] + "'";

@@ -8,6 +8,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "scene/authoring_error.h"
+
 namespace cressim::sensors {
 namespace {
 
@@ -16,7 +18,7 @@ constexpr float kReachSigmas = 3.0f;         // beam and pulse tails cut at 3 si
 constexpr uint32_t kMaxSamples = 1u << 16;   // per scanline
 
 [[noreturn]] void fail(const scene::World& w, scene::EntityId e, const std::string& what) {
-  throw std::invalid_argument(w.describe(e) + ": " + what);
+  throw scene::AuthoringError(w, e, what);
 }
 
 shader::UltrasoundProbeData probe_data(const scene::World& world, scene::EntityId e, uint32_t row, uint32_t env,
