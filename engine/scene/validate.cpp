@@ -260,7 +260,8 @@ void soft_body(const Fields& c, const SoftBody& s) {
   c.non_negative("damping", s.damping);
   c.positive("radius", s.radius);
   c.non_negative("friction", s.friction);
-  // material fields (youngs_modulus, poisson_ratio, density) are checked here once SoftBody has them
+  // SoftBody material fields (issue 14, the new soft-body solver) are checked here once they exist:
+  // c.positive("youngs_modulus", ...), c.within("poisson_ratio", ..., 0, 0.4999), c.positive("density", ...)
 }
 
 void fluid(const Fields& c, const Fluid& f) {
@@ -310,6 +311,10 @@ void meshes(const World& w) {
 }
 
 }  // namespace
+
+void validate_transform(const World& w, EntityId e, const Transform& t) {
+  transform(Fields(w, e, component_name<Transform>()), t);
+}
 
 void validate_world(const World& w) {
   meshes(w);

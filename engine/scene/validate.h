@@ -9,5 +9,7 @@
 namespace cressim::scene {
 
 void validate_world(const World& world);
+// a Transform set while running (entity.transform = ...), checked as it is set
+void validate_transform(const World& world, EntityId entity, const Transform& t);
 
 }  // namespace cressim::scene

@@ -1,5 +1,7 @@
 #include "scene/world.h"
 
+#include "scene/validate.h"
+
 namespace cressim::scene {
 
 World::World(SceneLayout layout) : layout_(layout) { layout_.validate(); }
@@ -71,5 +73,7 @@ void World::check(EntityId e) const {
     throw std::out_of_range("entity " + std::to_string(e) + " does not exist (the world has " +
                             std::to_string(env_.size()) + " entities)");
 }
+
+void World::check_value(EntityId e, const Transform& t) const { validate_transform(*this, e, t); }
 
 }  // namespace cressim::scene

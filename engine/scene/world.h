@@ -72,6 +72,7 @@ class World {
     auto& items = std::get<ComponentStore<C>>(stores_).items;
     auto it = items.find(e);
     if (it == items.end()) throw std::out_of_range(describe(e) + " has no such component; use add()");
+    if constexpr (std::is_same_v<C, Transform>) check_value(e, c);  // uploaded without another prepare()
     it->second = c;
     ++value_version_;
     dirty_.push_back(e);
@@ -97,6 +98,7 @@ class World {
 
  private:
   void check(EntityId e) const;
+  void check_value(EntityId e, const Transform& t) const;
   void bump_topology(std::string what) { ++topology_version_; last_change_ = std::move(what); }
 
   SceneLayout layout_;

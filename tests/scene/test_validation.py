@@ -236,3 +236,15 @@ def test_a_replaced_transform_applies_as_a_value(make_engine):
     engine.end_frame()
     assert list(engine.buffer("transform.positions").read()[0, :3]) == [2, 3, 4]
     assert list(engine.buffer("rigid.positions").read()[0, :3]) == [2, 3, 4]
+
+
+def test_a_transform_set_while_running_is_checked_as_it_is_set(make_engine):
+    world, ball = ball_world()
+    engine = make_engine(world)
+    engine.prepare()
+    engine.upload_world()
+    with pytest.raises(cressim.AuthoringError, match=r"'ball' in env 0: Transform.position\[2\] must be finite, got nan"):
+        ball.transform = cressim.Transform(position=(0, 0, NAN))
+    with pytest.raises(cressim.AuthoringError, match="Transform.rotation must be a non-zero quaternion"):
+        ball.add(cressim.Transform(rotation=(0, 0, 0, 0)))
+    assert list(ball.transform.position) == [0, 0, 1]  # unchanged
