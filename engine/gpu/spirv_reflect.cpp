@@ -32,6 +32,24 @@ std::string read_string(const uint32_t* words, size_t max_words) {
 template <class T>
 void ensure(std::vector<T>& v, uint32_t i) { if (v.size() <= i) v.resize(i + 1); }
 
+// a buffer's element type (`type` the runtime array's element) into `b`
+void describe_element(const std::vector<Id>& ids, uint32_t type, ReflectedBinding& b) {
+  const Id* t = &ids[type];
+  if (t->opcode == SpvOpTypeStruct) {
+    b.element_type = t->name.empty() ? "struct" : t->name;
+    return;
+  }
+  b.element_components = 1;
+  if (t->opcode == SpvOpTypeVector) b.element_components = t->count, t = &ids[t->type];
+  if (t->opcode != SpvOpTypeFloat && t->opcode != SpvOpTypeInt) return;
+  b.element_kind = t->opcode == SpvOpTypeFloat ? ScalarKind::FLOAT : t->signedness ? ScalarKind::INT : ScalarKind::UINT;
+  b.element_bits = t->width;
+  const char* scalar = b.element_kind == ScalarKind::FLOAT ? (t->width == 64 ? "double" : t->width == 16 ? "half" : "float")
+                       : b.element_kind == ScalarKind::INT ? (t->width == 64 ? "int64_t" : "int")
+                                                           : (t->width == 64 ? "uint64_t" : "uint");
+  b.element_type = scalar + (b.element_components > 1 ? std::to_string(b.element_components) : "");
+}
+
 }  // namespace
 
 const ReflectedBinding* ShaderReflection::find_binding(const std::string& name) const {
@@ -118,7 +136,11 @@ ShaderReflection reflect_spirv(const std::vector<uint32_t>& code) {
       b.set = var.set;
       b.binding = var.binding;
       b.writable = !(var.nonwritable || (!pointee.member_nonwritable.empty() && pointee.member_nonwritable[0]));
-      if (!pointee.members.empty()) b.stride = ids[pointee.members[0]].array_stride;
+      if (!pointee.members.empty()) {
+        const Id& array = ids[pointee.members[0]];
+        b.stride = array.array_stride;
+        describe_element(ids, array.type, b);
+      }
       out.bindings.push_back(b);
     }
   }

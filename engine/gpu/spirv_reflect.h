@@ -16,6 +16,10 @@ struct ReflectedBinding {
   uint32_t binding = 0;
   bool writable = true;  // false for StructuredBuffer/ByteAddressBuffer (NonWritable)
   uint32_t stride = 0;   // element stride of the runtime array, 0 if unknown
+  // the element: a scalar or vector (kind, bits per component, components), or a struct (kind NONE)
+  ScalarKind element_kind = ScalarKind::NONE;
+  uint32_t element_bits = 0, element_components = 0;
+  std::string element_type;  // as HLSL spells it: "float4", "uint", or the struct's name
 };
 
 struct ReflectedConstant {

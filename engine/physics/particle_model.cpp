@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "cressim/rigid.h"
+#include "scene/authoring_error.h"
 
 namespace cressim::physics {
 namespace {
@@ -50,7 +51,7 @@ float dist(const float4& a, const float4& b) {
 }
 
 [[noreturn]] void fail(const scene::World& w, scene::EntityId e, const std::string& what) {
-  throw std::invalid_argument(w.describe(e) + ": " + what);
+  throw scene::AuthoringError(w, e, what);
 }
 
 // one object being added: its entity, env and where its particles start

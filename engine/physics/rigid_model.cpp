@@ -5,6 +5,8 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "scene/authoring_error.h"
+
 namespace cressim::physics {
 namespace {
 
@@ -96,7 +98,7 @@ Pose pose_of(const scene::World& w, scene::EntityId e) {
 }
 
 [[noreturn]] void fail(const scene::World& w, scene::EntityId e, const std::string& what) {
-  throw std::invalid_argument(w.describe(e) + ": " + what);
+  throw scene::AuthoringError(w, e, what);
 }
 
 }  // namespace

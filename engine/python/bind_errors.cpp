@@ -5,6 +5,7 @@
 #include "gpu/shader_compiler.h"
 #include "python/bindings.h"
 #include "runtime/engine.h"
+#include "scene/authoring_error.h"
 
 namespace py = pybind11;
 
@@ -16,6 +17,8 @@ void bind_errors(py::module_& m) {
   static py::exception<gpu::ShaderCompileError> shader(m, "ShaderCompileError", PyExc_ValueError);
   static py::exception<compute::BindingError> binding(m, "BindingError", PyExc_LookupError);
   static py::exception<runtime::TopologyError> topology(m, "TopologyError", PyExc_RuntimeError);
+  // a ValueError, as before it had a type; entity, env, field and source say where
+  static py::exception<scene::AuthoringError> authoring(m, "AuthoringError", PyExc_ValueError);
   // most specific first
   py::register_exception_translator([](std::exception_ptr p) {
     try {
@@ -30,6 +33,13 @@ void bind_errors(py::module_& m) {
       py::set_error(binding, e.what());
     } catch (const runtime::TopologyError& e) {
       py::set_error(topology, e.what());
+    } catch (const scene::AuthoringError& e) {
+      py::object err = py::reinterpret_borrow<py::object>(authoring)(e.what());
+      err.attr("entity") = e.entity;
+      err.attr("env") = e.env;
+      err.attr("field") = e.field;
+      err.attr("source") = e.source;
+      py::set_error(authoring, err);
     }
   });
 }

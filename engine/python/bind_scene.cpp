@@ -464,7 +464,8 @@ void bind_scene(py::module_& m) {
       .def_property_readonly("env", [](const Entity& e) { return e.world->env_of(e.id); })
       .def_property_readonly("name", [](const Entity& e) { return e.world->name_of(e.id); })
       .def("add", &add<scene::Transform>, py::arg("component"),
-           "Attaches a component (a topology change: prepare() again if already uploaded).")
+           "Attaches a component (a topology change: prepare() again if already uploaded). Replacing a "
+           "Transform only changes its value (as entity.transform = ...).")
       .def("add", &add<scene::RigidBody>, py::arg("component"))
       .def("add", &add<scene::Collider>, py::arg("component"))
       .def("add", &add<scene::Joint>, py::arg("component"))
@@ -514,6 +515,11 @@ void bind_scene(py::module_& m) {
       .def("add_mesh", &scene::World::add_mesh, py::arg("mesh"), "Adds a shared mesh; returns its index.")
       .def("add_texture", &scene::World::add_texture, py::arg("texture"),
            "Adds a shared texture (cressim.Texture); returns its index for Renderable.texture.")
+      .def("set_source", &scene::World::set_source, py::arg("entity"), py::arg("field"), py::arg("where"),
+           "Records where a field was authored (e.g. 'scene.yaml:12'); errors about it start with that. field: "
+           "'' the entity, 'Collider' a component, 'Collider.shapes[0].size' a field.")
+      .def("source_of", &scene::World::source_of, py::arg("entity"), py::arg("field") = "",
+           "The most specific recorded source for the field (its own, else its parent's ...), or ''.")
       .def_property_readonly("entity_count", &scene::World::entity_count)
       .def_property_readonly("topology_version", &scene::World::topology_version);
 }

@@ -2,6 +2,7 @@
 
 #include "render/mip_chain.h"
 #include "render/particle_geometry.h"
+#include "scene/authoring_error.h"
 
 #include <algorithm>
 #include <cmath>
@@ -15,7 +16,7 @@ namespace cressim::render {
 namespace {
 
 [[noreturn]] void fail(const scene::World& w, scene::EntityId e, const std::string& what) {
-  throw std::invalid_argument(w.describe(e) + ": " + what);
+  throw scene::AuthoringError(w, e, what);
 }
 
 // which textures hold normals (linear values, averaged as such in their mip levels); one used
@@ -105,7 +106,6 @@ RenderModel build_render_model(const scene::World& world, const scene::LayoutMap
         lighting.sky = {a.sky[0] * a.intensity, a.sky[1] * a.intensity, a.sky[2] * a.intensity, 0};
         lighting.ground = {a.ground[0] * a.intensity, a.ground[1] * a.intensity, a.ground[2] * a.intensity, 0};
         environment = true;
-        if (!(a.intensity >= 0)) fail(world, e, "EnvironmentLight.intensity must be >= 0");
         if (a.map >= 0) {  // envs with the same map and intensity share one filtered slot
           auto [it, added] = map_slots.try_emplace({float(a.map), a.intensity}, uint32_t(m.environment_maps.size()));
           if (added) m.environment_maps.push_back({float(a.map), a.intensity, a.intensity, a.intensity});
@@ -161,10 +161,6 @@ RenderModel build_render_model(const scene::World& world, const scene::LayoutMap
       }
       if (world.has<scene::Camera>(e)) {
         const auto& c = world.get<scene::Camera>(e);
-        if (c.width == 0 || c.height == 0 || !(c.near > 0) || !(c.far > c.near))
-          fail(world, e, "Camera needs width, height > 0 and 0 < near < far");
-        if (c.products == 0 || (c.products & ~uint32_t(scene::PRODUCT_ALL)))
-          fail(world, e, "Camera.products needs some of rgb, depth, segmentation");
         const float f = c.fx > 0 ? c.fx : 0.5f * float(c.height) / std::tan(0.5f * c.fov_y * std::numbers::pi_v<float> / 180);
         shader::CameraData d{{f, c.fy > 0 ? c.fy : f, c.cx >= 0 ? c.cx : 0.5f * float(c.width),
                               c.cy >= 0 ? c.cy : 0.5f * float(c.height)},
@@ -184,9 +180,6 @@ RenderModel build_render_model(const scene::World& world, const scene::LayoutMap
                              std::to_string(slots));
         const auto& l = world.get<scene::Light>(e);
         if (lights == 1) ambient = l.ambient;
-        if (!(l.intensity >= 0) || !(l.range >= 0) || !(l.inner_angle >= 0) || !(l.outer_angle > l.inner_angle) ||
-            !(l.outer_angle < 90))
-          fail(world, e, "Light needs intensity >= 0, range >= 0 and 0 <= inner_angle < outer_angle < 90");
         const float deg = std::numbers::pi_v<float> / 180;
         m.lights[size_t(env) * slots + lights - 1] = {
             {row, uint32_t(l.kind), 0, 0},
@@ -194,8 +187,6 @@ RenderModel build_render_model(const scene::World& world, const scene::LayoutMap
             {std::cos(l.inner_angle * deg), std::cos(l.outer_angle * deg), 0, 0},
             {0, 0, 1, 0}};
         if (l.shadows && l.kind == scene::LightKind::DIRECTIONAL && lighting.ids.z == 0) {
-          if (!(l.shadow_extent > 0) || l.shadow_resolution == 0 || l.shadow_resolution > 4096)
-            fail(world, e, "Light needs shadow_extent > 0 and 0 < shadow_resolution <= 4096");
           lighting.ids.z = uint32_t(shadow_envs.size()) + 1;
           lighting.ids.w = row;
           lighting.shadow = {l.shadow_extent, 4 * l.shadow_extent + 10, 0, 0};

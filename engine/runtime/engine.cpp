@@ -9,6 +9,7 @@
 #include "cressim/layout.h"
 #include "cressim/particle.h"
 #include "cressim/rigid.h"
+#include "scene/validate.h"
 
 namespace cressim::runtime {
 namespace {
@@ -55,8 +56,9 @@ Engine::~Engine() {
 
 void Engine::prepare() {
   prepared_ = false;
+  scene::validate_world(*world_);  // every field, before any model is built from it
   mapping_ = scene::build_layout_mapping(*world_);
-  rigid_model_ = physics::build_rigid_model(*world_, mapping_);  // authoring errors surface here
+  rigid_model_ = physics::build_rigid_model(*world_, mapping_);
   particle_model_ = physics::build_particle_model(*world_, mapping_);
   const auto& limits = ctx_->properties.limits;
   render_model_ = render::build_render_model(*world_, mapping_,

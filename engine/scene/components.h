@@ -270,6 +270,24 @@ struct Strand {
 using ComponentTypes = std::tuple<Transform, RigidBody, Collider, Joint, Renderable, Material, Camera, Light, EnvironmentLight,
                                   UltrasoundProbe, UltrasoundTissue, SoftBody, Fluid, Strand>;
 
+// The name errors use for a component kind ("Collider"), as the binding spells it.
+template <class C>
+constexpr const char* component_name();
+template <> constexpr const char* component_name<Transform>() { return "Transform"; }
+template <> constexpr const char* component_name<RigidBody>() { return "RigidBody"; }
+template <> constexpr const char* component_name<Collider>() { return "Collider"; }
+template <> constexpr const char* component_name<Joint>() { return "Joint"; }
+template <> constexpr const char* component_name<Renderable>() { return "Renderable"; }
+template <> constexpr const char* component_name<Material>() { return "Material"; }
+template <> constexpr const char* component_name<Camera>() { return "Camera"; }
+template <> constexpr const char* component_name<Light>() { return "Light"; }
+template <> constexpr const char* component_name<EnvironmentLight>() { return "EnvironmentLight"; }
+template <> constexpr const char* component_name<UltrasoundProbe>() { return "UltrasoundProbe"; }
+template <> constexpr const char* component_name<UltrasoundTissue>() { return "UltrasoundTissue"; }
+template <> constexpr const char* component_name<SoftBody>() { return "SoftBody"; }
+template <> constexpr const char* component_name<Fluid>() { return "Fluid"; }
+template <> constexpr const char* component_name<Strand>() { return "Strand"; }
+
 // Triangle meshes shared by all envs; vertex normals per vertex.
 struct Mesh {
   std::vector<float> positions;  // x y z per vertex

@@ -1,5 +1,7 @@
 #include "scene/world.h"
 
+#include "scene/validate.h"
+
 namespace cressim::scene {
 
 World::World(SceneLayout layout) : layout_(layout) { layout_.validate(); }
@@ -42,6 +44,23 @@ uint32_t World::add_texture(Texture texture) {
   return uint32_t(textures_.size() - 1);
 }
 
+void World::set_source(EntityId e, const std::string& field, std::string where) {
+  check(e);
+  sources_[e][field] = std::move(where);
+}
+
+std::string World::source_of(EntityId e, const std::string& field) const {
+  auto it = sources_.find(e);
+  if (it == sources_.end()) return "";
+  // "Collider.shapes[0].size" -> "Collider.shapes[0]" -> "Collider.shapes" -> "Collider" -> ""
+  for (std::string f = field;;) {
+    if (auto s = it->second.find(f); s != it->second.end()) return s->second;
+    if (f.empty()) return "";
+    const size_t cut = f.find_last_of(".[");
+    f.resize(cut == std::string::npos ? 0 : cut);
+  }
+}
+
 std::string World::describe(EntityId e) const {
   std::string s = "entity " + std::to_string(e);
   if (e < names_.size() && !names_[e].empty()) s += " '" + names_[e] + "'";
@@ -54,5 +73,7 @@ void World::check(EntityId e) const {
     throw std::out_of_range("entity " + std::to_string(e) + " does not exist (the world has " +
                             std::to_string(env_.size()) + " entities)");
 }
+
+void World::check_value(EntityId e, const Transform& t) const { validate_transform(*this, e, t); }
 
 }  // namespace cressim::scene

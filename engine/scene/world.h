@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 #include <tuple>
+#include <type_traits>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -41,11 +42,16 @@ class World {
   const std::string& name_of(EntityId e) const { check(e); return names_[e]; }
   std::string describe(EntityId e) const;  // "entity 12 'cart' in env 3", for messages
 
+  // Attaches a component. Replacing one the entity has: a Transform is a value change (as
+  // set()); any other kind feeds the models prepare() built, so it is a topology change and the
+  // next frame asks for prepare() again rather than keep the old value silently.
   template <class C>
   void add(EntityId e, const C& c) {
     check(e);
     auto& items = std::get<ComponentStore<C>>(stores_).items;
-    if (!items.count(e)) bump_topology(describe(e) + " gained a component");
+    const bool had = items.count(e) != 0;
+    if (had && std::is_same_v<C, Transform>) return set(e, c);
+    bump_topology(describe(e) + (had ? " replaced its " : " gained a ") + component_name<C>());
     items[e] = c;
     ++value_version_;
   }
@@ -66,6 +72,7 @@ class World {
     auto& items = std::get<ComponentStore<C>>(stores_).items;
     auto it = items.find(e);
     if (it == items.end()) throw std::out_of_range(describe(e) + " has no such component; use add()");
+    if constexpr (std::is_same_v<C, Transform>) check_value(e, c);  // uploaded without another prepare()
     it->second = c;
     ++value_version_;
     dirty_.push_back(e);
@@ -78,6 +85,12 @@ class World {
   uint32_t add_texture(Texture texture);
   const std::vector<Texture>& textures() const { return textures_; }
 
+  // Where a field was authored (e.g. "scene.yaml:12", set by the scene-file loader), for
+  // errors. field: "" the entity, "Collider" a component, "Collider.shapes[0].size" a field.
+  void set_source(EntityId e, const std::string& field, std::string where);
+  // the most specific source known for `field` (its own, else its parent's ...), or ""
+  std::string source_of(EntityId e, const std::string& field) const;
+
   uint64_t topology_version() const { return topology_version_; }
   const std::string& last_topology_change() const { return last_change_; }
   // Entities whose values changed since the last call (for incremental uploads).
@@ -85,6 +98,7 @@ class World {
 
  private:
   void check(EntityId e) const;
+  void check_value(EntityId e, const Transform& t) const;
   void bump_topology(std::string what) { ++topology_version_; last_change_ = std::move(what); }
 
   SceneLayout layout_;
@@ -94,6 +108,7 @@ class World {
   uint64_t topology_version_ = 0, value_version_ = 0;
   std::string last_change_;
   std::vector<EntityId> dirty_;
+  std::unordered_map<EntityId, std::unordered_map<std::string, std::string>> sources_;
   std::vector<Mesh> meshes_;
   std::vector<Texture> textures_;
 };

@@ -8,6 +8,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "scene/authoring_error.h"
+
 namespace cressim::sensors {
 namespace {
 
@@ -16,39 +18,19 @@ constexpr float kReachSigmas = 3.0f;         // beam and pulse tails cut at 3 si
 constexpr uint32_t kMaxSamples = 1u << 16;   // per scanline
 
 [[noreturn]] void fail(const scene::World& w, scene::EntityId e, const std::string& what) {
-  throw std::invalid_argument(w.describe(e) + ": " + what);
+  throw scene::AuthoringError(w, e, what);
 }
 
 shader::UltrasoundProbeData probe_data(const scene::World& world, scene::EntityId e, uint32_t row, uint32_t env,
                                        uint32_t& samples) {
   const auto& p = world.get<scene::UltrasoundProbe>(e);
-  auto positive = [&](float v, const char* field) {
-    if (!(v > 0) || !std::isfinite(v)) fail(world, e, std::string("UltrasoundProbe.") + field + " must be positive");
-  };
-  positive(p.line_length, "line_length");
-  positive(p.sampling_frequency, "sampling_frequency");
-  positive(p.center_frequency, "center_frequency");
-  positive(p.fractional_bandwidth, "fractional_bandwidth");
-  positive(p.lateral_beam_width, "lateral_beam_width");
-  positive(p.elevational_beam_width, "elevational_beam_width");
-  positive(p.speed_of_sound, "speed_of_sound");
-  positive(p.metres_per_unit, "metres_per_unit");
-  positive(p.dynamic_range, "dynamic_range");
-  if (p.width == 0 || p.height == 0) fail(world, e, "UltrasoundProbe.width and height must be positive");
-  if (p.radial_decimation == 0) fail(world, e, "UltrasoundProbe.radial_decimation must be at least 1");
-
   shader::UltrasoundProbeData d{};
   const float n = float(p.scanlines), L = p.line_length;
   if (p.kind == scene::ProbeKind::LINEAR) {
-    if (p.scanlines < 1) fail(world, e, "UltrasoundProbe.scanlines must be at least 1");
-    positive(p.line_spacing, "line_spacing");
     const float half = 0.5f * n * p.line_spacing;  // each line in the middle of its column
     d.geometry = {p.line_spacing, 0, L, -0.5f * (n - 1) * p.line_spacing};
     d.image = {-half, 0, 2 * half / float(p.width), L / float(p.height)};
   } else if (p.kind == scene::ProbeKind::SECTOR) {
-    if (p.scanlines < 2) fail(world, e, "UltrasoundProbe.scanlines must be at least 2 for a sector probe");
-    if (!(p.sector_angle > 0 && p.sector_angle < 180)) fail(world, e, "UltrasoundProbe.sector_angle must be in (0, 180) degrees");
-    if (!(p.radius >= 0)) fail(world, e, "UltrasoundProbe.radius must not be negative");
     const float a = p.sector_angle * std::numbers::pi_v<float> / 180, R = p.radius;
     const float half = (R + L) * std::sin(0.5f * a), top = R * std::cos(0.5f * a) - R;
     d.geometry = {a / (n - 1), R, L, -0.5f * a};
@@ -70,8 +52,6 @@ shader::UltrasoundProbeData probe_data(const scene::World& world, scene::EntityI
   d.pulse = {dz, sigma_z, k2, std::ceil(kReachSigmas * sigma_z / dz)};
   const float sl = p.lateral_beam_width / kFwhmPerSigma, se = p.elevational_beam_width / kFwhmPerSigma;
   d.beam = {sl, se, 0, 0};
-  if (!std::isfinite(p.time_gain_compensation)) fail(world, e, "UltrasoundProbe.time_gain_compensation must be finite");
-  if (!(p.focal_depth >= 0) || !std::isfinite(p.focal_depth)) fail(world, e, "UltrasoundProbe.focal_depth must be >= 0");
   const float cm_per_unit = 100 * p.metres_per_unit;
   d.display = {p.dynamic_range, p.gain, p.time_gain_compensation * cm_per_unit, 0};
   // Gaussian beam: the two-way sigma is half the one-way 1/e^2 radius w0, and the width grows
@@ -90,17 +70,6 @@ bool inside(const scene::UltrasoundTissue& t, const scene::Vec3& q) {  // q rela
     case scene::RegionKind::CYLINDER: return q[0] * q[0] + q[1] * q[1] <= t.size[0] * t.size[0];
     default: return true;
   }
-}
-
-// the tissue's fields that do not depend on its carrier
-void check(const scene::World& world, scene::EntityId e, const scene::UltrasoundTissue& t) {
-  if ((t.density > 0) == (t.count > 0)) fail(world, e, "UltrasoundTissue: give either density or count (> 0)");
-  if (!(t.amplitude_std >= 0)) fail(world, e, "UltrasoundTissue.amplitude_std must not be negative");
-  if (!(t.attenuation >= 0) || !std::isfinite(t.attenuation))
-    fail(world, e, "UltrasoundTissue.attenuation must be >= 0 (dB/cm/MHz)");
-  for (const auto& inc : t.inclusions)
-    if (!(inc.radius > 0) || !(inc.amplitude_scale >= 0))
-      fail(world, e, "UltrasoundTissue inclusions need radius > 0 and amplitude_scale >= 0");
 }
 
 void check_count(const scene::World& world, scene::EntityId e, double wanted) {
@@ -132,9 +101,8 @@ void generate(const scene::World& world, scene::EntityId e, uint32_t row, uint32
     case scene::RegionKind::BOX: volume = 8 * half[0] * half[1] * half[2]; break;
     case scene::RegionKind::SPHERE: half = {t.size[0], t.size[0], t.size[0]}; volume = 4.f / 3 * pi * std::pow(t.size[0], 3.f); break;
     case scene::RegionKind::CYLINDER: half = {t.size[0], t.size[0], t.size[1]}; volume = pi * t.size[0] * t.size[0] * 2 * t.size[1]; break;
-    default: fail(world, e, "UltrasoundTissue.region must be box, sphere or cylinder");
+    default: break;  // validate_world() admits no other region
   }
-  if (!(volume > 0)) fail(world, e, "UltrasoundTissue.size must be positive");
   const double wanted = t.count > 0 ? double(t.count) : double(t.density) * volume;
   check_count(world, e, wanted);
 
@@ -348,7 +316,6 @@ UltrasoundModel build_ultrasound_model(const scene::World& world, const scene::L
       const scene::EntityId e = mapping.row_entity[row];
       if (world.has<scene::UltrasoundTissue>(e)) {
         const auto& t = world.get<scene::UltrasoundTissue>(e);
-        check(world, e, t);
         const uint32_t tissue = uint32_t(m.tissue_attenuation.size());
         m.tissue_attenuation.push_back(t.attenuation);
         if (!world.has<scene::SoftBody>(e)) generate(world, e, row, tissue, m);

@@ -10,6 +10,7 @@ The frame pipeline (authoring, then stepping)::
     engine.step_physics(); engine.execute_compute_pass(p); engine.end_frame()
 """
 from cressim._core import (
+    AuthoringError,
     BindingError,
     Buffer,
     Camera,
@@ -48,6 +49,7 @@ from cressim import sensors  # noqa: F401  (PNG export of sensor images)
 from cressim import passes  # noqa: F401  (ready-made custom passes: suction)
 
 __all__ = [
+    "AuthoringError",
     "BindingError",
     "Buffer",
     "Camera",

@@ -37,12 +37,13 @@ def _demo(args: argparse.Namespace) -> int:
 
 
 def _render(args: argparse.Namespace) -> int:
+    from cressim import AuthoringError
     from cressim.render_scene import render
     from cressim.scene_file import SceneFileError
 
     try:
         paths = render(args.scene, args.out, all_envs=args.all_envs, steps=args.steps, device=args.device)
-    except (SceneFileError, FileNotFoundError) as e:
+    except (SceneFileError, AuthoringError, FileNotFoundError) as e:
         print(f"cressim render: {e}", file=sys.stderr)
         return 2
     for p in paths:

@@ -1,6 +1,8 @@
 """Scene files: a YAML description of envs, meshes, textures, materials and entities, loaded
 into a cressim.World. Every entity is made once per env (`envs: N`). Errors name the file, the
-line and the field. The format (every key optional unless said)::
+line and the field, also those prepare() finds later (a negative mass, a restitution of 5): the
+world remembers where each entity and field was written (World.set_source). The format (every
+key optional unless said)::
 
     envs: 2
     layout: {max_renderables_per_env: 16, max_lights_per_env: 4, max_cameras_per_env: 4}
@@ -53,6 +55,17 @@ import yaml
 import cressim
 
 MATERIAL_KEYS = ("color", "metallic", "roughness", "texture", "normal_map", "normal_scale")
+# an entity's keys and the components they make
+COMPONENTS = {"transform": "Transform", "renderable": "Renderable", "camera": "Camera", "light": "Light",
+              "rigid_body": "RigidBody", "collider": "Collider", "soft_body": "SoftBody", "fluid": "Fluid",
+              "strand": "Strand", "material": "Material"}
+# keys that author component fields of another name (the rest author the field of their name)
+AUTHORS = {("Transform", "look_at"): ("rotation",), ("Transform", "rpy_deg"): ("rotation",),
+           ("SoftBody", "box"): ("positions", "tets", "triangles"),
+           ("SoftBody", "cylinder"): ("positions", "tets", "triangles"),
+           ("Fluid", "block"): ("positions",), ("Strand", "line"): ("points",),
+           ("Renderable", "material"): ()}
+SHAPE_SIZE_KEYS = ("radius", "half_extents", "half_height")
 
 
 class SceneFileError(ValueError):
@@ -68,8 +81,12 @@ class Field:
     path: str
 
     def fail(self, message: str) -> SceneFileError:
-        mark = self.node.start_mark
-        return SceneFileError(f"{self.file}:{mark.line + 1}: {self.path or '(top)'}: {message}")
+        return SceneFileError(f"{self.where}: {self.path or '(top)'}: {message}")
+
+    @property
+    def where(self) -> str:
+        """file:line of the node."""
+        return f"{self.file}:{self.node.start_mark.line + 1}"
 
     # --- structure -------------------------------------------------------------------------
     def is_map(self) -> bool:
@@ -146,6 +163,18 @@ class Field:
             raise self.fail(f"expected {' or '.join(map(str, sizes))} numbers, got {len(items)}")
         return tuple(f.float() for f in items)
 
+    def ints(self, n: int, minimum: int | None = None) -> tuple[int, ...]:
+        items = self.list()
+        if len(items) != n:
+            raise self.fail(f"expected {n} integers, got {len(items)}")
+        return tuple(f.int(minimum) for f in items)
+
+    def positive(self) -> float:
+        v = self.float()
+        if not v > 0 or not math.isfinite(v):
+            raise self.fail(f"must be positive, got {v}")
+        return v
+
 
 def _quat_look_at(eye, target, up=(0.0, 0.0, 1.0)) -> tuple[float, ...]:
     """The rotation whose +z points from eye to target, with +y down (x = z cross up)."""
@@ -181,6 +210,7 @@ class _Loader:
         self.meshes: dict[str, int] = {}
         self.textures: dict[str, int] = {}
         self.materials: dict[str, dict] = {}
+        self.material_fields: dict[str, dict[str, Field]] = {}
         self.inline_meshes: dict[tuple, int] = {}
 
     def load(self) -> cressim.World:
@@ -197,12 +227,17 @@ class _Loader:
         for name, f in (top["meshes"].items() if "meshes" in top else {}).items():
             self.meshes[name] = self.world.add_mesh(self.mesh(f))
         for name, f in (top["materials"].items() if "materials" in top else {}).items():
-            self.materials[name] = self.material(f.keys(MATERIAL_KEYS))
+            self.material_fields[name] = f.keys(MATERIAL_KEYS)
+            self.materials[name] = self.material(self.material_fields[name])
         entities = top["entities"].list() if "entities" in top else []
         environment = self.environment(top["environment"]) if "environment" in top else None
         for env in range(envs):
             if environment is not None:
-                self.world.create_entity(env=env, name="environment").add(environment)
+                ent = self.world.create_entity(env=env, name="environment")
+                ent.add(environment)
+                self.world.set_source(ent.id, "", top["environment"].where)
+                for k, v in top["environment"].items().items():
+                    self.world.set_source(ent.id, f"EnvironmentLight.{k}", v.where)
             for f in entities:
                 self.entity(env, f)
         return self.world
@@ -308,6 +343,35 @@ class _Loader:
                     if isinstance(err, SceneFileError):
                         raise
                     raise e[key].fail(str(err)) from None
+        self.sources(ent.id, f, e)
+
+    def sources(self, entity: int, f: Field, keys: dict[str, Field]) -> None:
+        """Remembers where the entity, its components and their fields were written, so that
+        errors prepare() finds later start with the file and line."""
+        put = self.world.set_source
+        put(entity, "", f.where)
+        for key, c in keys.items():
+            component = COMPONENTS.get(key)
+            if component is None:
+                continue
+            put(entity, component, c.where)
+            if not c.is_map():  # a material by name
+                for k, v in self.material_fields.get(c.str(), {}).items():
+                    put(entity, f"{component}.{k}", v.where)
+                continue
+            fields = c.items()
+            if "material" in fields and component == "Renderable":  # a named material, then inline keys
+                for k, v in self.material_fields.get(fields["material"].str(), {}).items():
+                    put(entity, f"Renderable.{k}", v.where)
+            for k, v in fields.items():
+                for name in AUTHORS.get((component, k), (k,)):
+                    put(entity, f"{component}.{name}", v.where)
+            if component == "Collider" and "shapes" in fields:
+                for i, shape in enumerate(fields["shapes"].list()):
+                    put(entity, f"Collider.shapes[{i}]", shape.where)
+                    for g in shape.items().values():  # its one kind: {radius, position, ...}
+                        for k, v in (g.items() if g.is_map() else {}).items():
+                            put(entity, f"Collider.shapes[{i}].{'size' if k in SHAPE_SIZE_KEYS else k}", v.where)
 
     def transform(self, f: Field) -> cressim.Transform:
         t = f.keys(("position", "rotation", "scale", "look_at", "rpy_deg"))
@@ -380,7 +444,7 @@ class _Loader:
         g = c[shapes[0]]
         if shapes[0] == "box":
             b = self._need(g, g.keys(("half_extents", "cells")), ("half_extents", "cells"), "box")
-            mesh = cressim.TetMesh.box(b["half_extents"].vec(3), tuple(int(x) for x in b["cells"].vec(3)))
+            mesh = cressim.TetMesh.box(b["half_extents"].vec(3), b["cells"].ints(3, 1))
         else:
             keys = ("radius", "half_height", "cells_across", "cells_along")
             b = self._need(g, g.keys(keys), keys, "cylinder")
@@ -399,9 +463,9 @@ class _Loader:
             raise f.fail("a fluid needs 'block' {counts, spacing, origin}")
         keys = ("counts", "spacing", "origin")
         b = self._need(c["block"], c["block"].keys(keys), keys, "block")
-        nx, ny, nz = (int(x) for x in b["counts"].vec(3))
+        nx, ny, nz = b["counts"].ints(3, 1)
         z, y, x = np.meshgrid(np.arange(nz), np.arange(ny), np.arange(nx), indexing="ij")
-        points = np.stack([x, y, z], -1).reshape(-1, 3) * b["spacing"].float() + np.asarray(b["origin"].vec(3))
+        points = np.stack([x, y, z], -1).reshape(-1, 3) * b["spacing"].positive() + np.asarray(b["origin"].vec(3))
         opts = self._options({k: v for k, v in c.items() if k != "block"}, ints=("budget",))
         return cressim.Fluid(points.astype(np.float32), **opts)
 
