@@ -183,28 +183,7 @@ class Builder {
 
   void soft_body(const Adding& a, const scene::SoftBody& sb) {
     const uint32_t n = uint32_t(sb.positions.size() / 3);
-    const bool elastic = sb.youngs_modulus != 0;
-    if (n == 0) fail(a.world, a.entity, "SoftBody.positions is empty");
-    if (!(sb.radius > 0)) fail(a.world, a.entity, "SoftBody.radius must be positive");
-    if (sb.tets.size() % 4) fail(a.world, a.entity, "SoftBody.tets needs 4 indices per tet");
-    if (sb.triangles.size() % 3) fail(a.world, a.entity, "SoftBody.triangles needs 3 indices per triangle");
-    if (elastic) {
-      if (sb.tets.empty())
-        fail(a.world, a.entity, "SoftBody.youngs_modulus needs tets (a meshfree body has no volume elements: give "
-                                "distance_compliance instead)");
-      if (!(sb.youngs_modulus > 0 && std::isfinite(sb.youngs_modulus)))
-        fail(a.world, a.entity, "SoftBody.youngs_modulus must be a positive finite number of pascals, got " +
-                                    std::to_string(sb.youngs_modulus));
-      if (!(sb.poisson_ratio >= 0 && sb.poisson_ratio < 0.5f))
-        fail(a.world, a.entity, "SoftBody.poisson_ratio must be in [0, 0.5), got " + std::to_string(sb.poisson_ratio));
-      if (!(sb.density > 0 && std::isfinite(sb.density)))
-        fail(a.world, a.entity, "SoftBody.density must be a positive finite number of kg/m^3, got " + std::to_string(sb.density));
-    } else {
-      if (!(sb.mass > 0 && std::isfinite(sb.mass))) fail(a.world, a.entity, "SoftBody.mass must be positive");
-      if (!(sb.distance_compliance >= 0 && sb.volume_compliance >= 0 && std::isfinite(sb.distance_compliance) &&
-            std::isfinite(sb.volume_compliance)))
-        fail(a.world, a.entity, "SoftBody compliances must be finite and >= 0");
-    }
+    const bool elastic = sb.youngs_modulus != 0;  // field values: scene/validate.cpp, before this
     add_particles(a, sb.positions, n, elastic ? 0.f : 1 / sb.mass, shader::PARTICLE_SOLID,
                   sb.self_collision ? shader::PARTICLE_SELF_COLLIDE : 0u, "SoftBody.positions");
     for (uint32_t v : sb.tets)

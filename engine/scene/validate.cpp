@@ -253,15 +253,21 @@ void soft_body(const Fields& c, const SoftBody& s) {
   if (s.positions.empty()) c.fail("positions", "is empty");
   c.index_list("tets", s.tets, 4, "tet");
   c.index_list("triangles", s.triangles, 3, "triangle");
-  c.positive("mass", s.mass);
-  c.non_negative("distance_compliance", s.distance_compliance);
-  c.non_negative("volume_compliance", s.volume_compliance);
+  if (s.youngs_modulus != 0) {  // the elastic material (youngs_modulus 0 selects the compliance model)
+    if (s.tets.empty())
+      c.fail("youngs_modulus", "needs tets (a meshfree body has no volume elements: give distance_compliance)");
+    c.positive("youngs_modulus", s.youngs_modulus);
+    if (!(s.poisson_ratio >= 0 && s.poisson_ratio < 0.5)) c.fail("poisson_ratio", "must be in [0, 0.5), got " + show(s.poisson_ratio));
+    c.positive("density", s.density);
+  } else {
+    c.positive("mass", s.mass);
+    c.non_negative("distance_compliance", s.distance_compliance);
+    c.non_negative("volume_compliance", s.volume_compliance);
+  }
   if (s.tets.empty()) c.at_least("neighbors", s.neighbors, 1);
   c.non_negative("damping", s.damping);
   c.positive("radius", s.radius);
   c.non_negative("friction", s.friction);
-  // SoftBody material fields (issue 14, the new soft-body solver) are checked here once they exist:
-  // c.positive("youngs_modulus", ...), c.within("poisson_ratio", ..., 0, 0.4999), c.positive("density", ...)
 }
 
 void fluid(const Fields& c, const Fluid& f) {

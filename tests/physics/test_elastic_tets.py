@@ -96,9 +96,9 @@ def test_material_values_are_checked(make_engine):
     with pytest.raises(ValueError, match="youngs_modulus needs tets"):
         cressim.SoftBody(np.eye(3), youngs_modulus=1e4)
     for field, kwargs in (("poisson_ratio must be in \\[0, 0.5\\)", dict(poisson_ratio=0.5)),
-                          ("youngs_modulus must be a positive finite", dict(youngs_modulus=float("nan"))),
-                          ("youngs_modulus must be a positive finite", dict(youngs_modulus=-1.0)),
-                          ("density must be a positive finite", dict(density=0.0))):
+                          ("youngs_modulus must be positive, got nan", dict(youngs_modulus=float("nan"))),
+                          ("youngs_modulus must be positive, got -1", dict(youngs_modulus=-1.0)),
+                          ("density must be positive, got 0", dict(density=0.0))):
         world = cressim.World(cressim.SceneLayout(2))
         world.create_entity(env=1, name="liver").add(cressim.SoftBody(mesh, **kwargs))
         with pytest.raises(ValueError, match=f"entity 0 'liver' in env 1: SoftBody.{field}"):
