@@ -67,7 +67,11 @@ BAD = [
     ([cressim.Joint("spherical", body_b=1, target_rotation=(0, 0, 0, 0))], "Joint.target_rotation",
      "non-zero quaternion"),
     # SoftBody
-    ([cressim.SoftBody(BOX, mass=-1)], "SoftBody.mass", "must be positive, got -1"),
+    ([cressim.SoftBody(BOX, mass=-1, distance_compliance=1e-4)], "SoftBody.mass", "must be positive, got -1"),
+    ([cressim.SoftBody(BOX, youngs_modulus=-5e3)], "SoftBody.youngs_modulus", "must be positive, got -5000"),
+    ([cressim.SoftBody(BOX, youngs_modulus=NAN)], "SoftBody.youngs_modulus", "must be positive, got nan"),
+    ([cressim.SoftBody(BOX, poisson_ratio=0.5)], "SoftBody.poisson_ratio", "must be in [0, 0.5), got 0.5"),
+    ([cressim.SoftBody(BOX, density=NAN)], "SoftBody.density", "must be positive, got nan"),
     ([cressim.SoftBody(BOX, distance_compliance=NAN)], "SoftBody.distance_compliance", "got nan"),
     ([cressim.SoftBody(BOX, volume_compliance=-1e-4)], "SoftBody.volume_compliance", "must be >= 0"),
     ([cressim.SoftBody(BOX, damping=-1)], "SoftBody.damping", "must be >= 0, got -1"),
