@@ -121,6 +121,8 @@ void generate_contacts(EnvRigidRange r, inout ContactSink sink) {
 // per contact in sequence it is redundant (four corners, one body) and its unconverged internal
 // squeeze turned and slid stacked boxes.
 
+static const uint FRICTION_SWEEPS = 4;
+
 void clear_deltas(uint b0, uint b1) {
   for (uint b = b0; b < b1; ++b) {
     delta_positions[b] = float4(0, 0, 0, 0);
@@ -282,7 +284,20 @@ void solve_contacts(ContactSink sink, uint b0, uint b1) {
                                                   contact_share(c.bodies.x, c.bodies.y));
   }
   apply_position_deltas(b0, b1);
-  for (uint i = sink.base; i < sink.base + sink.count; i += contacts[i].bodies.w) solve_patch_friction(i);
+  // patches sharing a body (a box pinched between two jaws) need a few sweeps to share the load;
+  // alternating the direction favours none
+  for (uint s = 0; s < FRICTION_SWEEPS; ++s) {
+    if ((s & 1) == 0) {
+      for (uint i = sink.base; i < sink.base + sink.count; i += contacts[i].bodies.w) solve_patch_friction(i);
+    } else {
+      for (uint i = sink.base + sink.count; i > sink.base;) {
+        uint first = i - 1;
+        while (contacts[first].bodies.w == 0) --first;
+        solve_patch_friction(first);
+        i = first;
+      }
+    }
+  }
 }
 
 // After velocities are derived from positions: a contact that pushed this substep ends with no
