@@ -96,6 +96,10 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   scratch("velocity_copies", "particles.velocity_copies", {n, 4}, DType::FLOAT32);
   scratch("rigid_pushes", "particles.rigid_pushes", {n, 4}, DType::FLOAT32);
   scratch("rigid_contacts", "particles.rigid_contacts", {n, 4}, DType::FLOAT32);
+  // out: the force each particle exerts on a body (N, world, frame average; w body + 1, 0: none)
+  in("rigid_forces", "particles.rigid_forces", std::vector<float4>(size_t(n), float4{0, 0, 0, 0}), {n, 4},
+     DType::FLOAT32, exportable);
+  frame_clear_ = bindings_.at("rigid_forces")->storage->buffer.buffer;
   scratch("cells", "particles.cells", {n, 4}, DType::INT32);
   scratch("buckets", "particles.buckets", {n}, DType::UINT32);
   scratch("sorted", "particles.sorted", {n}, DType::UINT32);
@@ -136,7 +140,8 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   const std::pair<const char*, const char*> rigid[] = {
       {"env_rigid_ranges", "rigid.env_ranges"}, {"colliders", "rigid.colliders"}, {"body_positions", "rigid.positions"},
       {"body_rotations", "rigid.rotations"}, {"body_linear_velocities", "rigid.linear_velocities"},
-      {"body_angular_velocities", "rigid.angular_velocities"}, {"bodies", "rigid.bodies"}};
+      {"body_angular_velocities", "rigid.angular_velocities"}, {"bodies", "rigid.bodies"},
+      {"body_contact_forces", "rigid.contact_forces"}, {"body_contact_torques", "rigid.contact_torques"}};
   for (auto [hlsl, key] : rigid) {
     if (has_rigid_) bindings_[hlsl] = scene.at(key);
     else bindings_[hlsl] = compute::make_typed_buffer(ctx, std::string("particles.no_") + hlsl, {1, 12}, DType::UINT32, true);
@@ -215,6 +220,7 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   velocity_ = pass("physics/particle_velocity", uint64_t(n));
   // two-way coupling, where an env has dynamic bodies for particles to push
   if (has_rigid_ && dynamic_bodies) rigid_push_ = pass("physics/particle_rigid_push", uint64_t(ne));
+  if (has_rigid_) rigid_forces_ = pass("physics/particle_rigid_forces", uint64_t(ne));
   health_ = pass("physics/particle_health", uint64_t(ne));
   reset_ = pass("physics/particle_reset", uint64_t(std::max({n, na, no, ne_})));
   if (ne_ > 0) {
@@ -325,6 +331,10 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
   const uint32_t substeps = settings_.substeps;
   run(remove_);
   run(emit_);
+  if (rigid_forces_) {
+    vkCmdFillBuffer(cmd, frame_clear_, 0, VK_WHOLE_SIZE, 0);
+    gpu::compute_barrier(cmd);
+  }
   for (uint32_t s = 0; s < substeps; ++s) {
     // passes that look at moving bodies see them where they are at the end of this substep
     const float done = float(s + 1) / float(substeps);
@@ -353,6 +363,7 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
     run(vorticity_);
     run(fluid_velocity_);
   }
+  run(rigid_forces_);
   health_->record(cmd);
 }
 

@@ -54,6 +54,13 @@ RigidSystem::RigidSystem(std::shared_ptr<gpu::Context> ctx, RigidModel model, co
   in("joint.positions", std::vector<float>(size_t(nj), 0.f), {nj}, DType::FLOAT32, exportable);
   in("joint.velocities", std::vector<float>(size_t(nj), 0.f), {nj}, DType::FLOAT32, exportable);
   in("env.health", std::vector<uint32_t>(size_t(ne), 0u), {ne}, DType::UINT32, exportable);
+  // forces, world frame, averaged over the frame: contacts on each body (N; N m about its origin;
+  // particle contacts add theirs after the particle step), joints on their body b (N; N m about
+  // b's joint frame origin)
+  in("rigid.contact_forces", zeros_b, {nb, 4}, DType::FLOAT32, exportable);
+  in("rigid.contact_torques", zeros_b, {nb, 4}, DType::FLOAT32, exportable);
+  in("joint.reaction_forces", zeros_j, {nj, 4}, DType::FLOAT32, exportable);
+  in("joint.reaction_torques", zeros_j, {nj, 4}, DType::FLOAT32, exportable);
   {  // one host-visible counter, so that the host learns of unhealthy envs without reading them all
     auto events = compute::make_typed_buffer(ctx, "env.health_events", {1}, DType::UINT32, true, false, gpu::Memory::READBACK);
     events->generation = generation;
@@ -91,6 +98,8 @@ RigidSystem::RigidSystem(std::shared_ptr<gpu::Context> ctx, RigidModel model, co
        {"prev_rotations", get("rigid.prev_rotations")}, {"contacts", get("rigid.contacts")},
        {"delta_positions", get("rigid.delta_positions")}, {"delta_rotations", get("rigid.delta_rotations")},
        {"joint_lambdas", get("joint.lambdas")}, {"joint_positions", get("joint.positions")},
+       {"contact_forces", get("rigid.contact_forces")}, {"contact_torques", get("rigid.contact_torques")},
+       {"reaction_forces", get("joint.reaction_forces")}, {"reaction_torques", get("joint.reaction_torques")},
        {"joint_velocities", get("joint.velocities")}, {"transform_positions", get("transform.positions")},
        {"transform_rotations", get("transform.rotations")}, {"health", get("env.health")},
        {"reset_mask", get("env.reset_mask")}, {"health_events", get("env.health_events")}});

@@ -19,6 +19,13 @@ float4 quat_axis_angle(float3 axis, float angle) {
 float4 quat_add_rotation(float4 q, float3 w) {
   return normalize(q + 0.5 * quat_mul(float4(w, 0), q));
 }
+// the rotation vector w with quat_add_rotation(q0, w) == q1: a body advanced by w h keeps its
+// angular velocity w (2 sin(angle/2) instead would slow a spinning body every substep)
+float3 quat_rotation_between(float4 q0, float4 q1) {
+  float4 d = quat_mul(q1, quat_conj(q0));
+  if (d.w < 0) d = -d;
+  return 2.0 * d.xyz / max(d.w, 1e-6);
+}
 
 #endif
 #endif

@@ -63,12 +63,15 @@ struct EnvRigidRange {
   uint4 joints;     // x first joint (in parent-before-child order), y count, z first filtered pair, w count
 };
 
+// Multipliers are positional impulses (kg m) on a, accumulated over the substep's iterations; a
+// patch is a run of contacts between the same two bodies (xpbd_rigid.comp.hlsl).
 struct Contact {
-  float4 normal;    // xyz world normal from b to a; w depth at generation
-  float4 anchor_a;  // xyz point on a in a's frame; w accumulated normal lambda
+  float4 normal;    // xyz world normal from b to a; w twist lambda about it (kg m^2; patch's first)
+  float4 anchor_a;  // xyz point on a in a's frame; w normal lambda
   float4 anchor_b;  // xyz point on b in b's frame (world for static); w pre-solve normal speed
-  float4 material;  // x static, y dynamic friction, z restitution
-  uint4 bodies;     // x a, y b
+  float4 friction;  // xyz tangential lambda (world; patch's first contact); w velocity-level normal impulse (kg m/s)
+  float4 material;  // x static, y dynamic friction, z restitution; w the friction coefficient in use
+  uint4 bodies;     // x a, y b, w patch length (in its first contact; 0 in the others)
 };
 
 struct RigidConstants {

@@ -2,7 +2,8 @@
 // density, particle contacts), then is pushed out of the rigid colliders of its env with Coulomb
 // friction against the collider's motion over the substep. Against a dynamic body the overlap is
 // shared by inverse mass (the body's at the contact point); the body's share is left in
-// rigid_pushes for particle_rigid_push (two-way coupling).
+// rigid_pushes for particle_rigid_push (two-way coupling). The force on any body is summed per
+// particle over the frame in rigid_forces (particle_rigid_forces adds them up per body).
 #include "cressim/layout.h"
 #include "cressim/particle.h"
 #include "cressim/quat.h"
@@ -23,6 +24,7 @@ StructuredBuffer<BodyModel> bodies;
 RWStructuredBuffer<float4> positions;
 RWStructuredBuffer<float4> rigid_pushes;   // xyz impulse-like correction on the body, w body + 1 (0: none)
 RWStructuredBuffer<float4> rigid_contacts; // xyz contact point
+RWStructuredBuffer<float4> rigid_forces;   // xyz N on the body, frame average so far; w body + 1 (0: none)
 
 #include "particle_collide.hlsli"
 
@@ -55,8 +57,8 @@ void main(uint3 id : SV_DispatchThreadID) {
         const float3 arm = x.xyz - r * n - s.body_p, rn = quat_unrotate(q, cross(arm, n));
         wb = bodies[b].inv_inertia.w + dot(rn, bodies[b].inv_inertia.xyz * rn);
         share = x.w / (x.w + wb);
-        rigid_contacts[i] = float4(x.xyz - r * n, 0);
       }
+      if (b != CRESSIM_NONE) rigid_contacts[i] = float4(x.xyz - r * n, 0);
       // friction: the particle's slip against the collider surface over this substep
       const float3 surface_motion = h * (s.v + cross(s.w, x.xyz - s.body_p));
       const float3 slip = (x.xyz + depth * n - x0) - surface_motion;
@@ -66,6 +68,14 @@ void main(uint3 id : SV_DispatchThreadID) {
       const float3 correction = depth * n - (t > 1e-9 ? tangential * (t <= mu * depth ? 1.0 : min(mu * depth / t, 1.0)) : 0);
       x.xyz += share * correction;
       if (wb > 0) rigid_pushes[i] = float4(correction / (x.w + wb), float(b + 1));
+      if (b != CRESSIM_NONE && x.w > 0) {
+        // the momentum the body receives over the frame: a dynamic body takes its push as a
+        // velocity change over the frame (particle_rigid_push); a kinematic one takes none, so
+        // it is what the particle loses (m correction / h)
+        const float frame = h * pc.grid.w;
+        const float3 momentum = wb > 0 ? correction / ((x.w + wb) * frame) : correction / (x.w * h);
+        rigid_forces[i] = float4(rigid_forces[i].xyz - momentum / frame, float(b + 1));
+      }
     }
   }
   positions[i] = x;

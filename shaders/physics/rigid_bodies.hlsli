@@ -36,58 +36,42 @@ void turn_body(uint b, float3 p, float sign) {
 }
 
 // Moves body a by +correction (and b by its share of -correction) at world arms ra, rb.
-// alpha_tilde = compliance / h^2; lambda accumulates over the substep. Returns the change of lambda.
-float correct_position(uint a, uint b, float3 ra, float3 rb, float3 correction, float alpha_tilde,
+// alpha_tilde = compliance / h^2; lambda accumulates over the substep. Returns the positional
+// impulse applied to a (kg m; b got its negative).
+float3 correct_position(uint a, uint b, float3 ra, float3 rb, float3 correction, float alpha_tilde,
                        inout float lambda, float max_lambda) {
   const float c = length(correction);
-  if (c < 1e-9) return 0;
+  if (c < 1e-9) return float3(0, 0, 0);
   const float3 n = correction / c;
   const float w = positional_weight(a, ra, n) + positional_weight(b, rb, n);
-  if (w + alpha_tilde <= 0) return 0;
+  if (w + alpha_tilde <= 0) return float3(0, 0, 0);
   float dl = (c - alpha_tilde * lambda) / (w + alpha_tilde);
   dl = clamp(lambda + dl, -max_lambda, max_lambda) - lambda;
   lambda += dl;
   const float3 p = dl * n;
   move_body(a, p, ra, 1);
   move_body(b, p, rb, -1);
-  return dl;
+  return p;
 }
 
-// Turns body a by the rotation vector +correction (b by its share of -correction).
-float correct_rotation(uint a, uint b, float3 correction, float alpha_tilde, inout float lambda, float max_lambda) {
+// Turns body a by the rotation vector +correction (b by its share of -correction). Returns the
+// angular impulse applied to a (kg m^2; b got its negative).
+float3 correct_rotation(uint a, uint b, float3 correction, float alpha_tilde, inout float lambda, float max_lambda) {
   const float c = length(correction);
-  if (c < 1e-9) return 0;
+  if (c < 1e-9) return float3(0, 0, 0);
   const float3 n = correction / c;
   const float w = angular_weight(a, n) + angular_weight(b, n);
-  if (w + alpha_tilde <= 0) return 0;
+  if (w + alpha_tilde <= 0) return float3(0, 0, 0);
   float dl = (c - alpha_tilde * lambda) / (w + alpha_tilde);
   dl = clamp(lambda + dl, -max_lambda, max_lambda) - lambda;
   lambda += dl;
   turn_body(a, dl * n, 1);
   turn_body(b, dl * n, -1);
-  return dl;
+  return dl * n;
 }
 
 // velocity of the material point at world arm r of body b
 float3 point_velocity(uint b, float3 r) {
   if (b == CRESSIM_NONE) return float3(0, 0, 0);
   return linear_velocities[b].xyz + cross(angular_velocities[b].xyz, r);
-}
-
-// applies the velocity change dv to the relative velocity (a minus b) at arms ra, rb
-void change_velocity(uint a, uint b, float3 ra, float3 rb, float3 dv) {
-  const float c = length(dv);
-  if (c < 1e-12) return;
-  const float3 n = dv / c;
-  const float w = positional_weight(a, ra, n) + positional_weight(b, rb, n);
-  if (w <= 0) return;
-  const float3 p = dv / w;
-  if (is_dynamic(a)) {
-    linear_velocities[a].xyz += p * bodies[a].inv_inertia.w;
-    angular_velocities[a].xyz += inv_inertia_times(a, cross(ra, p));
-  }
-  if (is_dynamic(b)) {
-    linear_velocities[b].xyz -= p * bodies[b].inv_inertia.w;
-    angular_velocities[b].xyz -= inv_inertia_times(b, cross(rb, p));
-  }
 }

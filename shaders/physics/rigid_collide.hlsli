@@ -28,12 +28,16 @@ void add_contact(inout ContactSink sink, uint a, uint b, float3 n, float3 pa, fl
   sink.deepest = max(sink.deepest, depth);
   if (sink.count >= pc.max_contacts) return;
   Contact c;
-  c.normal = float4(n, depth);
+  c.normal = float4(n, 0);
   c.anchor_a = float4(a == CRESSIM_NONE ? pa : quat_unrotate(rotations[a], pa - positions[a].xyz), 0);
   c.anchor_b = float4(b == CRESSIM_NONE ? pb : quat_unrotate(rotations[b], pb - positions[b].xyz), 0);
-  // normal speed before the solve, for restitution
-  c.anchor_b.w = dot(n, point_velocity(a, pa - body_position(a)) - point_velocity(b, pb - body_position(b)));
+  // normal speed before the solve, for restitution; tangential speed picks static or dynamic
+  // friction (above the rest speed: sliding)
+  const float3 v = point_velocity(a, pa - body_position(a)) - point_velocity(b, pb - body_position(b));
+  c.anchor_b.w = dot(n, v);
+  c.friction = float4(0, 0, 0, 0);
   c.material = material;
+  c.material.w = length(v - c.anchor_b.w * n) > rest_speed() ? material.y : material.x;
   c.bodies = uint4(a, b, 0, 0);
   contacts[sink.base + sink.count] = c;
   sink.count += 1;

@@ -1,5 +1,6 @@
 // Joint constraints: attachment, axis/orientation alignment, limits and drives.
-// Expects `joints`, `joint_targets`, `joint_lambdas` and rigid_bodies.hlsli.
+// Expects `joints`, `joint_targets`, `joint_lambdas`, `reaction_forces`, `reaction_torques` and
+// rigid_bodies.hlsli.
 
 struct JointFrames {
   float3 pa, pb;  // joint frame origins in world, on a and on b
@@ -36,12 +37,20 @@ float wrap_angle(float x) {
   return x - two_pi * floor((x + 3.14159265359) / two_pi);
 }
 
+// impulses the joint applied to body a this substep (b got their negatives)
+struct JointImpulse {
+  float3 positional;  // kg m, at the joint frame origins
+  float3 angular;     // kg m^2
+};
+
 // a correction of `error` along the joint axis: a translation (slider) or a turn (hinge)
 void drive_axis(JointModel j, JointFrames f, float3 axis, float error, float alpha, inout float lambda,
-                float max_lambda) {
+                float max_lambda, inout JointImpulse impulse) {
   if (error == 0) return;
-  if (j.ids.z == JOINT_SLIDER) correct_position(j.ids.x, j.ids.y, f.ra, f.rb, error * axis, alpha, lambda, max_lambda);
-  else correct_rotation(j.ids.x, j.ids.y, error * axis, alpha, lambda, max_lambda);
+  if (j.ids.z == JOINT_SLIDER)
+    impulse.positional += correct_position(j.ids.x, j.ids.y, f.ra, f.rb, error * axis, alpha, lambda, max_lambda);
+  else
+    impulse.angular += correct_rotation(j.ids.x, j.ids.y, error * axis, alpha, lambda, max_lambda);
 }
 
 // rotation vector that turns frame a onto frame b (what a must turn by)
@@ -61,14 +70,17 @@ void solve_joint(uint ji, float h, float prev_coordinate) {
   const float joint_alpha = j.drive.w * inv_h2;
   const float big = 3.4e38;
   float4 lambda = joint_lambdas[ji];
+  JointImpulse impulse;
+  impulse.positional = float3(0, 0, 0);
+  impulse.angular = float3(0, 0, 0);
 
   // orientation: all three axes (fixed, slider), the hinge axis only, or none (ball)
   JointFrames f = joint_frames(j);
   if (kind == JOINT_FIXED || kind == JOINT_SLIDER) {
-    correct_rotation(a, b, orientation_error(f), joint_alpha, lambda.y, big);
+    impulse.angular += correct_rotation(a, b, orientation_error(f), joint_alpha, lambda.y, big);
   } else if (kind == JOINT_HINGE) {
     const float3 xa = quat_rotate(f.qa, float3(1, 0, 0)), xb = quat_rotate(f.qb, float3(1, 0, 0));
-    correct_rotation(a, b, cross(xa, xb), joint_alpha, lambda.y, big);
+    impulse.angular += correct_rotation(a, b, cross(xa, xb), joint_alpha, lambda.y, big);
   }
 
   // attachment: the frame origins meet (along the slider axis they may part)
@@ -78,7 +90,7 @@ void solve_joint(uint ji, float h, float prev_coordinate) {
     const float3 axis = quat_rotate(f.qa, float3(1, 0, 0));
     gap -= dot(gap, axis) * axis;
   }
-  correct_position(a, b, f.ra, f.rb, gap, joint_alpha, lambda.x, big);
+  impulse.positional += correct_position(a, b, f.ra, f.rb, gap, joint_alpha, lambda.x, big);
 
   if (kind == JOINT_HINGE || kind == JOINT_SLIDER) {
     // limits, then the drive, both along the joint axis
@@ -88,10 +100,7 @@ void solve_joint(uint ji, float h, float prev_coordinate) {
     float excess = 0;
     if (limited && s < j.limits.x) excess = s - j.limits.x;
     if (limited && s > j.limits.y) excess = s - j.limits.y;
-    if (excess != 0) {
-      if (kind == JOINT_SLIDER) correct_position(a, b, f.ra, f.rb, excess * axis, 0, lambda.z, big);
-      else correct_rotation(a, b, excess * axis, 0, lambda.z, big);
-    }
+    if (excess != 0) drive_axis(j, f, axis, excess, 0, lambda.z, big, impulse);
     if (mode != DRIVE_NONE) {
       f = joint_frames(j);
       s = joint_coordinate(j, f);
@@ -102,7 +111,7 @@ void solve_joint(uint ji, float h, float prev_coordinate) {
         error = s - target;
         if (kind == JOINT_HINGE) error = wrap_angle(error);
         alpha = inv_h2 / j.drive.x;
-        drive_axis(j, f, axis, error, alpha, lambda.w, max_lambda);
+        drive_axis(j, f, axis, error, alpha, lambda.w, max_lambda, impulse);
       }
       // damping toward the target velocity (velocity mode) or toward rest (position mode):
       // the substep's displacement should be v * h; damping d acts as a stiffness d / h on it
@@ -112,7 +121,7 @@ void solve_joint(uint ji, float h, float prev_coordinate) {
         if (kind == JOINT_HINGE) moved = wrap_angle(moved);
         const float v = mode == DRIVE_VELOCITY ? target : 0;
         float damping_lambda = 0;
-        drive_axis(j, f, axis, moved - v * h, inv_h2 * h / j.drive.y, damping_lambda, max_lambda);
+        drive_axis(j, f, axis, moved - v * h, inv_h2 * h / j.drive.y, damping_lambda, max_lambda, impulse);
       }
     }
   } else if (kind == JOINT_SPHERICAL && mode == DRIVE_POSITION && j.drive.x > 0) {
@@ -120,7 +129,12 @@ void solve_joint(uint ji, float h, float prev_coordinate) {
     f = joint_frames(j);
     float4 e = quat_mul(quat_mul(quat_conj(f.qa), f.qb), quat_conj(joint_targets[ji]));
     if (e.w < 0) e = -e;
-    correct_rotation(a, b, quat_rotate(f.qa, 2.0 * e.xyz), inv_h2 / j.drive.x, lambda.w, j.drive.z * h * h);
+    impulse.angular +=
+        correct_rotation(a, b, quat_rotate(f.qa, 2.0 * e.xyz), inv_h2 / j.drive.x, lambda.w, j.drive.z * h * h);
   }
   joint_lambdas[ji] = lambda;
+  // the reaction on b (summed over the frame's substeps, averaged at its end): positional
+  // impulses act at b's joint frame origin, so only the angular ones turn b about it
+  reaction_forces[ji].xyz -= impulse.positional * inv_h2;
+  reaction_torques[ji].xyz -= impulse.angular * inv_h2;
 }
