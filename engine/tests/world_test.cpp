@@ -18,7 +18,7 @@ TEST(World, TopologyVersionCountsStructureNotValues) {
   EXPECT_EQ(w.get<Transform>(e).position[2], 3.f);
   EXPECT_EQ(w.take_dirty(), std::vector<EntityId>{e});
   EXPECT_TRUE(w.take_dirty().empty());
-  EXPECT_EQ(w.last_topology_change(), "entity 0 'probe' in env 1 gained a component");
+  EXPECT_EQ(w.last_topology_change(), "entity 0 'probe' in env 1 gained a Transform");
 }
 
 TEST(World, ErrorsNameTheEntityAndEnv) {
