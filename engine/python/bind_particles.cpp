@@ -245,6 +245,10 @@ void bind_particles(py::module_& m) {
           r["object_count"] = v(s.object_count);
           r["multipliers"] = s.multipliers;
           r["chains"] = array(s.chains, {py::ssize_t(s.chains.size() / 2), 2});
+          if (s.rows_per_record) {  // vertex-solved: the particles' colours (particles.<name>_vertices)
+            r["vertex_colour_offset"] = v(s.vertex_colour_offset);
+            r["vertex_colour_count"] = v(s.vertex_colour_count);
+          }
           sets[py::str(s.name)] = r;
         }
         d["constraints"] = sets;

@@ -60,7 +60,7 @@ def test_pressing_the_probe_indents_the_tissue_and_the_image_follows():
     height, width = 0.7 / 160, 96 * 0.006 / 130
 
     def target_depth_in_image(obs):  # dark pixels inside the tissue (not beside or below it)
-        r, c = np.nonzero(obs[0, -1].numpy() < 0.02)
+        r, c = np.nonzero(obs[0, -1].cpu().numpy() < 0.02)
         depth = (r + 0.5) * height
         probe = positions.read()[rows[0, 0]]
         x = probe[0] - 0.288 + (c + 0.5) * width
