@@ -87,6 +87,8 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   in("first_free", "particles.first_free", active, {no}, DType::UINT32);
   in("", "particles.surface", model_.surface, {int64_t(model_.surface.size() / 3), 3}, DType::UINT32);
   scratch("densities", "particles.densities", {n}, DType::FLOAT32);
+  // elastic bodies: the share of a substep's fall their last solve held back (particle_tet_support)
+  in("object_supports", "particles.object_supports", std::vector<float>(size_t(no), 0.f), {no}, DType::FLOAT32);
   // scratch
   scratch("prev_positions", "particles.prev_positions", {n, 4}, DType::FLOAT32);
   scratch("deltas", "particles.deltas", {n, 4}, DType::FLOAT32);
@@ -218,6 +220,10 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   gather_ = pass("physics/particle_gather", uint64_t(n));
   if (na > 0) attach_ = pass("physics/particle_attach", uint64_t(na));
   velocity_ = pass("physics/particle_velocity", uint64_t(n));
+  if (const auto* tets = model_.set("tet"); tets && !tets->records.empty()) {
+    support_ = pass("physics/particle_tet_support", 1);
+    support_->groups = {uint32_t(no), 1, 1};
+  }
   // two-way coupling, where an env has dynamic bodies for particles to push
   if (has_rigid_ && dynamic_bodies) rigid_push_ = pass("physics/particle_rigid_push", uint64_t(ne));
   if (has_rigid_) rigid_forces_ = pass("physics/particle_rigid_forces", uint64_t(ne));
@@ -358,6 +364,7 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
       run(rigid_push_);
       run(attach_);
     }
+    run(support_);  // reads the substep's predicted velocities, before velocity_ replaces them
     run(velocity_);
     run(orient_velocity_);
     run(vorticity_);

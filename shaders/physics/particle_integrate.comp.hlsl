@@ -1,6 +1,5 @@
 // Substep start: remember the positions, then move every active, finite-mass particle by its
-// velocity after gravity and its object's damping (an elastic particle by its velocity before
-// gravity: the solve adds the load).
+// velocity after gravity and its object's damping (an elastic body's solve starts nearer: below).
 #include "cressim/layout.h"
 #include "cressim/particle.h"
 
@@ -10,6 +9,7 @@ StructuredBuffer<uint4> phases;
 RWStructuredBuffer<float4> positions;
 RWStructuredBuffer<float4> velocities;
 RWStructuredBuffer<float4> prev_positions;
+StructuredBuffer<float> object_supports;
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
 void main(uint3 id : SV_DispatchThreadID) {
@@ -20,10 +20,12 @@ void main(uint3 id : SV_DispatchThreadID) {
   const uint4 ph = phases[i];
   if ((ph.w & PARTICLE_ACTIVE) == 0 || x.w <= 0) return;
   const float h = pc.gravity.w, drag = 1 + h * objects[ph.y].material.z;
-  const float3 v0 = velocities[i].xyz, v = (v0 + h * pc.gravity.xyz) / drag;
+  const float3 v = (velocities[i].xyz + h * pc.gravity.xyz) / drag;
   velocities[i].xyz = v;
-  // an elastic particle's solve starts from where its velocity alone takes it (at rest: where it
-  // is), not from the inertial target x + h v with gravity: a solve cut short then stops at the
-  // static equilibrium, not short of it by the load of one substep (particle_tet.comp.hlsl)
-  positions[i].xyz = x.xyz + h * ((ph.w & PARTICLE_ELASTIC) != 0 ? v0 / drag : v);
+  // An elastic body's solve (particle_tet.comp.hlsl) starts short of the inertial position by the
+  // share of the substep's fall its last substep held back (particle_tet_support.comp.hlsl): a
+  // body at rest starts at its static equilibrium, so a solve cut short keeps the static shape
+  // exact whatever the iteration count; a falling one starts where it falls to.
+  const float held = (ph.w & PARTICLE_ELASTIC) != 0 ? object_supports[ph.y] : 0;
+  positions[i].xyz = x.xyz + h * v - held * h * h * pc.gravity.xyz / drag;
 }

@@ -16,6 +16,7 @@ RWStructuredBuffer<ParticleAttachment> attachments;
 StructuredBuffer<ParticleObject> objects;
 RWStructuredBuffer<uint> emitted;
 RWStructuredBuffer<uint> first_free;
+RWStructuredBuffer<float> object_supports;
 RWStructuredBuffer<uint> remove_flags;
 StructuredBuffer<uint> edge_particles;
 StructuredBuffer<float4> initial_orientations;
@@ -29,6 +30,7 @@ void main(uint3 id : SV_DispatchThreadID) {
   if (i < pc.item_count && reset_mask[objects[i].range.z] != 0) {
     emitted[i] = objects[i].ids.w;
     first_free[i] = objects[i].ids.w;
+    object_supports[i] = 0;
   }
   if (i < pc.edge_count && reset_mask[initial_phases[edge_particles[i]].z] != 0) {
     orientations[i] = initial_orientations[i];
