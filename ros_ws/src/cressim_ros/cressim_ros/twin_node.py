@@ -617,6 +617,8 @@ class TwinNode(Node):
                     refusals=dict(refusals), num_envs=self.num_envs)
 
     def _sensor_failed(self, sensor, exc):
+        if not rclpy.ok():  # a frame that finished while the node shuts down has nowhere to go
+            return
         name = sensor.name if sensor is not None else "sensor frame"
         self.get_logger().error(f"{name} failed: {type(exc).__name__}: {exc}", throttle_duration_sec=LOG_THROTTLE_S)
 
@@ -698,6 +700,7 @@ def _matrix_msg(values) -> Float64MultiArray:
 def main(args=None) -> int:
     """Entry point `cressim_twin` (and `python -m cressim_ros`)."""
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+    from rclpy._rclpy_pybind11 import RCLError
 
     # rclpy.init() of this rclpy (the Jazzy wheels) returns None, not the context manager newer
     # demos use with `with`; try/finally does the same.
@@ -715,6 +718,11 @@ def main(args=None) -> int:
             executor.spin()
         except (KeyboardInterrupt, ExternalShutdownException):
             pass
+        except RCLError:
+            # SIGINT shut the context down between the executor's check and its wait set: the
+            # same clean stop; any other RCL failure is not
+            if rclpy.ok():
+                raise
         finally:
             node.close()
             node.destroy_node()
