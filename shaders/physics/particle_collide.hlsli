@@ -2,8 +2,14 @@
 // capsule, plane. Poses of moving bodies are taken along the frame: the rigid solver has
 // already stepped the whole frame, so a body is placed back along its velocity by the part of
 // the frame still to come (grid.y is the fraction done at the end of this substep).
-// Expects `pc`, `colliders`, `body_positions`, `body_rotations`, `body_linear_velocities`,
-// `body_angular_velocities` declared by the including kernel.
+// Expects `pc` declared by the including kernel; declares the read-only rigid state it reads.
+
+StructuredBuffer<EnvRigidRange> env_rigid_ranges;
+StructuredBuffer<ColliderModel> colliders;
+StructuredBuffer<float4> body_positions;
+StructuredBuffer<float4> body_rotations;
+StructuredBuffer<float4> body_linear_velocities;
+StructuredBuffer<float4> body_angular_velocities;
 
 struct ColliderPose {
   float3 p;

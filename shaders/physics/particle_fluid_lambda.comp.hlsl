@@ -12,12 +12,6 @@ StructuredBuffer<uint4> phases;
 StructuredBuffer<float4> positions;
 RWStructuredBuffer<float> densities;
 RWStructuredBuffer<float> fluid_lambdas;
-StructuredBuffer<EnvRigidRange> env_rigid_ranges;
-StructuredBuffer<ColliderModel> colliders;
-StructuredBuffer<float4> body_positions;
-StructuredBuffer<float4> body_rotations;
-StructuredBuffer<float4> body_linear_velocities;
-StructuredBuffer<float4> body_angular_velocities;
 
 #include "particle_neighbor_list.hlsli"
 #include "particle_fluid.hlsli"

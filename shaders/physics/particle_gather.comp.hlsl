@@ -14,12 +14,6 @@ StructuredBuffer<ParticleObject> objects;
 StructuredBuffer<uint4> phases;
 StructuredBuffer<float4> deltas;
 StructuredBuffer<float4> prev_positions;
-StructuredBuffer<EnvRigidRange> env_rigid_ranges;
-StructuredBuffer<ColliderModel> colliders;
-StructuredBuffer<float4> body_positions;
-StructuredBuffer<float4> body_rotations;
-StructuredBuffer<float4> body_linear_velocities;
-StructuredBuffer<float4> body_angular_velocities;
 StructuredBuffer<BodyModel> bodies;
 RWStructuredBuffer<float4> positions;
 RWStructuredBuffer<float4> rigid_pushes;   // xyz impulse-like correction on the body, w body + 1 (0: none)
