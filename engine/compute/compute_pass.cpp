@@ -47,7 +47,7 @@ std::shared_ptr<ComputePass> build(std::shared_ptr<gpu::Context> ctx, const std:
     if (b.writable && buf.read_only && !allow_internal_writes)
       throw BindingError("pass '" + name + "': '" + b.name + "' is bound to internal buffer " + buf.describe() +
                          ", which custom passes may only read; declare it StructuredBuffer<...>, not RW");
-    if (source) check_element_type(name, b, buf);  // built-in passes share their layouts through cressim/*.h
+    check_element_type(name, b, buf);
     gpu::bind_buffer(*ctx, pass->pipeline, b.binding, buf.storage->buffer.buffer);
     pass->bindings[b.name] = it->second;
   }

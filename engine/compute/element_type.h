@@ -1,6 +1,6 @@
 // Whether a typed buffer holds the elements an HLSL buffer declares: a float buffer bound as
 // StructuredBuffer<float4> would otherwise read past its end, an int buffer bound as float
-// would read garbage. Checked when a custom pass binds its buffers.
+// would read garbage. Checked whenever a pass, built-in or custom, binds its buffers.
 #pragma once
 #include <string>
 

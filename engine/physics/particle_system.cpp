@@ -87,9 +87,9 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   in("first_free", "particles.first_free", active, {no}, DType::UINT32);
   in("", "particles.surface", model_.surface, {int64_t(model_.surface.size() / 3), 3}, DType::UINT32);
   scratch("densities", "particles.densities", {n}, DType::FLOAT32);
+  // scratch
   // elastic bodies: the share of a substep's fall their last solve held back (particle_tet_support)
   in("object_supports", "particles.object_supports", std::vector<float>(size_t(no), 0.f), {no}, DType::FLOAT32);
-  // scratch
   scratch("prev_positions", "particles.prev_positions", {n, 4}, DType::FLOAT32);
   scratch("deltas", "particles.deltas", {n, 4}, DType::FLOAT32);
   scratch("fluid_lambdas", "particles.fluid_lambdas", {n}, DType::FLOAT32);
@@ -102,6 +102,10 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   in("rigid_forces", "particles.rigid_forces", std::vector<float4>(size_t(n), float4{0, 0, 0, 0}), {n, 4},
      DType::FLOAT32, exportable);
   frame_clear_ = bindings_.at("rigid_forces")->storage->buffer.buffer;
+  // elastic particles: the elastic solve's contact forces on kinematic bodies (its last iteration)
+  const auto* tets = model_.set("tet");
+  const bool elastic = tets && !tets->records.empty();
+  scratch("tet_contact_forces", "particles.tet_contact_forces", {elastic ? n : 1, 4}, DType::FLOAT32);
   scratch("cells", "particles.cells", {n, 4}, DType::INT32);
   scratch("buckets", "particles.buckets", {n}, DType::UINT32);
   scratch("sorted", "particles.sorted", {n}, DType::UINT32);
@@ -138,16 +142,31 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
     internal["env.health_events"] = events;
     bindings_["health_events"] = events;
   }
-  // rigid colliders and bodies, or one-element stand-ins
-  const std::pair<const char*, const char*> rigid[] = {
-      {"env_rigid_ranges", "rigid.env_ranges"}, {"colliders", "rigid.colliders"}, {"body_positions", "rigid.positions"},
-      {"body_rotations", "rigid.rotations"}, {"body_linear_velocities", "rigid.linear_velocities"},
-      {"body_angular_velocities", "rigid.angular_velocities"}, {"bodies", "rigid.bodies"},
-      {"body_contact_forces", "rigid.contact_forces"}, {"body_contact_torques", "rigid.contact_torques"}};
-  for (auto [hlsl, key] : rigid) {
-    if (has_rigid_) bindings_[hlsl] = scene.at(key);
-    else bindings_[hlsl] = compute::make_typed_buffer(ctx, std::string("particles.no_") + hlsl, {1, 12}, DType::UINT32, true);
+  // rigid colliders and bodies, or one-element stand-ins of the element the passes declare
+  struct Rigid {
+    const char *hlsl, *key;
+    int64_t words;  // 4-byte words an element
+    DType type;
+  };
+  const Rigid rigid[] = {
+      {"env_rigid_ranges", "rigid.env_ranges", sizeof(shader::EnvRigidRange) / 4, DType::UINT32},
+      {"colliders", "rigid.colliders", sizeof(shader::ColliderModel) / 4, DType::UINT32},
+      {"bodies", "rigid.bodies", sizeof(shader::BodyModel) / 4, DType::UINT32},
+      {"body_positions", "rigid.positions", 4, DType::FLOAT32},
+      {"body_rotations", "rigid.rotations", 4, DType::FLOAT32},
+      {"body_linear_velocities", "rigid.linear_velocities", 4, DType::FLOAT32},
+      {"body_angular_velocities", "rigid.angular_velocities", 4, DType::FLOAT32},
+      {"body_contact_forces", "rigid.contact_forces", 4, DType::FLOAT32},
+      {"body_contact_torques", "rigid.contact_torques", 4, DType::FLOAT32}};
+  for (const auto& r : rigid) {
+    if (has_rigid_) bindings_[r.hlsl] = scene.at(r.key);
+    else bindings_[r.hlsl] = compute::make_typed_buffer(ctx, std::string("particles.no_") + r.hlsl, {1, r.words}, r.type, true);
   }
+
+  // per dynamic body, how many particles pushed it in the last iteration that any did (mass
+  // splitting in particle_gather: each contact takes 1/count of the body's mass)
+  const int64_t nb = has_rigid_ ? scene.at("rigid.bodies")->shape[0] : 1;
+  scratch("body_contact_counts", "particles.body_contact_counts", {std::max<int64_t>(nb, 1)}, DType::UINT32);
 
   // passes
   integrate_ = pass("physics/particle_integrate", uint64_t(n));
@@ -203,6 +222,7 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
     auto p = compute::create_builtin_pass(ctx, s.shader, b);
     all_.push_back(p);
     Family f{p, nullptr, &s};
+    if (s.rows_per_record) moving_.push_back(p.get());  // the elastic solve's contacts
     if (largest_env_ <= shader::PARTICLE_BLOCK_CAPACITY && std::count(shaders.begin(), shaders.end(), s.shader + ".block")) {
       b["env_colours"] = in("", "particles." + s.name + "_env_colours", s.env_colours,
                             {int64_t(s.env_colours.size() / 2), 2}, DType::UINT32);
@@ -220,12 +240,14 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   gather_ = pass("physics/particle_gather", uint64_t(n));
   if (na > 0) attach_ = pass("physics/particle_attach", uint64_t(na));
   velocity_ = pass("physics/particle_velocity", uint64_t(n));
-  if (const auto* tets = model_.set("tet"); tets && !tets->records.empty()) {
+  if (elastic) {
     support_ = pass("physics/particle_tet_support", 1);
     support_->groups = {uint32_t(no), 1, 1};
   }
   // two-way coupling, where an env has dynamic bodies for particles to push
   if (has_rigid_ && dynamic_bodies) rigid_push_ = pass("physics/particle_rigid_push", uint64_t(ne));
+  for (auto* p : {gather_.get(), attach_.get(), fluid_lambda_.get(), neighbors_.get(), rigid_push_.get()})
+    if (p) moving_.push_back(p);
   if (has_rigid_) rigid_forces_ = pass("physics/particle_rigid_forces", uint64_t(ne));
   health_ = pass("physics/particle_health", uint64_t(ne));
   reset_ = pass("physics/particle_reset", uint64_t(std::max({n, na, no, ne_})));
@@ -344,8 +366,7 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
   for (uint32_t s = 0; s < substeps; ++s) {
     // passes that look at moving bodies see them where they are at the end of this substep
     const float done = float(s + 1) / float(substeps);
-    for (auto* p : {gather_.get(), attach_.get(), fluid_lambda_.get(), neighbors_.get()})
-      if (p) std::memcpy(p->constants.data() + offsetof(shader::ParticleConstants, grid) + 4, &done, 4);
+    for (auto* p : moving_) std::memcpy(p->constants.data() + offsetof(shader::ParticleConstants, grid) + 4, &done, 4);
     for (VkBuffer b : per_substep_clears_) vkCmdFillBuffer(cmd, b, 0, VK_WHOLE_SIZE, 0);
     run(integrate_);
     run(orient_integrate_);

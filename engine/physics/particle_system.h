@@ -69,6 +69,8 @@ class ParticleSystem {
     const ConstraintSet* set;
   };
   std::vector<Family> families_;
+  // passes that place moving bodies along the frame (their constants carry the substep's progress)
+  std::vector<compute::ComputePass*> moving_;
   uint32_t largest_env_ = 0, largest_env_index_ = 0;  // particles of the biggest env
   // per family: the env reset of its cut flags, and its record count
   std::vector<std::pair<std::shared_ptr<compute::ComputePass>, uint32_t>> cut_resets_;

@@ -173,6 +173,8 @@ Renderer::Renderer(std::shared_ptr<gpu::Context> ctx, RenderModel model, uint64_
   // bound where a group does not write a product (its writes are skipped)
   compute_bound["unused_output"] = make(ctx_, internal, "render.unused_output", std::vector<uint32_t>{}, {1},
                                         DType::UINT32, generation);
+  compute_bound["unused_depth"] = make(ctx_, internal, "render.unused_depth", std::vector<float>{}, {1},
+                                       DType::FLOAT32, generation);
 
   const VkImageUsageFlags target = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
   for (size_t g = 0; g < model_.groups.size(); ++g) {
@@ -199,7 +201,7 @@ Renderer::Renderer(std::shared_ptr<gpu::Context> ctx, RenderModel model, uint64_
     particles_->add_group(uint32_t(g),
                           {{"out_rgb", rgb ? t.rgb_out : compute_bound.at("unused_output")},
                            {"out_segmentation", seg ? t.segmentation_out : compute_bound.at("unused_output")},
-                           {"scene_depth", t.scene_depth ? t.scene_depth : compute_bound.at("unused_output")}},
+                           {"scene_depth", t.scene_depth ? t.scene_depth : compute_bound.at("unused_depth")}},
                           grp.products);
     const uint32_t products = grp.products | (t.scene_depth ? uint32_t(scene::PRODUCT_DEPTH) : 0u);
     if (use_compute) {
@@ -210,7 +212,7 @@ Renderer::Renderer(std::shared_ptr<gpu::Context> ctx, RenderModel model, uint64_
       b["group_cameras"] = make(ctx_, internal, "render.group" + std::to_string(g) + "_cameras", by_layer,
                                 {int64_t(by_layer.size())}, DType::UINT32, generation);
       b["out_rgb"] = rgb ? t.rgb_out : compute_bound.at("unused_output");
-      b["out_depth"] = t.scene_depth ? t.scene_depth : compute_bound.at("unused_output");
+      b["out_depth"] = t.scene_depth ? t.scene_depth : compute_bound.at("unused_depth");
       b["out_segmentation"] = seg ? t.segmentation_out : compute_bound.at("unused_output");
       auto pass = compute::create_builtin_pass(ctx_, "render/raster_compute", b);
       const uint32_t tiles_x = (grp.width + 63) / 64, tiles_y = (grp.height + 31) / 32;

@@ -93,3 +93,14 @@ bool sphere_penetration(float3 x, float r, ColliderModel c, ColliderPose s, out 
   }
   return false;
 }
+
+// Coulomb friction between a particle object (material.y) and a collider (material.x)
+float contact_friction(float object_friction, ColliderModel c) {
+  return sqrt(object_friction * c.material.x);
+}
+
+// how far the collider's surface at x moves over a substep of h seconds (friction is slip against it)
+float3 surface_motion(ColliderPose s, float3 x, float h) {
+  return h * (s.v + cross(s.w, x - s.body_p));
+}
+

@@ -9,7 +9,7 @@ import pytest
 import cressim
 
 from .fem_reference import static_displacement
-from .particle_scenes import positions, start, step
+from .particle_scenes import positions, start, static, step
 
 DENSITY = 1000.0
 SETTLE_FRAMES = 180  # 3 s at the default 60 Hz
@@ -65,6 +65,31 @@ def test_stiffness_does_not_follow_the_iteration_count(make_engine):
     tip = np.asarray(mesh.positions)[:, 0] > 0.03 - 1e-6
     sags = [-_settle(make_engine, mesh, clamped, 1e5, 0.3, particle_iterations=n)[0][tip, 2].mean() for n in (1, 8)]
     assert abs(sags[0] - sags[1]) / sags[1] < 0.02, sags
+
+
+@pytest.mark.parametrize("cells", [2, 4])
+def test_a_block_resting_on_a_floor_matches_the_fem_reference(make_engine, cells):
+    """Held by contacts instead of clamped particles: a 40 mm cube of 20 kPa tissue on a
+    frictionless floor against the same mesh on a sliding support; at 1 and 4 iterations."""
+    mesh = cressim.TetMesh.box((0.02, 0.02, 0.02), (cells,) * 3)
+    rest = np.asarray(mesh.positions, dtype=np.float64)
+    ref = static_displacement(rest, np.asarray(mesh.tets), lambda x: x[2] < -0.02 + 1e-6, 2e4, 0.45, DENSITY,
+                              sliding=True)
+    top = rest[:, 2] > 0.02 - 1e-6
+    ref_drop = -ref[top, 2].mean()
+    assert 3e-4 < ref_drop < 5e-4  # rho g H^2 / 2E = 0.39 mm (uniaxial)
+    radius = 0.002
+    for iterations in (1, 4):
+        world = cressim.World(cressim.SceneLayout(1))
+        static(world, 0, [cressim.Shape.plane()], "floor")
+        block = world.create_entity(env=0, name="tissue")
+        block.add(cressim.Transform(position=(0, 0, 0.02 + radius)))  # particle spheres touch the floor
+        block.add(cressim.SoftBody(mesh, youngs_modulus=2e4, poisson_ratio=0.45, density=DENSITY, radius=radius,
+                                   friction=0.0, damping=5.0))
+        engine = start(world, make_engine, particle_iterations=iterations)
+        step(engine, SETTLE_FRAMES)
+        drop = 0.04 + radius - positions(engine)[top, 2].mean()
+        assert abs(drop - ref_drop) / ref_drop < 0.05, (iterations, drop, ref_drop)
 
 
 def test_mass_is_density_times_volume(make_engine):
