@@ -4,6 +4,7 @@
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-a           # CartPole, rendering
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-b bench-twin  # ultrasound; the twin
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-soft bench-fluid  # SoftBodyPush, FluidPour
+#   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-soft-material      # elastic tets' cost
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-r bench-us  # render extras, ultrasound
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-pr          # particles drawn by the renderer
 #   source .gpu/prelude.sh; CRESSIM_TESTS=OFF bash benchmarks/gpu_batch.sh setup bench-tc bench-ppo  # PPO
@@ -84,6 +85,10 @@ for stage in "$@"; do
         --mode step --out "$OUT/softbodypush"
       run softbodypush_ppo 150 python3 -m cressim bench SoftBodyPush --envs ${SOFT_PPO_ENVS:-512} --mode both \
         --out "$OUT/softbodypush_ppo"
+      ;;
+    bench-soft-material)  # the elastic material against XPBD compliances, and the solver knobs
+      run soft_material 200 python3 benchmarks/bench_soft_material.py --envs ${SOFT_MATERIAL_ENVS:-512,4096} \
+        --json "$OUT/soft_material.json"
       ;;
     bench-fluid)
       mkdir -p "$OUT/fluidpour" "$OUT/fluidpour_ppo"
