@@ -3,7 +3,9 @@
 // offset from the current poses. A slot that holds a strand frame also turns that segment's
 // material frame to the body's rotation times the held offset (the same share rule on the
 // frame's inverse inertia), so a turning tool twists the thread. Slots are created and
-// released by writing control.particle_attachments, so no buffer changes size.
+// released by writing control.particle_attachments, so no buffer changes size. (The elastic
+// solve leaves a rigidly held particle where it is and reports its load on the body:
+// particle_tet.comp.hlsl.)
 #include "cressim/layout.h"
 #include "cressim/particle.h"
 #include "cressim/quat.h"

@@ -36,7 +36,12 @@ StructuredBuffer<float4> velocities;
 StructuredBuffer<ParticleObject> objects;
 StructuredBuffer<BodyModel> bodies;
 RWStructuredBuffer<float4> positions;
-RWStructuredBuffer<float4> tet_contact_forces;  // xyz N on the kinematic body touched (this iteration), w body + 1
+// per particle, this iteration: xyz the load it puts on what holds it (N: the force of its contact
+// on a kinematic body, or the force left unbalanced where a rigid attachment holds it), w body + 1
+// (0: none)
+RWStructuredBuffer<float4> tet_contact_forces;
+RWStructuredBuffer<float4> rigid_contacts;  // xyz the contact point on that body
+StructuredBuffer<ParticleAttachment> attachments;
 
 #include "particle_collide.hlsli"
 
@@ -51,8 +56,9 @@ float3 solve3(float3x3 H, float3 b) {
 // the substep's start); keep it when the contact force that holds it there, H (stick - xi) - f,
 // lies in the friction cone, else slide on the surface with the Coulomb force mu F_n along that
 // force's tangential part. Colliders are taken in turn, each adding its force to f. Returns the
-// force on the last kinematic body touched (w body + 1).
-float4 contact_step(inout float3 x, float3 xi, float3x3 H, float3 f, float3 x0, uint4 ph) {
+// force on the last kinematic body touched (w body + 1) and the contact point.
+float4 contact_step(inout float3 x, float3 xi, float3x3 H, float3 f, float3 x0, uint4 ph, out float3 touch) {
+  touch = x;
   float4 on_body = float4(0, 0, 0, 0);
   const EnvRigidRange er = env_rigid_ranges[ph.z];
   const float r = objects[ph.y].material.x, object_friction = objects[ph.y].material.y, h = pc.gravity.w;
@@ -84,7 +90,10 @@ float4 contact_step(inout float3 x, float3 xi, float3x3 H, float3 f, float3 x0, 
     }
     x = stick;
     f += force;
-    if (b != CRESSIM_NONE) on_body = float4(on_body.xyz - force, float(b + 1));
+    if (b != CRESSIM_NONE) {
+      on_body = float4(on_body.xyz - force, float(b + 1));
+      touch = x - r * n;
+    }
   }
   return on_body;
 }
@@ -124,8 +133,27 @@ void main(uint3 id : SV_DispatchThreadID) {
                   l * cb.y * cb.x, s + l * cb.y * cb.y, l * cb.y * cb.z,
                   l * cb.z * cb.x, l * cb.z * cb.y, s + l * cb.z * cb.z);
   }
+  // Held rigidly by an attachment slot (particle_attach places it on its body): not moved here; the
+  // force left unbalanced is what the body bears (a tool reads the weight of tissue it lifts).
+  const uint per_env = pc.attachment_count / max(pc.env_count, 1u), env = phases[i].z;
+  for (uint s = env * per_env; s < (env + 1) * per_env; ++s) {
+    const ParticleAttachment at = attachments[s];
+    if (at.ids.z == ATTACH_FREE || at.ids.x != i || at.local.w > 0) continue;
+    tet_contact_forces[i] = float4(f, float(at.ids.y + 1));
+    rigid_contacts[i] = float4(xi.xyz, 0);
+    return;
+  }
   if (!(determinant(H) > 0)) return;
   float3 x = xi.xyz + solve3(H, f);
-  if (pc.has_rigid != 0) tet_contact_forces[i] = contact_step(x, xi.xyz, H, f, prev_positions[i].xyz, phases[i]);
+  float4 load = float4(f, 0);
+  if (pc.has_rigid != 0) {
+    float3 touch;
+    const float4 on_body = contact_step(x, xi.xyz, H, f, prev_positions[i].xyz, phases[i], touch);
+    if (on_body.w > 0) {
+      load = on_body;
+      rigid_contacts[i] = float4(touch, 0);
+    }
+  }
+  tet_contact_forces[i] = load;
   positions[i].xyz = x;
 }
