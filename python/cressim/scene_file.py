@@ -205,15 +205,19 @@ def _quat_look_at(eye, target, up=(0.0, 0.0, 1.0)) -> tuple[float, ...]:
 
 
 class _Loader:
-    def __init__(self, root: Field, base: Path):
+    def __init__(self, root: Field, base: Path, *, segmentation_offset: int = 0, skip: tuple = ()):
         self.root, self.base = root, base
+        self.segmentation_offset, self.skip = segmentation_offset, skip
+        self.labels: dict[int, str] = {}  # segmentation id -> the entity that drew it
         self.meshes: dict[str, int] = {}
         self.textures: dict[str, int] = {}
         self.materials: dict[str, dict] = {}
         self.material_fields: dict[str, dict[str, Field]] = {}
         self.inline_meshes: dict[tuple, int] = {}
 
-    def load(self) -> cressim.World:
+    def load(self, world: cressim.World | None = None) -> cressim.World:
+        """A new world, or the file's entities added to every env of `world` (its envs and
+        layout then stand; the file's are checked but not used)."""
         top = self.root.keys(("envs", "layout", "environment", "meshes", "textures", "materials", "entities"))
         envs = top["envs"].int(1) if "envs" in top else 1
         layout = {}
@@ -221,7 +225,9 @@ class _Loader:
             for k, f in top["layout"].keys(("max_renderables_per_env", "max_lights_per_env",
                                             "max_cameras_per_env")).items():
                 layout[k] = f.int(1)
-        self.world = cressim.World(cressim.SceneLayout(envs, **layout))
+        if world is not None:
+            envs = world.layout.num_envs
+        self.world = world if world is not None else cressim.World(cressim.SceneLayout(envs, **layout))
         for name, f in (top["textures"].items() if "textures" in top else {}).items():
             self.textures[name] = self.world.add_texture(self.texture(f))
         for name, f in (top["meshes"].items() if "meshes" in top else {}).items():
@@ -330,7 +336,10 @@ class _Loader:
     def entity(self, env: int, f: Field) -> None:
         e = f.keys(("name", "transform", "renderable", "camera", "light", "rigid_body", "collider", "soft_body",
                     "fluid", "strand", "material"))
+        if any(k in e for k in self.skip):
+            return
         name = e["name"].str() if "name" in e else ""
+        self.entity_name = name
         ent = self.world.create_entity(env=env, name=name)
         ent.add(self.transform(e["transform"]) if "transform" in e else cressim.Transform())
         for key, make in (("renderable", self.renderable), ("camera", self.camera), ("light", self.light),
@@ -420,8 +429,14 @@ class _Loader:
             opts.update(self.materials[name])
         opts.update(self.material({k: v for k, v in r.items() if k in MATERIAL_KEYS}))
         if "segmentation_id" in r:
-            opts["segmentation_id"] = r["segmentation_id"].int(1)
+            opts["segmentation_id"] = self.label(r["segmentation_id"].int(1))
         return cressim.Renderable(mesh, **opts)
+
+    def label(self, segmentation_id: int) -> int:
+        """The id drawn (offset when the scene joins a world that numbers its own first) and its name."""
+        drawn = segmentation_id + self.segmentation_offset
+        self.labels[drawn] = self.entity_name
+        return drawn
 
     # particle objects: their parameters as keyword arguments, their points from a generator
     @staticmethod
@@ -492,7 +507,7 @@ class _Loader:
             m = f.keys(("color", "metallic", "roughness", "segmentation_id"))
             opts = self.material({k: v for k, v in m.items() if k != "segmentation_id"})
             if "segmentation_id" in m:
-                opts["segmentation_id"] = m["segmentation_id"].int(1)
+                opts["segmentation_id"] = self.label(m["segmentation_id"].int(1))
         return cressim.Material(**opts)
 
     def camera(self, f: Field) -> cressim.Camera:
@@ -554,6 +569,19 @@ class _Loader:
 def load_scene(path) -> cressim.World:
     """The World a scene file describes (see the module's docstring for the format)."""
     path = Path(path)
+    return _loader(path).load()
+
+
+def add_scene(world: cressim.World, path, *, segmentation_offset: int = 0, skip: tuple = ("camera",)) -> dict:
+    """Adds the entities of scene file `path` to every env of `world` (the twin puts them beside
+    its arm), leaving out entities with a component named in `skip` (the twin has its own
+    camera); segmentation ids are offset by `segmentation_offset`. Returns {id: entity name}."""
+    loader = _loader(Path(path), segmentation_offset=segmentation_offset, skip=skip)
+    loader.load(world)
+    return dict(loader.labels)
+
+
+def _loader(path: Path, **options) -> _Loader:
     text = path.read_text()
     try:
         node = yaml.compose(text)
@@ -563,4 +591,4 @@ def load_scene(path) -> cressim.World:
         raise SceneFileError(f"{where}: not valid YAML: {getattr(e, 'problem', e)}") from None
     if node is None:
         raise SceneFileError(f"{path}:1: the file is empty")
-    return _Loader(Field(node, str(path), ""), path.parent).load()
+    return _Loader(Field(node, str(path), ""), path.parent, **options)

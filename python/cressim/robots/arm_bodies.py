@@ -190,8 +190,7 @@ class ArmBodies:
 
         plan = scenery
         if plan is not None:
-            layout = cressim.SceneLayout(num_envs, max_renderables_per_env=plan.renderables_per_env(len(bodies)),
-                                         max_lights_per_env=1, max_cameras_per_env=1)
+            layout = cressim.SceneLayout(num_envs, **plan.layout_limits(len(bodies)))
         else:
             layout = cressim.SceneLayout(num_envs)
         world = cressim.World(layout)
@@ -230,6 +229,8 @@ class ArmBodies:
                                     max_force=spec["drive"][2]))
                 joint_ids[env, k] = e.id
         self.body_names = [b.name for b in bodies]
+        self._body_frames = {link.name: (k, np.linalg.solve(b.pose, poses[link.name])) for k, b in enumerate(bodies)
+                             for link in b.links}
         self.body_entity_ids = body_ids  # (N, B): the entity of each body in each env
         body_of_link = {link.name: k for k, b in enumerate(bodies) for link in b.links}
         self.link_entity_ids = body_ids[:, [body_of_link[n] for n in self.link_names]]  # (N, L)
@@ -241,7 +242,9 @@ class ArmBodies:
         substeps = int(round(physics_rate / publish_rate))
         self.engine.physics = cressim.PhysicsSettings(dt=1.0 / publish_rate, substeps=substeps,
                                                       iterations=self.solver_iterations,
-                                                      gravity=tuple(float(g) for g in self.gravity))
+                                                      gravity=tuple(float(g) for g in self.gravity),
+                                                      **(plan.physics_settings() if plan is not None else {}))
+        self.simulated = plan is not None and plan.simulated()  # a world that moves by itself (particles)
         self.dt = 1.0 / publish_rate
         self.engine.prepare()
         self.engine.upload_world()
@@ -547,6 +550,24 @@ class ArmBodies:
         here = torch.where(torch.isfinite(measured), measured, coords)
         target = torch.where(self._hinge, here + (target - here).clamp(-MAX_HINGE_STEP, MAX_HINGE_STEP), target)
         self.joint_targets[rows.reshape(-1), 0] = target.reshape(-1).to(self.joint_targets)
+
+    def link_point(self, link: str, point) -> tuple[np.ndarray, np.ndarray]:
+        """Where a point given in `link`'s frame sits on the body that carries the link: (each env's
+        entity of that body (N,), the point in the body's frame (3,))."""
+        k, frame = self._body_frames[link]
+        return self.body_entity_ids[:, k].copy(), (frame @ np.append(np.asarray(point, float), 1.0))[:3]
+
+    def contact_wrench(self, links, point: torch.Tensor) -> torch.Tensor:
+        """(N, 6) float64 on the CPU: force (N) and torque (N m) about `point` ((N, 3), world) that
+        contacts and held particles exert on the bodies carrying `links`, summed (world axes)."""
+        ks = sorted({self._body_frames[name][0] for name in links})
+        rows = self.body_rows[:, ks]
+        force = torch.from_dlpack(self.engine.buffer("rigid.contact_forces"))[rows, :3]
+        torque = torch.from_dlpack(self.engine.buffer("rigid.contact_torques"))[rows, :3]
+        origin = torch.from_dlpack(self.engine.buffer("rigid.positions"))[rows, :3]
+        force, torque, origin = (t.to(**self._on) for t in (force, torque, origin))
+        arm = origin - point.to(**self._on)[:, None, :]
+        return torch.cat([force.sum(1), (torque + torch.linalg.cross(arm, force)).sum(1)], dim=1)
 
     def set_rate(self, dt: float, substeps: int):
         """Frame time (one publish period) and substeps of the engine."""

@@ -24,9 +24,17 @@ answers at once); motion commands need ENABLED and homed; jaw commands are clipp
 limits; a servo, hold, pause, disable or new move stops a running move (`goal_reached` false).
 
 The engine. `bodies` (cressim.robots.ArmBodies) holds the arm's links and the scenery. A
-kinematic arm's links only need posing when a sensor renders, so the engine is stepped by
-whoever renders (`step_engine`, cressim.twin.SensorLoop); a dynamic arm's physics runs in
-`tick`. `engine_lock` serialises the two.
+kinematic arm over a still world only needs posing when a sensor renders, so the engine is
+stepped by whoever renders (`step_engine`, cressim.twin.SensorLoop); a dynamic arm's physics, and
+any arm's in a world that moves by itself (tissue, blood: the scene's `world` file), runs in
+`tick`, every tick. `engine_lock` serialises the two.
+
+Tissue. In a world with particles the needle driver's jaws grasp (cressim.passes.Grasp): once the
+measured jaw angle falls below `arm.grasp.closed_below` they take the particles within
+`arm.grasp.reach` of the middle of the jaws and hold them to the wrist until the angle rises
+again. `tool_wrench` (N, 6: force N, torque N m about the tool tip, world axes) is what
+contacts and held tissue exert on the tool (shaft, wrist and jaws) over the last tick; the
+snapshot gives it in the base frame (`spatial_cf`) and the tip frame (`body_cf`).
 """
 from __future__ import annotations
 
@@ -48,6 +56,10 @@ from .scene import Scene
 from .scenery import CameraSpec, SceneryPlan, UltrasoundSpec
 from .sensor_loop import process_threads
 from .trajectory import BatchedTrajectory
+from cressim.passes.grasp import Grasp
+
+TOOL_LINKS = ("shaft_link", "wrist_pitch_link", "wrist_yaw_link", "jaw_1_link", "jaw_2_link")  # name endings
+GRASP_POINT = (0.0, 0.006, 0.0)  # m, in the wrist yaw link: between the jaws (10 mm long along its +y)
 
 
 class ConfigError(RuntimeError):
@@ -113,7 +125,7 @@ class TwinArms:
                 raise ConfigError(f"{scene.path}: arm.{what}: {problem}")
         camera = CameraSpec(width=config.value("camera_width"), height=config.value("camera_height"),
                             fov_y=scene.camera_fov_y, position=scene.camera_position, look_at=scene.camera_look_at)
-        plan = SceneryPlan(camera, UltrasoundSpec() if config.ultrasound else None) if config.cameras else None
+        plan = SceneryPlan(camera, UltrasoundSpec() if config.ultrasound else None, scene.world) if config.cameras else None
         jaw0 = scene.initial_jaw if self.psm.has_jaw else 0.0
         before = process_threads()
         self.bodies = ArmBodies(urdf, self.num_envs, base_position=scene.base_position,
@@ -123,6 +135,16 @@ class TwinArms:
                                 device=config.device)
         self.engine_threads = process_threads() - before  # the Vulkan driver's (SensorLoop.lower_priority)
         self.dynamic = self.bodies.dynamic
+        self.simulated = self.bodies.simulated  # the world moves: the engine steps in every tick
+        names = self.bodies.link_names
+        self.tool_links = [n for n in names if n.endswith(TOOL_LINKS)]
+        self.grasp = None
+        wrist = [n for n in names if n.endswith("wrist_yaw_link")]
+        if self.simulated and self.psm.has_jaw and wrist:
+            bodies, point = self.bodies.link_point(wrist[0], GRASP_POINT)
+            self.grasp = Grasp(self.bodies.engine, bodies, point, scene.grasp_reach)
+        self._grasp_closed = np.zeros(self.num_envs, dtype=bool)
+        self.tool_wrench = torch.zeros(self.num_envs, 6, dtype=torch.float64)
         self.engine_lock = threading.Lock()
         # the arms' state is (N, 6) rows and a few (N, 4, 4): kernel launches and syncs would cost a
         # GPU more than the math, so it lives on the CPU; the engine's buffers stay on its device
@@ -476,7 +498,9 @@ class TwinArms:
             with self.engine_lock:  # the engine's joint drives track the setpoint; other links follow measured
                 self.bodies.set_targets(self.setpoint, self.jaw_sp)
                 self.bodies.write(self.measured, self.jaw_meas)
+                self._grasp()
                 self.bodies.step()
+                self._sense_tool()
                 q_m, qd_m, jaw_m, jawd_m = (t.cpu() for t in self.bodies.read_joints())
                 dof = self.psm.dof
                 self.measured, self.measured_v = self.measured.clone(), self.measured_v.clone()
@@ -490,6 +514,13 @@ class TwinArms:
             new_jaw = self.jaw_meas + alpha * (self.jaw_sp - self.jaw_meas)
             self.measured_v, self.jaw_meas_v = (new_meas - self.measured) / dt, (new_jaw - self.jaw_meas) / dt
             self.measured, self.jaw_meas = new_meas, new_jaw
+            if self.simulated:  # the world moves on its own: physics every tick, at the new measured
+                with self.engine_lock:
+                    self.bodies.write(self.measured, self.jaw_meas)
+                    self._grasp()
+                    self.bodies.step()
+                    self._sense_tool()
+                    self._collect_faults()
         events += self._finish_motions(finished, jfinished)
         for env, flags in self._take_faults():
             events += self._fault(env, flags)
@@ -499,7 +530,8 @@ class TwinArms:
         """Engine work outside the tick (a sensor frame): a kinematic arm's links are posed at
         the measured joints and stepped with the sensors; a dynamic arm's physics ran in the
         tick, so only the sensors run. Call with `engine_lock` held."""
-        if not self.dynamic:
+        posed_here = not self.dynamic and not self.simulated
+        if posed_here:
             self.bodies.write(self.measured, self.jaw_meas)
             self.bodies.engine.step_physics()
         if render:
@@ -507,8 +539,25 @@ class TwinArms:
         if sense:
             self.bodies.engine.step_simulation_sensors()
         self.bodies.engine.end_frame()
-        if not self.dynamic:
+        if posed_here:
             self._collect_faults()
+
+    def _grasp(self):
+        """The jaws' grasp follows the measured jaw angle (the GPU pass acts on a change)."""
+        if self.grasp is None:
+            return
+        closed = (self.jaw_meas[:, 0] < self.scene.grasp_closed_below).numpy()
+        if (closed != self._grasp_closed).any():
+            self.grasp.set(closed)
+            self._grasp_closed = closed
+        self.grasp.execute()
+
+    def _sense_tool(self):
+        """The tick's contact wrench on the tool, about its tip (world axes)."""
+        if not self.tool_links:
+            return
+        tip = (self.bodies.base @ self.kin.forward(self.measured))[:, :3, 3]
+        self.tool_wrench = self.bodies.contact_wrench(self.tool_links, tip)
 
     def _collect_faults(self):
         """Envs the engine flagged in the frame just run (one small read); their measured state
@@ -621,6 +670,14 @@ class TwinArms:
                 parts += [J.reshape(N, 36), body_jacobian(J, T_meas).reshape(N, 36)]
                 names += ["spatial_jacobian", "body_jacobian"]
                 widths += [36, 36]
+            # the tool's contact wrench: world axes -> the RCM frame -> measured_cp's frame, and the tip's
+            R_world = self.bodies.base[:3, :3].to(self.tool_wrench)
+            local = (R_world.T @ self.tool_wrench.reshape(N, 2, 3).transpose(1, 2)).transpose(1, 2)  # (N, 2, 3)
+            spatial = (base[:, None, :3, :3] @ local[..., None]).squeeze(-1)
+            body = (T_meas[:, None, :3, :3].transpose(-1, -2) @ local[..., None]).squeeze(-1)
+            parts += [spatial.reshape(N, 6), body.reshape(N, 6)]
+            names += ["spatial_cf", "body_cf"]
+            widths += [6, 6]
         host = torch.cat(parts, dim=1).cpu().numpy()
         fields, o = {}, 0
         for name, width in zip(names, widths):

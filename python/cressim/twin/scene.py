@@ -53,6 +53,9 @@ class Scene:
     camera_look_at: tuple = (0.0, 0.0, 0.19)
     sensors: tuple = SENSORS
     record: str = ""
+    world: str = ""  # an engine scene file (scenes/*.yaml) around the arm; empty: a rigid block
+    grasp_reach: float = 0.004  # m: the jaws take the particles this near their middle
+    grasp_closed_below: float = 0.25  # rad: the jaws grasp once the measured jaw angle is below this
     lines: dict = field(default_factory=dict, repr=False)  # field -> "file:line:col" (for later checks)
 
 
@@ -91,10 +94,11 @@ def parse_scene(text: str, path: str = "<string>") -> Scene:
     if root is None:  # an empty file: all defaults
         return scene
     p = _Parser(path)
-    top = p.mapping(root, "", {"arm", "num_envs", "rates", "camera", "sensors", "record"})
+    top = p.mapping(root, "", {"arm", "num_envs", "rates", "camera", "sensors", "record", "world"})
     if "arm" in top:
         arm = p.mapping(top["arm"], "arm", {"name", "robot", "dynamics", "base", "initial_jp", "initial_jaw",
-                                            "home_jp", "measured_lag", "trajectory", "stale_command_after"})
+                                            "home_jp", "measured_lag", "trajectory", "stale_command_after",
+                                            "grasp"})
         if "name" in arm:
             scene.arm = p.name(arm["name"], "arm.name")
         if "robot" in arm:
@@ -121,6 +125,13 @@ def parse_scene(text: str, path: str = "<string>") -> Scene:
             scene.measured_lag = p.number(arm["measured_lag"], "arm.measured_lag", low=0.0, high=1.0)
         if "stale_command_after" in arm:
             scene.stale_command_after = p.number(arm["stale_command_after"], "arm.stale_command_after", low=0.0)
+        if "grasp" in arm:
+            grasp = p.mapping(arm["grasp"], "arm.grasp", {"reach", "closed_below"})
+            if "reach" in grasp:
+                scene.grasp_reach = p.number(grasp["reach"], "arm.grasp.reach", low=1e-4, high=0.05)
+            if "closed_below" in grasp:
+                scene.grasp_closed_below = p.number(grasp["closed_below"], "arm.grasp.closed_below", low=-0.7,
+                                                    high=1.4)
         if "trajectory" in arm:
             traj = p.mapping(arm["trajectory"], "arm.trajectory", {"velocity_ratio", "acceleration_ratio"})
             if "velocity_ratio" in traj:
@@ -160,6 +171,13 @@ def parse_scene(text: str, path: str = "<string>") -> Scene:
         scene.sensors = tuple(p.choice(item, "sensors", SENSORS) for item in node.value)
     if "record" in top:
         scene.record = "" if _is_null(top["record"]) else p.string(top["record"], "record")
+    if "world" in top and not _is_null(top["world"]):
+        name = p.string(top["world"], "world")
+        try:  # beside the twin's file, or by name in scenes/
+            found = Path(path).parent / name if (Path(path).parent / name).is_file() else find_scene(name)
+        except SceneError:
+            p.fail(top["world"], "world", f"no scene file {name!r} (beside {path} or in scenes/)")
+        scene.world = str(found)
     # a check across fields, reported at the line of the one to change
     ratio = scene.physics_rate / scene.publish_rate
     if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:

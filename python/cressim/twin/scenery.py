@@ -2,6 +2,13 @@
 one camera per env, authored into the engine's world next to the arm's bodies; optionally an
 ultrasound probe on the tissue with scatterers in the tissue under it.
 
+World. With an engine scene file (the twin file's `world:`, scenes/*.yaml in the scene-file
+format of cressim.scene_file), its entities replace the rigid table and block in every env:
+soft tissue, blood, threads, tables, lights (its cameras are left out: the twin's camera is its
+own). Its segmentation ids are shifted past the arm's, and `labels` names them by entity. A
+world with particles is simulated: the twin steps the engine every tick (TwinArms), with the
+attachment slots the jaws' grasp needs (`PARTICLE_SETTINGS`).
+
 Visuals. Each arm body gets one Renderable (cressim.robots.ArmVisuals: its links' URDF visual
 geometry merged into one mesh, shared by all envs). The scenery is visual only: it has no colliders, so it never changes the arm's motion.
 
@@ -21,14 +28,20 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 import trimesh
+import yaml
 
 import cressim
 from cressim.robots.kinematics import rotation_xyzw
+from cressim.scene_file import add_scene
 
 TISSUE_HALF = (0.05, 0.04, 0.01)  # m: a block of tissue under the tool
 TISSUE_COLOR = (0.78, 0.38, 0.36, 1.0)
 TABLE_HALF = 0.4
 TABLE_COLOR = (0.35, 0.42, 0.35, 1.0)
+# particle solver of a simulated world: the elastic solve at its defaults, and attachment slots for
+# the jaws' grasp (cressim.passes.Grasp: the particles within reach, nearest first)
+PARTICLE_SETTINGS = dict(particle_iterations=4, max_particle_attachments_per_env=8)
+PARTICLE_KEYS = ("soft_body", "fluid", "strand")
 
 
 @dataclass(frozen=True)
@@ -92,23 +105,46 @@ def engine_mesh(mesh: trimesh.Trimesh) -> cressim.Mesh:
 @dataclass(frozen=True)
 class SceneryPlan:
     """What cressim.robots.ArmBodies builds next to the arm: it sizes the layout with
-    `renderables_per_env` and calls `build` once the arm's bodies and visuals are known."""
+    `layout_limits`, adds `physics_settings` to the engine's and calls `build` once the arm's
+    bodies and visuals are known."""
     camera: CameraSpec
     ultrasound: UltrasoundSpec | None = None
+    world: str = ""  # an engine scene file; empty: the rigid table and block
 
-    @staticmethod
-    def renderables_per_env(num_bodies: int) -> int:
-        return num_bodies + 2  # the arm's bodies, the table and the tissue
+    def _file(self) -> dict:
+        if not self.world:
+            return {}
+        with open(self.world) as f:  # checked in full when the world loads (cressim.scene_file)
+            return yaml.safe_load(f) or {}
+
+    def _entities(self) -> list:
+        return self._file().get("entities") or []
+
+    def layout_limits(self, num_bodies: int) -> dict:
+        if not self.world:  # the arm's bodies, the table and the tissue
+            return dict(max_renderables_per_env=num_bodies + 2, max_lights_per_env=1, max_cameras_per_env=1)
+        entities = self._entities()
+        lights = 1 + sum("light" in e for e in entities) + ("environment" in self._file())
+        return dict(max_renderables_per_env=num_bodies + 2 + sum("renderable" in e for e in entities),
+                    max_lights_per_env=lights, max_cameras_per_env=1)
+
+    def simulated(self) -> bool:
+        """Whether the world moves by itself (particles), so the engine steps every tick."""
+        return any(k in e for e in self._entities() for k in PARTICLE_KEYS)
+
+    def physics_settings(self) -> dict:
+        return dict(PARTICLE_SETTINGS) if self.simulated() else {}
 
     def build(self, world, visuals) -> "Scenery":
-        return Scenery(world, visuals, self.camera, self.ultrasound)
+        return Scenery(world, visuals, self.camera, self.ultrasound, self.world)
 
 
 class Scenery:
     """Authors visuals, scenery, light and camera into a world (call `add_env` for each env)."""
 
-    def __init__(self, world, visuals, camera: CameraSpec, ultrasound: UltrasoundSpec | None = None):
-        self.camera, self.ultrasound = camera, ultrasound
+    def __init__(self, world, visuals, camera: CameraSpec, ultrasound: UltrasoundSpec | None = None,
+                 scene_file: str = ""):
+        self.camera, self.ultrasound, self.scene_file = camera, ultrasound, scene_file
         self.visuals = visuals
         self.body_meshes = [None if m is None else world.add_mesh(engine_mesh(m)) for m in visuals.meshes]
         self.tissue_mesh = world.add_mesh(cressim.Mesh.box(TISSUE_HALF))
@@ -116,7 +152,10 @@ class Scenery:
         n = len(visuals.names)
         self.tissue_id, self.table_id = n + 1, n + 2
         self.labels = {k + 1: name for k, name in enumerate(visuals.names)}
-        self.labels.update({self.tissue_id: "tissue", self.table_id: "table"})
+        if scene_file:  # every env's world at once, its ids after the arm's
+            self.labels.update(add_scene(world, scene_file, segmentation_offset=n))
+        else:
+            self.labels.update({self.tissue_id: "tissue", self.table_id: "table"})
         self.camera_rotation = look_at_rotation(camera.position, camera.look_at)
 
     def add_body_visual(self, entity, body_index: int):
@@ -128,6 +167,20 @@ class Scenery:
     def add_env(self, world, env: int):
         """Table, tissue, light and camera of one env; returns the camera's entity."""
         c = self.camera
+        if not self.scene_file:
+            self._add_block(world, env)
+        light = world.create_entity(env=env, name="light")  # from above, slightly behind the camera
+        light.add(cressim.Transform(rotation=look_at_rotation((0.2, -0.3, 1.0), (0.0, 0.0, 0.0))))
+        light.add(cressim.Light(intensity=1.0, ambient=0.3))
+        camera = world.create_entity(env=env, name="camera")
+        camera.add(cressim.Transform(position=tuple(float(v) for v in c.position), rotation=self.camera_rotation))
+        fx, fy, cx, cy = c.intrinsics()
+        camera.add(cressim.Camera(width=c.width, height=c.height, fx=fx, fy=fy, cx=cx, cy=cy, near=c.near, far=c.far))
+        return camera
+
+    def _add_block(self, world, env: int):
+        """The rigid table and tissue block of a twin without a world file."""
+        c = self.camera
         table = world.create_entity(env=env, name="table")
         table.add(cressim.Transform(position=(0.0, 0.0, c.table_z)))
         table.add(cressim.Renderable(self.table_mesh, color=TABLE_COLOR, segmentation_id=self.table_id))
@@ -137,14 +190,6 @@ class Scenery:
                                       segmentation_id=self.tissue_id))
         if self.ultrasound is not None:
             self._add_ultrasound(world, env, tissue)
-        light = world.create_entity(env=env, name="light")  # from above, slightly behind the camera
-        light.add(cressim.Transform(rotation=look_at_rotation((0.2, -0.3, 1.0), (0.0, 0.0, 0.0))))
-        light.add(cressim.Light(intensity=1.0, ambient=0.3))
-        camera = world.create_entity(env=env, name="camera")
-        camera.add(cressim.Transform(position=tuple(float(v) for v in c.position), rotation=self.camera_rotation))
-        fx, fy, cx, cy = c.intrinsics()
-        camera.add(cressim.Camera(width=c.width, height=c.height, fx=fx, fy=fy, cx=cx, cy=cy, near=c.near, far=c.far))
-        return camera
 
     def probe_pose(self) -> tuple:
         """(position, xyzw) of the probe in the env's world: on the tissue's top face, +z down."""

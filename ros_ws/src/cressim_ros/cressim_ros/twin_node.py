@@ -539,7 +539,8 @@ class TwinNode(Node):
         groups = set(self.cfg["sensors"])
         N, arms = self.num_envs, self.arms
         stamp_ns = stamp.sec * 1_000_000_000 + stamp.nanosec
-        snap = arms.snapshot(cartesian=bool(groups & {"cartesian", "velocity", "tf"}), jacobian="jacobian" in groups)
+        snap = arms.snapshot(cartesian=bool(groups & {"cartesian", "velocity", "tf", "wrench"}),
+                             jacobian="jacobian" in groups)
         names, jaw_names = list(PSM_JOINT_NAMES), ["jaw"]
         zeros6, zeros1 = array("d", [0.0] * 6), array("d", [0.0])
         publish_tf = "tf" in groups and arms.sim_ns >= self._next_tf_ns
@@ -574,9 +575,9 @@ class TwinNode(Node):
                 msgs["body/jacobian"] = _matrix_msg(snap.body_jacobian[env])
             if publish_tf:
                 transforms.append(_transform(stamp, local_frame, tip_frame, snap.local_measured_cp[env]))
-            if "wrench" in groups:  # the arm senses no force yet
-                msgs["spatial/measured_cf"] = _wrench(stamp, base_frame)
-                msgs["body/measured_cf"] = _wrench(stamp, tip_frame)
+            if "wrench" in groups:  # what contacts and held tissue exert on the tool, about its tip
+                msgs["spatial/measured_cf"] = _wrench(stamp, base_frame, snap.spatial_cf[env])
+                msgs["body/measured_cf"] = _wrench(stamp, tip_frame, snap.body_cf[env])
             for k, pubs in enumerate(self.sensor_pubs[env]):
                 for topic, msg in msgs.items():
                     pub = pubs.get(topic)
@@ -683,9 +684,11 @@ def _fill_pose(pose, p):
         float(p[3]), float(p[4]), float(p[5]), float(p[6]))
 
 
-def _wrench(stamp, frame) -> WrenchStamped:
+def _wrench(stamp, frame, w) -> WrenchStamped:
     m = WrenchStamped()
     m.header.stamp, m.header.frame_id = stamp, frame
+    m.wrench.force.x, m.wrench.force.y, m.wrench.force.z = float(w[0]), float(w[1]), float(w[2])
+    m.wrench.torque.x, m.wrench.torque.y, m.wrench.torque.z = float(w[3]), float(w[4]), float(w[5])
     return m
 
 
