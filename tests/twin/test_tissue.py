@@ -1,0 +1,83 @@
+"""The twin over tissue (scenes/psm_retraction.yaml: a flap whose far edge is held to the table),
+without ROS: the needle driver's jaws close on the flap's free edge and hold it while the arm
+lifts, the tool feels the flap (measured_cf), opening lets go, and an env whose jaws stay open
+takes nothing. Two envs, batched."""
+import numpy as np
+import pytest
+import torch
+
+from cressim.twin import JointCommand
+from cressim.twin.scene import SceneError, load_scene, parse_scene
+
+EDGE = np.array([0.0, -0.0175, 0.1545])  # world: the flap's free edge, mid-thickness
+JAW_MIDDLE = 0.006  # m from the tool tip (the jaws' pivot) along the jaws
+LIFT = 0.02
+
+
+def _run(arms, ticks):
+    for _ in range(ticks):
+        arms.tick()
+
+
+def _settle(arms):
+    _run(arms, 5)
+    while any(s.is_busy for s in arms.states):
+        _run(arms, 5)
+
+
+def _tips_at(arms, height, jaws=None):
+    """Every env's tool tip over the edge with the jaws' middle `height` above it (IK at the
+    current setpoint, jaws down as at home); `jaws` (one per env) commands the jaw angles."""
+    for env in range(arms.num_envs):
+        T = arms.kin.forward(arms.setpoint[env:env + 1])[0].clone()
+        T[:3, 3] = torch.as_tensor(EDGE + [0, 0, height + JAW_MIDDLE]) - arms.bodies.base[:3, 3]
+        q, ok = arms.kin.inverse(T[None], arms.setpoint[env:env + 1])
+        assert bool(ok[0])
+        assert not [e for e in arms.move_jp(env, JointCommand(position=q[0].tolist())) if e.topic == "error"]
+        if jaws is not None:
+            arms.jaw_move_jp(env, JointCommand(position=[jaws[env]]))
+    _settle(arms)
+
+
+def test_the_jaws_grasp_lift_and_release_the_flap(make_arms):
+    arms = make_arms(scene=load_scene("psm_retraction.yaml"), num_envs=2)
+    assert arms.simulated and arms.grasp is not None
+    for env in range(2):
+        arms.state_command(env, "enable")
+        arms.state_command(env, "home")
+    _settle(arms)
+    positions = arms.bodies.engine.buffer("particles.positions")
+    flat = positions.read()[:, :3].reshape(2, -1, 3).copy()
+    _tips_at(arms, 0.02, jaws=[0.8, 0.8])
+    _tips_at(arms, 0.0)
+    before = positions.read()[:, :3].reshape(2, -1, 3).copy()
+    arms.jaw_move_jp(0, JointCommand(position=[-0.2]))  # env 0 closes; env 1's jaws stay open
+    _settle(arms)
+    held = arms.grasp.held()
+    assert held[0] > 0 and held[1] == 0
+    _tips_at(arms, LIFT)
+    _run(arms, 100)  # one second held up
+    x = positions.read()[:, :3].reshape(2, -1, 3)
+    slots = arms.bodies.engine.buffer("control.particle_attachments").read()
+    taken = slots[:held[0], 0].astype(np.int64)  # env 0: its slots come first, its particles too
+    np.testing.assert_allclose(x[0, taken, 2] - before[0, taken, 2], LIFT, atol=1e-3)
+    free_edge = flat[0, :, 1] < flat[0, :, 1].min() + 1e-4
+    assert (x[0, free_edge, 2] - flat[0, free_edge, 2]).mean() > 0.5 * LIFT  # the edge comes up with the jaws
+    assert abs(x[1] - flat[1]).max() < 2e-3  # open jaws passed the edge without taking it
+    snap = arms.snapshot()
+    force = snap.spatial_cf[0, :3]
+    weight = 1000.0 * 0.06 * 0.04 * 0.006 * 9.81
+    assert -weight < force[2] < -0.1 * weight  # the tool carries part of the flap's weight
+    assert abs(np.linalg.norm(snap.body_cf[0, :3]) - np.linalg.norm(force)) < 1e-9  # the same force, tip axes
+    assert np.abs(snap.spatial_cf[1]).max() < 1e-6  # nothing on env 1's tool
+    arms.jaw_move_jp(0, JointCommand(position=[0.8]))
+    _settle(arms)
+    _run(arms, 100)
+    assert arms.grasp.held()[0] == 0
+    back = positions.read()[:, :3].reshape(2, -1, 3)
+    np.testing.assert_allclose(back[0, free_edge, 2], flat[0, free_edge, 2], atol=1.5e-3)
+
+
+def test_a_missing_world_file_names_its_line(tmp_path):
+    with pytest.raises(SceneError, match=r"twin.yaml:2:8: world: no scene file 'nowhere.yaml'"):
+        parse_scene("num_envs: 1\nworld: nowhere.yaml\n", str(tmp_path / "twin.yaml"))
