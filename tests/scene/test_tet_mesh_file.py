@@ -6,24 +6,9 @@ import pytest
 
 import cressim
 from cressim.tet_mesh_file import MeshFileError, load_tet_mesh, read_vtk
+from vtk_files import vtk_lines
 
 HALF, CELLS = (0.03, 0.02, 0.003), (3, 2, 2)
-
-
-def vtk_lines(points, cells, types, layout="classic"):
-    """A legacy ASCII VTK unstructured grid: cells are lists of point indices."""
-    out = ["# vtk DataFile Version 3.0" if layout == "classic" else "# vtk DataFile Version 5.1", "test mesh", "ASCII",
-           "DATASET UNSTRUCTURED_GRID", f"POINTS {len(points)} double"]
-    out += [" ".join(repr(float(c)) for c in p) for p in points]
-    if layout == "classic":
-        out += [f"CELLS {len(cells)} {sum(len(c) + 1 for c in cells)}"]
-        out += [" ".join(map(str, [len(c), *c])) for c in cells]
-    else:
-        offsets = np.cumsum([0] + [len(c) for c in cells])
-        out += [f"CELLS {len(cells) + 1} {offsets[-1]}", "OFFSETS vtktypeint64", " ".join(map(str, offsets)),
-                "CONNECTIVITY vtktypeint64"] + [" ".join(map(str, c)) for c in cells]
-    out += [f"CELL_TYPES {len(types)}"] + [str(t) for t in types]
-    return out
 
 
 def write(tmp_path, lines, name="mesh.vtk"):
