@@ -39,6 +39,8 @@ class TetMeshArrays:
 def load_tet_mesh(path, scale: float = 1.0) -> TetMeshArrays:
     """The tet mesh in a .msh or .vtk file, its coordinates multiplied by `scale`."""
     path = Path(path)
+    if not (np.isfinite(scale) and scale > 0):
+        raise ValueError(f"load_tet_mesh: scale must be positive, got {scale}")
     suffix = path.suffix.lower()
     if suffix == ".msh":
         mesh = cressim.TetMesh.load(str(path))

@@ -85,6 +85,8 @@ def test_load_tet_mesh_scales_vtk_and_msh_alike(tmp_path):
         assert geometry(mesh.positions, mesh.triangles) == geometry(2 * box.positions, box.triangles)
     with pytest.raises(MeshFileError, match=r"mesh\.obj: a tet mesh is a Gmsh \.msh or a legacy VTK \.vtk file"):
         load_tet_mesh(tmp_path / "mesh.obj")
+    with pytest.raises(ValueError, match="scale must be positive, got nan"):
+        load_tet_mesh(vtk, scale=float("nan"))
 
 
 def one_tet(**change):
