@@ -283,6 +283,21 @@ def test_a_probe_images_a_rigid_tissue(tmp_path, make_engine):
     assert 20 <= rows.min() and rows.max() <= 44
 
 
+def test_a_tissue_region_is_placed_and_its_amplitudes_drawn_as_written(tmp_path, make_engine):
+    path = write(tmp_path, """
+        entities:
+          - name: tissue
+            ultrasound_tissue: {region: box, size: [0.001, 0.002, 0.003], center: [0.01, 0, 0.02], count: 200,
+                                amplitude_mean: 2, amplitude_std: 0}
+          - name: probe
+            ultrasound_probe: {kind: linear, scanlines: 16, line_length: 0.04}
+        """)
+    scatterers = prepared(make_engine, path).buffer("ultrasound.scatterers").read()  # rigid: xyz, amplitude
+    assert len(scatterers) == 200 and (scatterers[:, 3] == 2).all()
+    offset = np.abs(scatterers[:, :3] - (0.01, 0, 0.02))
+    assert (offset <= np.array([0.001, 0.002, 0.003]) + 1e-7).all() and (offset[:, 2] > 0.002).any()
+
+
 def test_a_soft_tissue_carries_scatterers_in_its_tets_around_its_inclusion(tmp_path, make_engine):
     box_vtk(tmp_path, half=(0.01, 0.01, 0.01), cells=(2, 2, 2))
     path = write(tmp_path, """
