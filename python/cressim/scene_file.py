@@ -33,15 +33,37 @@ key optional unless said)::
       - name: tissue                     # particles (entity frame), drawn from the physics buffers
         transform: {position: [0, 0, 0.1]}
         soft_body: {box: {half_extents: [0.08, 0.08, 0.08], cells: [3, 3, 3]}, radius: 0.02,
-                    youngs_modulus: 10e3, poisson_ratio: 0.45, density: 1000, damping: 0, friction: 0.5}
-                                         # or cylinder: {radius, half_height, cells_across, cells_along};
+                    youngs_modulus: 10e3, poisson_ratio: 0.45, density: 1000, damping: 0, friction: 0.5,
+                    fixed: {below: {axis: z, value: -0.08}}}
+                                         # or cylinder: {radius, half_height, cells_across, cells_along},
+                                         # or mesh: meshes/liver.vtk (tets of a legacy VTK .vtk or a Gmsh .msh
+                                         # file; cressim/tet_mesh_file.py) and scale: 0.001 (file unit in m);
                                          # expert model: mass (per particle), distance_compliance, volume_compliance
+                                         # fixed (clamped; strands too): [0, 5, ...], or the particles in a
+                                         # region of the entity frame: {box: {center, half_extents}},
+                                         # {below: {axis: x|y|z, value}} or {above: {axis, value}}
         material: {color: [0.8, 0.35, 0.3], roughness: 0.4, segmentation_id: 5}   # or a name
+        ultrasound_tissue: {density: 2e9, attenuation: 0.5, seed: 1,   # scatterers per m^3, dB/cm/MHz
+                            inclusions: [{center: [0, 0, 0], radius: 0.01, amplitude_scale: 0}]}
+                                         # on a soft_body the scatterers fill its tets; otherwise region:
+                                         # box|sphere|cylinder, size: half extents|[radius]|[radius, half_height],
+                                         # center; count instead of density; amplitude_mean, amplitude_std
+      - name: probe                      # an ultrasound probe looks along its +z, scanlines along x
+        transform: {position: [0, 0, 0.19], rpy_deg: [180, 0, 0]}
+        ultrasound_probe: {kind: linear, scanlines: 64, line_spacing: 0.0003, line_length: 0.04,
+                           center_frequency: 7.5e6, width: 96, height: 96}   # any UltrasoundProbe field
       - name: blood
         fluid: {block: {counts: [10, 6, 2], spacing: 0.03, origin: [-0.1, -0.2, 0.015]}, radius: 0.015,
-                budget: 0, viscosity: 0.01}
+                rest_density: 1060, viscosity: 0.05, budget: 300,
+                emit_rate: 4, emit_width: 2, emit_origin: [0, 0, 0.3], emit_velocity: [0, 0, -0.5]}
+                                         # an emitter (a bleeding source) starts up to emit_rate particles a
+                                         # frame on an emit_width-square nozzle at emit_origin (entity frame)
+                                         # in the budget's free slots; with an emitter the block is optional
       - name: thread
         strand: {line: {start: [0, 0, 0.5], end: [0.3, 0, 0.5], count: 20}, radius: 0.004, fixed: [0]}
+
+Surgical scenes built from these (docs/scenes.md): scenes/tissue_retraction.yaml,
+scenes/blood_suction.yaml, scenes/ultrasound_phantom.yaml.
 """
 from __future__ import annotations
 
@@ -58,14 +80,23 @@ MATERIAL_KEYS = ("color", "metallic", "roughness", "texture", "normal_map", "nor
 # an entity's keys and the components they make
 COMPONENTS = {"transform": "Transform", "renderable": "Renderable", "camera": "Camera", "light": "Light",
               "rigid_body": "RigidBody", "collider": "Collider", "soft_body": "SoftBody", "fluid": "Fluid",
-              "strand": "Strand", "material": "Material"}
+              "strand": "Strand", "material": "Material", "ultrasound_probe": "UltrasoundProbe",
+              "ultrasound_tissue": "UltrasoundTissue"}
 # keys that author component fields of another name (the rest author the field of their name)
 AUTHORS = {("Transform", "look_at"): ("rotation",), ("Transform", "rpy_deg"): ("rotation",),
            ("SoftBody", "box"): ("positions", "tets", "triangles"),
            ("SoftBody", "cylinder"): ("positions", "tets", "triangles"),
+           ("SoftBody", "mesh"): ("positions", "tets", "triangles"), ("SoftBody", "scale"): ("positions",),
            ("Fluid", "block"): ("positions",), ("Strand", "line"): ("points",),
            ("Renderable", "material"): ()}
 SHAPE_SIZE_KEYS = ("radius", "half_extents", "half_height")
+EMITTER_KEYS = ("emit_rate", "emit_width", "emit_origin", "emit_velocity")
+PROBE_INTS = ("scanlines", "width", "height", "radial_decimation")
+PROBE_NUMBERS = ("line_length", "line_spacing", "sector_angle", "radius", "sampling_frequency", "center_frequency",
+                 "fractional_bandwidth", "lateral_beam_width", "elevational_beam_width", "speed_of_sound",
+                 "metres_per_unit", "dynamic_range", "gain", "time_gain_compensation", "focal_depth")
+# an ultrasound tissue region's sizes: box half extents, sphere radius, cylinder radius and half height
+REGION_SIZES = {"box": 3, "sphere": 1, "cylinder": 2}
 
 
 class SceneFileError(ValueError):
@@ -156,12 +187,14 @@ class Field:
             raise self.fail(f"expected true or false, got {v!r}")
         return v
 
-    def vec(self, n: int | tuple[int, ...]) -> tuple[float, ...]:
+    def vec(self, n: int | tuple[int, ...], each: str = "float") -> tuple[float, ...]:
+        """n numbers (or one of the sizes n lists), each read by the method `each` names
+        (float, finite, positive), so an error names the number's own field."""
         sizes = (n,) if isinstance(n, int) else n
         items = self.list()
         if len(items) not in sizes:
             raise self.fail(f"expected {' or '.join(map(str, sizes))} numbers, got {len(items)}")
-        return tuple(f.float() for f in items)
+        return tuple(getattr(f, each)() for f in items)
 
     def ints(self, n: int, minimum: int | None = None) -> tuple[int, ...]:
         items = self.list()
@@ -173,6 +206,12 @@ class Field:
         v = self.float()
         if not v > 0 or not math.isfinite(v):
             raise self.fail(f"must be positive, got {v}")
+        return v
+
+    def finite(self) -> float:
+        v = self.float()
+        if not math.isfinite(v):
+            raise self.fail(f"must be finite, got {v}")
         return v
 
 
@@ -335,7 +374,7 @@ class _Loader:
     # --- entities --------------------------------------------------------------------------
     def entity(self, env: int, f: Field) -> None:
         e = f.keys(("name", "transform", "renderable", "camera", "light", "rigid_body", "collider", "soft_body",
-                    "fluid", "strand", "material"))
+                    "fluid", "strand", "material", "ultrasound_probe", "ultrasound_tissue"))
         if any(k in e for k in self.skip):
             return
         name = e["name"].str() if "name" in e else ""
@@ -344,7 +383,8 @@ class _Loader:
         ent.add(self.transform(e["transform"]) if "transform" in e else cressim.Transform())
         for key, make in (("renderable", self.renderable), ("camera", self.camera), ("light", self.light),
                           ("rigid_body", self.rigid_body), ("collider", self.collider), ("soft_body", self.soft_body),
-                          ("fluid", self.fluid), ("strand", self.strand), ("material", self.look)):
+                          ("fluid", self.fluid), ("strand", self.strand), ("material", self.look),
+                          ("ultrasound_probe", self.ultrasound_probe), ("ultrasound_tissue", self.ultrasound_tissue)):
             if key in e:
                 try:
                     ent.add(make(e[key]))
@@ -381,6 +421,11 @@ class _Loader:
                     for g in shape.items().values():  # its one kind: {radius, position, ...}
                         for k, v in (g.items() if g.is_map() else {}).items():
                             put(entity, f"Collider.shapes[{i}].{'size' if k in SHAPE_SIZE_KEYS else k}", v.where)
+            if component == "UltrasoundTissue" and "inclusions" in fields:
+                for i, inclusion in enumerate(fields["inclusions"].list()):
+                    put(entity, f"UltrasoundTissue.inclusions[{i}]", inclusion.where)
+                    for k, v in (inclusion.items() if inclusion.is_map() else {}).items():
+                        put(entity, f"UltrasoundTissue.inclusions[{i}].{k}", v.where)
 
     def transform(self, f: Field) -> cressim.Transform:
         t = f.keys(("position", "rotation", "scale", "look_at", "rpy_deg"))
@@ -446,18 +491,27 @@ class _Loader:
                 raise f.fail(f"{what} needs '{k}'")
         return c
 
-    def _options(self, c: dict[str, Field], ints=(), lists=()) -> dict:
-        return {k: (v.int(0) if k in ints else [x.int(0) for x in v.list()] if k in lists else v.float())
-                for k, v in c.items()}
+    def _options(self, c: dict[str, Field], ints=()) -> dict:
+        return {k: (v.int(0) if k in ints else v.float()) for k, v in c.items()}
 
     def soft_body(self, f: Field) -> cressim.SoftBody:
-        c = f.keys(("box", "cylinder", "radius", "youngs_modulus", "poisson_ratio", "density", "mass",
+        c = f.keys(("box", "cylinder", "mesh", "scale", "radius", "youngs_modulus", "poisson_ratio", "density", "mass",
                     "distance_compliance", "volume_compliance", "damping", "friction", "fixed"))
-        shapes = [k for k in ("box", "cylinder") if k in c]
+        shapes = [k for k in ("box", "cylinder", "mesh") if k in c]
         if len(shapes) != 1:
-            raise f.fail("a soft_body needs one of: box, cylinder")
-        g = c[shapes[0]]
-        if shapes[0] == "box":
+            raise f.fail("a soft_body needs one of: box, cylinder, mesh")
+        shape, g = shapes[0], c[shapes[0]]
+        if "scale" in c and shape != "mesh":
+            raise c["scale"].fail("scale applies to mesh files; size box and cylinder directly")
+        if shape == "mesh":
+            from cressim.tet_mesh_file import load_tet_mesh
+
+            path, scale = self._file(g), c["scale"].positive() if "scale" in c else 1.0
+            try:
+                mesh = load_tet_mesh(path, scale)
+            except (OSError, ValueError) as e:
+                raise g.fail(f"cannot read the tet mesh: {e}") from None
+        elif shape == "box":
             b = self._need(g, g.keys(("half_extents", "cells")), ("half_extents", "cells"), "box")
             mesh = cressim.TetMesh.box(b["half_extents"].vec(3), b["cells"].ints(3, 1))
         else:
@@ -465,24 +519,83 @@ class _Loader:
             b = self._need(g, g.keys(keys), keys, "cylinder")
             mesh = cressim.TetMesh.cylinder(b["radius"].float(), b["half_height"].float(), b["cells_across"].int(1),
                                             b["cells_along"].int(1))
+        fixed = self.selection(c["fixed"], mesh.positions) if "fixed" in c else None
+        opts = self._options({k: v for k, v in c.items() if k not in (shape, "scale", "fixed")})
         try:  # the material-or-compliance choice is checked by the constructor
-            return cressim.SoftBody(mesh, **self._options({k: v for k, v in c.items() if k not in shapes},
-                                                          lists=("fixed",)))
+            return cressim.SoftBody(mesh.positions, mesh.tets, mesh.triangles, fixed=fixed, **opts)
         except ValueError as exc:
             raise f.fail(str(exc)) from None
 
+    def selection(self, f: Field, points: np.ndarray):
+        """`fixed`: a list of particle indices, or a region of the entity frame (a box, or below
+        or above a plane across an axis) and the particles inside it. Points on the region's
+        surface count as inside (1e-5 of the body's size), so a plane through a layer of
+        vertices holds the whole layer despite float32 rounding."""
+        if not f.is_map():
+            return [x.int(0) for x in f.list()]
+        kinds = f.keys(("box", "below", "above"))
+        if len(kinds) != 1:
+            raise f.fail("give one region: box {center, half_extents}, below {axis, value} or above {axis, value}")
+        (kind, g), = kinds.items()
+        p = np.asarray(points, np.float64)
+        lo, hi = p.min(axis=0), p.max(axis=0)
+        tolerance = 1e-5 * float(np.max(hi - lo))
+        if kind == "box":
+            b = self._need(g, g.keys(("center", "half_extents")), ("center", "half_extents"), "box")
+            center, half = np.array(b["center"].vec(3, "finite")), np.array(b["half_extents"].vec(3, "positive"))
+            inside = (np.abs(p - center) <= half + tolerance).all(axis=1)
+        else:
+            a = self._need(g, g.keys(("axis", "value")), ("axis", "value"), kind)
+            axis = a["axis"].str()
+            if axis not in ("x", "y", "z"):
+                raise a["axis"].fail(f"expected x, y or z, got '{axis}'")
+            value, column = a["value"].finite(), p[:, "xyz".index(axis)]
+            inside = column <= value + tolerance if kind == "below" else column >= value - tolerance
+        chosen = np.flatnonzero(inside)
+        if len(chosen) == 0:
+            span = ", ".join(f"{n} [{lo[i]:.4g}, {hi[i]:.4g}]" for i, n in enumerate("xyz"))
+            raise f.fail(f"the region holds none of the {len(p)} particles (entity frame: {span})")
+        return chosen
+
     def fluid(self, f: Field) -> cressim.Fluid:
         c = f.keys(("block", "radius", "budget", "rest_density", "viscosity", "cohesion", "surface_tension",
-                    "vorticity", "friction", "damping"))
-        if "block" not in c:
-            raise f.fail("a fluid needs 'block' {counts, spacing, origin}")
-        keys = ("counts", "spacing", "origin")
-        b = self._need(c["block"], c["block"].keys(keys), keys, "block")
-        nx, ny, nz = b["counts"].ints(3, 1)
-        z, y, x = np.meshgrid(np.arange(nz), np.arange(ny), np.arange(nx), indexing="ij")
-        points = np.stack([x, y, z], -1).reshape(-1, 3) * b["spacing"].positive() + np.asarray(b["origin"].vec(3))
-        opts = self._options({k: v for k, v in c.items() if k != "block"}, ints=("budget",))
-        return cressim.Fluid(points.astype(np.float32), **opts)
+                    "vorticity", "friction", "damping", *EMITTER_KEYS))
+        points = np.zeros((0, 3), np.float32)
+        if "block" in c:
+            keys = ("counts", "spacing", "origin")
+            b = self._need(c["block"], c["block"].keys(keys), keys, "block")
+            nx, ny, nz = b["counts"].ints(3, 1)
+            z, y, x = np.meshgrid(np.arange(nz), np.arange(ny), np.arange(nx), indexing="ij")
+            grid = np.stack([x, y, z], -1).reshape(-1, 3) * b["spacing"].positive()
+            points = (grid + np.asarray(b["origin"].vec(3, "finite"))).astype(np.float32)
+        opts = self._options({k: v for k, v in c.items() if k not in ("block", *EMITTER_KEYS)}, ints=("budget",))
+        opts.update(self.emitter(f, c, len(points)))
+        if len(points) == 0 and not opts.get("emit_rate"):
+            raise f.fail("a fluid needs 'block' {counts, spacing, origin}, an emitter (emit_rate, budget), or both")
+        return cressim.Fluid(points, **opts)
+
+    @staticmethod
+    def emitter(f: Field, c: dict[str, Field], block: int) -> dict:
+        """A fluid's emitter (a bleeding source): each frame up to emit_rate inactive slots start
+        on an emit_width-square nozzle at emit_origin (entity frame), moving at emit_velocity."""
+        out = {}
+        if "emit_rate" in c:
+            out["emit_rate"] = c["emit_rate"].int(0)
+        if "emit_width" in c:
+            out["emit_width"] = c["emit_width"].int(1)
+        for k in ("emit_origin", "emit_velocity"):
+            if k in c:
+                out[k] = c[k].vec(3, "finite")
+        budget = c["budget"].int(0) if "budget" in c else 0
+        if 0 < budget < block:
+            raise c["budget"].fail(f"must hold the block's {block} particles, got {budget}")
+        if out.get("emit_rate", 0) > 0:
+            if "emit_velocity" in out and not any(out["emit_velocity"]):
+                raise c["emit_velocity"].fail("must not be zero: emitted particles leave the nozzle along it")
+            if budget <= block:
+                raise (c["budget"] if "budget" in c else f).fail(
+                    f"an emitter needs a budget above the block's {block} particles (the slots it fills)")
+        return out
 
     def strand(self, f: Field) -> cressim.Strand:
         c = f.keys(("line", "radius", "mass", "fixed", "stretch_compliance", "bend_compliance", "twist_compliance",
@@ -492,9 +605,53 @@ class _Loader:
         keys = ("start", "end", "count")
         line = self._need(c["line"], c["line"].keys(keys), keys, "line")
         t = np.linspace(0, 1, line["count"].int(2))[:, None]
-        points = (1 - t) * np.asarray(line["start"].vec(3)) + t * np.asarray(line["end"].vec(3))
-        opts = self._options({k: v for k, v in c.items() if k != "line"}, lists=("fixed",))
-        return cressim.Strand(points.astype(np.float32), **opts)
+        points = ((1 - t) * np.asarray(line["start"].vec(3)) + t * np.asarray(line["end"].vec(3))).astype(np.float32)
+        fixed = self.selection(c["fixed"], points) if "fixed" in c else None
+        opts = self._options({k: v for k, v in c.items() if k not in ("line", "fixed")})
+        return cressim.Strand(points, fixed=fixed, **opts)
+
+    def ultrasound_probe(self, f: Field) -> cressim.UltrasoundProbe:
+        """Types and finiteness here; ranges (positive lengths and frequencies, ...) at prepare(),
+        which names this file's line of the field."""
+        c = f.keys(("kind", "rf_output", *PROBE_INTS, *PROBE_NUMBERS))
+        opts = {}
+        for k, v in c.items():
+            if k == "kind":
+                opts[k] = v.str()
+                if opts[k] not in ("linear", "sector"):
+                    raise v.fail(f"expected linear or sector, got '{opts[k]}'")
+            else:
+                opts[k] = v.bool() if k == "rf_output" else v.int(1) if k in PROBE_INTS else v.finite()
+        return cressim.UltrasoundProbe(**opts)
+
+    def ultrasound_tissue(self, f: Field) -> cressim.UltrasoundTissue:
+        """Scatterers: in the region (a rigid tissue), or in the tets of the entity's SoftBody."""
+        c = f.keys(("region", "size", "center", "density", "count", "amplitude_mean", "amplitude_std", "attenuation",
+                    "seed", "inclusions"))
+        opts = {}
+        for k, v in c.items():
+            if k == "region":
+                opts[k] = v.str()
+                if opts[k] not in REGION_SIZES:
+                    raise v.fail(f"expected one of {', '.join(REGION_SIZES)}, got '{opts[k]}'")
+            elif k in ("count", "seed"):
+                opts[k] = v.int(0)
+            elif k == "center":
+                opts[k] = v.vec(3, "finite")
+            elif k != "size" and k != "inclusions":
+                opts[k] = v.finite()
+        if "size" in c:
+            sizes = REGION_SIZES[opts.get("region", "box")]
+            opts["size"] = (*c["size"].vec(sizes, "positive"), 0.0, 0.0)[:3]
+        if "inclusions" in c:
+            opts["inclusions"] = [self.inclusion(g) for g in c["inclusions"].list()]
+        return cressim.UltrasoundTissue(**opts)
+
+    def inclusion(self, f: Field) -> cressim.UltrasoundInclusion:
+        keys = ("center", "radius", "amplitude_scale")
+        i = self._need(f, f.keys(keys), keys[:2], "an inclusion")
+        scale = i["amplitude_scale"].finite() if "amplitude_scale" in i else 0.0
+        return cressim.UltrasoundInclusion(i["center"].vec(3, "finite"), i["radius"].positive(), amplitude_scale=scale)
 
     def look(self, f: Field) -> cressim.Material:
         """A particle object's material: a name from materials (its texture unused) or inline."""
