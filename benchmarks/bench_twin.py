@@ -10,6 +10,9 @@ Two figures per row:
   waited for);
 - unpaced: ticks back to back without cameras (the tick's own cost), ticks/s and env-ticks/s.
 
+`--scene psm_retraction.yaml` runs the twin over tissue (a world file: the engine steps every
+tick, the flap's particles with it).
+
 Usage (GPU machine, after benchmarks/gpu_build.sh; needs yourdfpy, pytorch-kinematics, trimesh):
     PYTHONPATH=python python3 benchmarks/bench_twin.py --envs 1,64,1024 --json benchmarks/results/twin_<gpu>.json
 On the development machine (lavapipe) use small counts: --envs 1 --seconds 5.
@@ -24,6 +27,7 @@ import numpy as np
 import torch
 
 from cressim.twin import JointCommand, Scene, Sensor, SensorLoop, TwinArms, TwinConfig
+from cressim.twin.scene import load_scene
 from cressim.twin.camera_images import PRODUCTS, CameraImages
 
 
@@ -42,13 +46,13 @@ def _ready(arms):
         arms.tick()
 
 
-def run(envs: int, dynamics: str, width: int, height: int, camera_rate: float, seconds: float) -> dict:
+def run(envs: int, dynamics: str, width: int, height: int, camera_rate: float, seconds: float, scene: str = "") -> dict:
     t0 = time.perf_counter()
-    arms = TwinArms(TwinConfig(scene=Scene(), num_envs=envs, dynamics=dynamics, camera_width=width,
+    arms = TwinArms(TwinConfig(scene=load_scene(scene) if scene else Scene(), num_envs=envs, dynamics=dynamics, camera_width=width,
                                camera_height=height, cameras=width > 0))
     build_s = time.perf_counter() - t0
     _ready(arms)
-    row = {"envs": envs, "dynamics": dynamics, "camera": f"{width}x{height}" if width else "none",
+    row = {"envs": envs, "dynamics": dynamics, "scene": scene or "default", "camera": f"{width}x{height}" if width else "none",
            "camera_rate": camera_rate, "build_s": build_s, "device": arms.bodies.engine.device["name"],
            "engine_torch_device": str(arms.bodies.device)}
 
@@ -101,6 +105,7 @@ def main() -> None:
     ap.add_argument("--camera", default="640x480", help="WxH of each env's camera (the default scene's); 0: none")
     ap.add_argument("--camera-rate", type=float, default=30.0)
     ap.add_argument("--seconds", type=float, default=10.0, help="paced run length")
+    ap.add_argument("--scene", default="", help="a twin file (e.g. psm_retraction.yaml); default: the built-in scene")
     ap.add_argument("--json")
     args = ap.parse_args()
     torch.set_num_threads(1)  # as the node: (N, 6) tensors gain nothing from threads
@@ -108,7 +113,7 @@ def main() -> None:
     rows = []
     for dynamics in args.dynamics.split(","):
         for envs in map(int, args.envs.split(",")):
-            row = run(envs, dynamics, width, height, args.camera_rate, args.seconds)
+            row = run(envs, dynamics, width, height, args.camera_rate, args.seconds, args.scene)
             rows.append(row)
             paced = (f"paced: {row['paced_ticks_per_s']:.1f} ticks/s, tick {row['paced_tick_mean_ms']:.2f} ms "
                      f"(max {row['paced_tick_max_ms']:.1f}), camera {row['camera_frames_per_s']:.1f} frames/s "
