@@ -20,6 +20,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "python"))
 
 import cressim  # noqa: E402
+from cressim.passes.suction import Suction  # noqa: E402
 
 
 
@@ -55,10 +56,8 @@ def build(num_envs):
         side = x[rec] > 0.025
         engine.cut_constraints(family, np.nonzero(side.any(1) & ~side.all(1))[0])
     n = len(x)
-    suction = engine.create_compute_pass(
-        cressim.passes.source("suction"), name="suction", threads=n,
-        bindings={"positions": "particles.positions", "phases": "particles.phases", "remove": "control.particle_remove"},
-        constants={"count": n, "env": cressim.passes.ALL_ENVS, "radius": 0.06, "tip": (-0.06, -0.06, 0.06, 0.0)})
+    suction = Suction(engine, None, (-0.06, -0.06, 0.06), 0.06)
+    suction.set(np.ones(num_envs, dtype=bool))
     return engine, suction
 
 
@@ -68,7 +67,7 @@ def measure(num_envs, with_suction, warmup=30, frames=200):
     def frame():
         engine.step_physics()
         if with_suction:
-            engine.execute_compute_pass(suction)
+            suction.execute()
         engine.end_frame()
 
     for _ in range(warmup):

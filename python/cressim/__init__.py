@@ -46,7 +46,7 @@ from cressim._core import (
 )
 from cressim.compute import load_compute_pass
 from cressim import sensors  # noqa: F401  (PNG export of sensor images)
-from cressim import passes  # noqa: F401  (ready-made custom passes: suction)
+from cressim import passes  # noqa: F401  (ready-made custom passes: grasp, suction)
 
 __all__ = [
     "AuthoringError",

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import cressim
+from cressim.passes.suction import Suction
 
 from .particle_scenes import lattice, open_box, positions, start, step, twist_angle
 
@@ -177,13 +178,11 @@ def test_a_task_pass_removes_fluid_inside_a_sphere(make_engine):
     engine = start(world, make_engine, substeps=2, particle_iterations=3)
     n = 128
     tip = (0.0, 0.0, 0.06)
-    suction = engine.create_compute_pass(
-        cressim.passes.source("suction"), name="suction", threads=n,
-        bindings={"positions": "particles.positions", "phases": "particles.phases", "remove": "control.particle_remove"},
-        constants={"count": n, "env": 0, "radius": 0.05, "tip": tip + (0.0,)})
+    suction = Suction(engine, None, tip, 0.05)
+    suction.set([True, False])  # env 0 only
     step(engine, 5)
     engine.step_physics()
-    engine.execute_compute_pass(suction)
+    suction.execute()
     engine.end_frame()
     p = positions(engine)
     inside = (np.arange(n) < 64) & (np.linalg.norm(p - np.array(tip), axis=1) < 0.05)
@@ -193,6 +192,7 @@ def test_a_task_pass_removes_fluid_inside_a_sphere(make_engine):
     assert np.array_equal(active, ~inside)  # exactly those, in env 0 only
     assert list(engine.buffer("particles.emitted").read()) == [64 - inside.sum(), 64]
     assert not engine.buffer("control.particle_remove").read().any()  # flags consumed
+    assert list(suction.removed()) == [inside.sum(), 0]
     engine.reset_envs([0])
     step(engine, 1)
     assert _active(engine).all()

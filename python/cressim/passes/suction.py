@@ -1,0 +1,71 @@
+"""Suction of fluid (blood) at a tool's tip (suction.hlsl): per env, a tip (a point in one rigid
+body, the suction tube's end, or a fixed point in the world) and a radius; while an env's suction
+is on, its active fluid particles within the radius are removed at the next step's start and
+counted.
+
+Commands live on the GPU (`commands`, int32 (envs, 4): x 1 on / 0 off, y the body (-1: none),
+w particles removed so far), so a task pass can switch suction itself (bind `commands` as
+`RWStructuredBuffer<int4> suctions`); the host writes them only when it drives the suction
+(`set`). Run `execute()` after `step_physics()` of a frame (or before it): the removals apply at
+the next step's start.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+import cressim
+
+from . import source
+
+
+class Suction:
+    def __init__(self, engine: cressim.Engine, body_entities, tip, radius: float, *, name: str = "suction"):
+        """`body_entities`: each env's body (entity or id) carrying the tip, in env order, or None
+        (the tip in the world); `tip`: the point in that body's frame (m; one for all envs, or one
+        per env); `radius` (m)."""
+        envs = engine.buffer("particles.env_ranges").shape[0]
+        if not (np.isfinite(radius) and radius > 0):
+            raise ValueError(f"Suction: radius must be positive, got {radius}")
+        bodies = np.full(envs, -1, dtype=np.int32)
+        if body_entities is not None:
+            ids = [int(getattr(e, "id", e)) for e in body_entities]
+            if len(ids) != envs:
+                raise ValueError(f"Suction: {len(ids)} bodies for {envs} envs (one per env)")
+            body_entity = engine.buffer("rigid.body_entity").read()
+            body_env = engine.buffer("rigid.body_env").read()
+            for env, entity in enumerate(ids):
+                found = np.nonzero(body_entity == entity)[0]
+                if len(found) != 1 or body_env[found[0]] != env:
+                    raise ValueError(f"Suction: entity {entity} is not a rigid body of env {env}")
+                bodies[env] = found[0]
+        tips = np.broadcast_to(np.asarray(tip, dtype=np.float32), (envs, 3))
+        if not np.isfinite(tips).all():
+            raise ValueError(f"Suction: tip must be finite, got {tip}")
+        self.engine, self.envs = engine, envs
+        self.commands = engine.create_shared_buffer(f"{name}_commands", (envs, 4), "int32")
+        self.tips = engine.create_shared_buffer(f"{name}_tips", (envs, 4), "float32")
+        self.tips.write(np.concatenate([tips, np.full((envs, 1), radius, np.float32)], axis=1))
+        state = np.zeros((envs, 4), np.int32)
+        state[:, 1] = bodies
+        self.commands.write(state)
+        count = engine.buffer("particles.positions").shape[0]
+        rigid = "rigid.positions" in engine.internal_keys  # a world without rigid bodies: the tips stand in
+        self.compute_pass = engine.create_compute_pass(
+            source("suction"), name="passes/suction.hlsl", threads=count, constants={"count": count},
+            bindings={"positions": "particles.positions", "phases": "particles.phases",
+                      "body_positions": "rigid.positions" if rigid else self.tips,
+                      "body_rotations": "rigid.rotations" if rigid else self.tips,
+                      "suction_tips": self.tips, "suctions": self.commands, "remove": "control.particle_remove"})
+
+    def set(self, on) -> None:
+        """Host-driven suction: `on` (envs bools) for the next execute()."""
+        state = self.commands.read()
+        state[:, 0] = np.asarray(on, dtype=bool).reshape(self.envs)
+        self.commands.write(state)
+
+    def execute(self) -> None:
+        self.engine.execute_compute_pass(self.compute_pass)
+
+    def removed(self) -> np.ndarray:
+        """Fluid particles each env's suction has removed so far."""
+        return self.commands.read()[:, 3].copy()
