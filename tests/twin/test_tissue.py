@@ -82,3 +82,51 @@ def test_the_jaws_grasp_lift_and_release_the_flap(make_arms):
 def test_a_missing_world_file_names_its_line(tmp_path):
     with pytest.raises(SceneError, match=r"twin.yaml:2:8: world: no scene file 'nowhere.yaml'"):
         parse_scene("num_envs: 1\nworld: nowhere.yaml\n", str(tmp_path / "twin.yaml"))
+
+
+def _active_fluid(engine):
+    phases = engine.buffer("particles.phases").read()
+    return (phases[:, 0] == 2) & (phases[:, 3] & 1 != 0)
+
+
+def test_the_suction_tool_removes_blood_at_its_tip(make_arms):
+    """psm_suction over blood_suction.yaml's pool: shut, nothing goes; open, the blood within the
+    radius of the tube's end goes (counted on suction/measured_js's effort), nothing farther."""
+    arms = make_arms(scene=load_scene("psm_suction.yaml"))
+    assert arms.suction is not None and arms.grasp is None
+    assert [e.value for e in arms.suction_servo_jp(0, JointCommand(position=[1.0])) if e.topic == "error"]  # disabled
+    arms.state_command(0, "enable")
+    arms.state_command(0, "home")
+    _settle(arms)
+    arms.move_jp(0, JointCommand(position=[0.0, 0.0, 0.1385, 0.0, 0.0, 0.0]))  # the tube's end in the pool
+    _settle(arms)
+    _run(arms, 30)
+    engine = arms.bodies.engine
+    tip = (arms.bodies.base @ arms.kin.forward(arms.measured))[0, :3, 3].numpy()
+    before = _active_fluid(engine)
+    x = engine.buffer("particles.positions").read()[:, :3]
+    near = before & (np.linalg.norm(x - tip, axis=1) < arms.scene.suction_radius)
+    assert near.sum() > 0, "the tip is in the pool"
+    refused = arms.suction_servo_jp(0, JointCommand(position=[2.0]))
+    assert [e.value for e in refused if e.topic == "error"], "a valve opening past 1 is refused"
+    assert not arms.suction_servo_jp(0, JointCommand(position=[1.0], name=["suction"]))
+    _run(arms, 1)  # flagged and removed in the tick's step (its freed slots may bleed in again at the vessel)
+    after = _active_fluid(engine)
+    y = engine.buffer("particles.positions").read()[:, :3]
+    r = arms.scene.suction_radius
+    inner = before & (np.linalg.norm(x - tip, axis=1) < r - 0.002)  # within reach however they moved in the tick
+    outer = before & (np.linalg.norm(x - tip, axis=1) > r + 0.002)
+    assert inner.any() and not (after & inner & (np.linalg.norm(y - tip, axis=1) < r)).any()  # those went
+    assert after[outer].all()  # the rest of the pool stays
+    assert arms.snapshot().suction_removed[0, 0] >= inner.sum()
+    arms.suction_servo_jp(0, JointCommand(position=[0.0]))
+    _run(arms, 1)
+    count = arms.suction.removed()[0]
+    _run(arms, 10)
+    assert arms.suction.removed()[0] == count  # shut: nothing more goes
+
+
+def test_the_needle_driver_has_no_suction(make_arms):
+    arms = make_arms(scene=load_scene("psm_retraction.yaml"))
+    refused = arms.suction_servo_jp(0, JointCommand(position=[1.0]))
+    assert "has no suction tube" in [e.value for e in refused if e.topic == "error"][0]

@@ -67,7 +67,7 @@ _IMG, _INFO = "sensor_msgs/msg/Image", "sensor_msgs/msg/CameraInfo"
 _F64, _BOOL, _EMPTY = "std_msgs/msg/Float64", "std_msgs/msg/Bool", "std_msgs/msg/Empty"
 _CIMG = "sensor_msgs/msg/CompressedImage"
 LATEST_WINS = frozenset({"servo_jp", "servo_jr", "servo_cp", "servo_cv", "servo_jf", "jaw/servo_jp", "jaw/servo_jf",
-                         "body/servo_cf", "spatial/servo_cf"})
+                         "body/servo_cf", "spatial/servo_cf", "suction/servo_jp"})
 
 PSM_TOPICS: tuple[TopicSpec, ...] = (
     # published by the twin, periodic (QoS reliable, volatile, depth 100)
@@ -76,6 +76,8 @@ PSM_TOPICS: tuple[TopicSpec, ...] = (
     TopicSpec("setpoint_js", _JS, "state", "100 Hz", "", JS_UNITS, "controller setpoint, same layout", "joints"),
     TopicSpec("jaw/measured_js", _JS, "state", "100 Hz", "", JAW_UNITS, 'name ["jaw"]', "joints"),
     TopicSpec("jaw/setpoint_js", _JS, "state", "100 Hz", "", JAW_UNITS, 'name ["jaw"]', "joints"),
+    TopicSpec("suction/measured_js", _JS, "state", "100 Hz", "", "position: valve 0 (shut) .. 1 (open); effort: "
+              "fluid particles removed so far", 'name ["suction"]; the suction tool in a world with fluid', "joints"),
     TopicSpec("measured_cp", _PS, "state", "100 Hz", BASE_FRAME, POSE_UNITS, "tool tip in the base frame", "cartesian"),
     TopicSpec("setpoint_cp", _PS, "state", "100 Hz", BASE_FRAME, POSE_UNITS, "tool-tip setpoint", "cartesian"),
     TopicSpec("local/measured_cp", _PS, "state", "100 Hz", BASE_FRAME, POSE_UNITS, "relative to the RCM frame",
@@ -156,6 +158,8 @@ PSM_TOPICS: tuple[TopicSpec, ...] = (
     TopicSpec("jaw/servo_jp", _JS, "command", "as sent", "", JAW_UNITS, "one value, clipped to the jaw's limits"),
     TopicSpec("jaw/move_jp", _JS, "command", "as sent", "", JAW_UNITS, "one value, clipped to the jaw's limits"),
     TopicSpec("jaw/servo_jf", _JS, "command", "as sent", "", "effort N m", "one value (answered with a warning)"),
+    TopicSpec("suction/servo_jp", _JS, "command", "as sent", "", "valve 0 (shut) .. 1 (open)",
+              "one value; the suction tool removes fluid at its tip while > 0"),
     TopicSpec("body/servo_cf", _WS, "command", "as sent", TIP_FRAME, "force N; torque N m", "answered with a warning"),
     TopicSpec("spatial/servo_cf", _WS, "command", "as sent", BASE_FRAME, "force N; torque N m",
               "answered with a warning"),

@@ -245,6 +245,7 @@ class ArmBodies:
                                                       gravity=tuple(float(g) for g in self.gravity),
                                                       **(plan.physics_settings() if plan is not None else {}))
         self.simulated = plan is not None and plan.simulated()  # a world that moves by itself (particles)
+        self.has_fluid = plan is not None and plan.has_fluid()
         self.dt = 1.0 / publish_rate
         self.engine.prepare()
         self.engine.upload_world()

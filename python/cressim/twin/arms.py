@@ -34,7 +34,9 @@ measured jaw angle falls below `arm.grasp.closed_below` they take the particles 
 `arm.grasp.reach` of the middle of the jaws and hold them to the wrist until the angle rises
 again. `tool_wrench` (N, 6: force N, torque N m about the tool tip, world axes) is what
 contacts and held tissue exert on the tool (shaft, wrist and jaws) over the last tick; the
-snapshot gives it in the base frame (`spatial_cf`) and the tip frame (`body_cf`).
+snapshot gives it in the base frame (`spatial_cf`) and the tip frame (`body_cf`). The suction
+tool (psm_suction) removes the world's fluid within `arm.suction.radius` of its tube's end while
+its valve (`suction_servo_jp`, 0 shut .. 1 open) is open (cressim.passes.Suction).
 """
 from __future__ import annotations
 
@@ -57,9 +59,11 @@ from .scenery import CameraSpec, SceneryPlan, UltrasoundSpec
 from .sensor_loop import process_threads
 from .trajectory import BatchedTrajectory
 from cressim.passes.grasp import Grasp
+from cressim.passes.suction import Suction
 
 TOOL_LINKS = ("shaft_link", "wrist_pitch_link", "wrist_yaw_link", "jaw_1_link", "jaw_2_link")  # name endings
 GRASP_POINT = (0.0, 0.006, 0.0)  # m, in the wrist yaw link: between the jaws (10 mm long along its +y)
+SUCTION_TIP = (0.0, 0.0, 0.0091)  # m, in the suction tube link: the tube's open end
 
 
 class ConfigError(RuntimeError):
@@ -144,6 +148,14 @@ class TwinArms:
             bodies, point = self.bodies.link_point(wrist[0], GRASP_POINT)
             self.grasp = Grasp(self.bodies.engine, bodies, point, scene.grasp_reach)
         self._grasp_closed = np.zeros(self.num_envs, dtype=bool)
+        self.suction = None
+        tube = [n for n in names if n.endswith("suction_tube_link")]
+        if self.simulated and tube and self.bodies.has_fluid:
+            bodies, point = self.bodies.link_point(tube[0], SUCTION_TIP)
+            self.suction = Suction(self.bodies.engine, bodies, point, scene.suction_radius)
+        self.suction_valve = torch.zeros(self.num_envs, 1, dtype=torch.float64)
+        self.suction_removed = torch.zeros(self.num_envs, 1, dtype=torch.float64)
+        self._suction_on = np.zeros(self.num_envs, dtype=bool)
         self.tool_wrench = torch.zeros(self.num_envs, 6, dtype=torch.float64)
         self.engine_lock = threading.Lock()
         # the arms' state is (N, 6) rows and a few (N, 4, 4): kernel launches and syncs would cost a
@@ -499,6 +511,7 @@ class TwinArms:
                 self.bodies.set_targets(self.setpoint, self.jaw_sp)
                 self.bodies.write(self.measured, self.jaw_meas)
                 self._grasp()
+                self._suck()
                 self.bodies.step()
                 self._sense_tool()
                 q_m, qd_m, jaw_m, jawd_m = (t.cpu() for t in self.bodies.read_joints())
@@ -518,6 +531,7 @@ class TwinArms:
                 with self.engine_lock:
                     self.bodies.write(self.measured, self.jaw_meas)
                     self._grasp()
+                    self._suck()
                     self.bodies.step()
                     self._sense_tool()
                     self._collect_faults()
@@ -552,8 +566,37 @@ class TwinArms:
             self._grasp_closed = closed
         self.grasp.execute()
 
+    def _suck(self):
+        """The suction follows the valve (the GPU pass removes the fluid at the tip)."""
+        if self.suction is None:
+            return
+        on = (self.suction_valve[:, 0] > 0).numpy()
+        if (on != self._suction_on).any():
+            self.suction.set(on)
+            self._suction_on = on
+        self.suction.execute()
+
+    def suction_servo_jp(self, env: int, cmd) -> list[Event]:
+        """The suction valve: 0 shut .. 1 open (CRTK style: suction/servo_jp, one value)."""
+        kind = "suction/servo_jp"
+        if self.suction is None:
+            why = (f"the {self.robot} instrument has no suction tube" if not any(
+                n.endswith("suction_tube_link") for n in self.bodies.link_names) else "the world has no fluid")
+            return self._refusal(env, f"{kind} refused: {why}")
+        problem = self._ready(env, kind)
+        if problem:
+            return self._refusal(env, problem)
+        value, problem = joint_values(cmd, what=kind, names=("suction",), lower=np.zeros(1), upper=np.ones(1))
+        if problem:
+            return self._refusal(env, problem)
+        self.suction_valve[env, 0] = float(value[0])
+        return []
+
     def _sense_tool(self):
-        """The tick's contact wrench on the tool, about its tip (world axes)."""
+        """After the tick's step: the contact wrench on the tool, about its tip (world axes), and
+        the fluid the suction has removed."""
+        if self.suction is not None and self._suction_on.any():
+            self.suction_removed = torch.as_tensor(self.suction.removed(), dtype=torch.float64)[:, None]
         if not self.tool_links:
             return
         tip = (self.bodies.base @ self.kin.forward(self.measured))[:, :3, 3]
@@ -651,9 +694,10 @@ class TwinArms:
     def snapshot(self, *, cartesian: bool = True, jacobian: bool = True) -> "Snapshot":
         """Every env's published state as host numpy arrays, in one device -> host copy."""
         N = self.num_envs
-        names = ["measured", "measured_v", "setpoint", "setpoint_v", "jaw_meas", "jaw_meas_v", "jaw_sp", "jaw_sp_v"]
+        names = ["measured", "measured_v", "setpoint", "setpoint_v", "jaw_meas", "jaw_meas_v", "jaw_sp", "jaw_sp_v",
+                 "suction_valve", "suction_removed"]
         parts = [getattr(self, n) for n in names]
-        widths = [INTERFACE_DOF] * 4 + [1] * 4
+        widths = [INTERFACE_DOF] * 4 + [1] * 6
         if cartesian or jacobian:
             # one Jacobian/FK call for measured and setpoint together, one quaternion conversion
             J2, T2 = self.kin.jacobian(torch.cat([self.measured, self.setpoint]))

@@ -38,7 +38,7 @@ def joint_values(msg, *, what: str, names: tuple, lower: np.ndarray | None, uppe
         order = []
         for given in msg.name:
             try:
-                canon = "jaw" if given == "jaw" else canonical_joint_name(given)
+                canon = given if given in names else canonical_joint_name(given)
             except ValueError:
                 canon = None
             if canon not in names:

@@ -56,6 +56,7 @@ class Scene:
     world: str = ""  # an engine scene file (scenes/*.yaml) around the arm; empty: a rigid block
     grasp_reach: float = 0.004  # m: the jaws take the particles this near their middle
     grasp_closed_below: float = 0.25  # rad: the jaws grasp once the measured jaw angle is below this
+    suction_radius: float = 0.005  # m: the suction tool removes the fluid this near its tip
     lines: dict = field(default_factory=dict, repr=False)  # field -> "file:line:col" (for later checks)
 
 
@@ -98,7 +99,7 @@ def parse_scene(text: str, path: str = "<string>") -> Scene:
     if "arm" in top:
         arm = p.mapping(top["arm"], "arm", {"name", "robot", "dynamics", "base", "initial_jp", "initial_jaw",
                                             "home_jp", "measured_lag", "trajectory", "stale_command_after",
-                                            "grasp"})
+                                            "grasp", "suction"})
         if "name" in arm:
             scene.arm = p.name(arm["name"], "arm.name")
         if "robot" in arm:
@@ -132,6 +133,10 @@ def parse_scene(text: str, path: str = "<string>") -> Scene:
             if "closed_below" in grasp:
                 scene.grasp_closed_below = p.number(grasp["closed_below"], "arm.grasp.closed_below", low=-0.7,
                                                     high=1.4)
+        if "suction" in arm:
+            suction = p.mapping(arm["suction"], "arm.suction", {"radius"})
+            if "radius" in suction:
+                scene.suction_radius = p.number(suction["radius"], "arm.suction.radius", low=1e-4, high=0.05)
         if "trajectory" in arm:
             traj = p.mapping(arm["trajectory"], "arm.trajectory", {"velocity_ratio", "acceleration_ratio"})
             if "velocity_ratio" in traj:

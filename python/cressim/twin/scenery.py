@@ -132,6 +132,9 @@ class SceneryPlan:
         """Whether the world moves by itself (particles), so the engine steps every tick."""
         return any(k in e for e in self._entities() for k in PARTICLE_KEYS)
 
+    def has_fluid(self) -> bool:
+        return any("fluid" in e for e in self._entities())
+
     def physics_settings(self) -> dict:
         return dict(PARTICLE_SETTINGS) if self.simulated() else {}
 

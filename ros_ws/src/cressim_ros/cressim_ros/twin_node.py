@@ -287,6 +287,7 @@ class TwinNode(Node):
             "servo_cv": lambda env, m: arms.servo_cv(env, m.twist),
             "jaw/servo_jp": lambda env, m: arms.jaw_servo_jp(env, m),
             "jaw/move_jp": lambda env, m: arms.jaw_move_jp(env, m),
+            "suction/servo_jp": lambda env, m: arms.suction_servo_jp(env, m),
             "hold": lambda env, m: arms.hold(env),
             "set_base_frame": self._set_base_frame,
             "trajectory_j/set_ratio": lambda env, m: arms.set_ratio(env, m.data),
@@ -556,6 +557,9 @@ class TwinNode(Node):
                 msgs["jaw/measured_js"] = _joint_state(stamp, jaw_names, snap.jaw_meas[env], snap.jaw_meas_v[env],
                                                        zeros1)
                 msgs["jaw/setpoint_js"] = _joint_state(stamp, jaw_names, snap.jaw_sp[env], snap.jaw_sp_v[env], zeros1)
+                if arms.suction is not None:
+                    msgs["suction/measured_js"] = _joint_state(stamp, ["suction"], snap.suction_valve[env], zeros1,
+                                                               array("d", snap.suction_removed[env]))
             prefix = env_frame_prefix(env, N)
             local_frame, base_frame, tip_frame = f"{prefix}{self.arm}_base", self.base_frame_id[env], f"{prefix}{self.arm}"
             if "cartesian" in groups:
