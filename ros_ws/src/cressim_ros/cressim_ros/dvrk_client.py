@@ -166,14 +166,13 @@ class Arm:
         # a few seconds of joint states, to pair each tick's measured and setpoint (same stamp)
         self._measured_js, self._setpoint_js = _Latest(keep=1000), _Latest(keep=1000)
         self._measured_cp, self._setpoint_cp = _Latest(), _Latest()
-        self._spatial_cf = _Latest(keep=1000)
+        self._spatial_cf = None  # subscribed on first use: not every twin publishes the wrench group
         self.goal_reached, self.errors, self.warnings = _Latest(keep=200), _Latest(keep=500), _Latest(keep=200)
         ral.subscriber(OperatingState, f"{ns}/operating_state", self._state, EVENT)
         ral.subscriber(JointState, f"{ns}/measured_js", self._measured_js, PERIODIC)
         ral.subscriber(JointState, f"{ns}/setpoint_js", self._setpoint_js, PERIODIC)
         ral.subscriber(PoseStamped, f"{ns}/measured_cp", self._measured_cp, PERIODIC)
         ral.subscriber(PoseStamped, f"{ns}/setpoint_cp", self._setpoint_cp, PERIODIC)
-        ral.subscriber(WrenchStamped, f"{ns}/spatial/measured_cf", self._spatial_cf, PERIODIC)
         ral.subscriber(Bool, f"{ns}/goal_reached", self.goal_reached, EVENT)
         ral.subscriber(String, f"{ns}/error", self.errors, EVENT)
         ral.subscriber(String, f"{ns}/warning", self.warnings, EVENT)
@@ -230,8 +229,12 @@ class Arm:
     def measured_cp(self, age: float = 0.5) -> np.ndarray:
         return pose_to_matrix(self._fresh(self._measured_cp, age, "measured_cp").pose)
 
-    def spatial_measured_cf(self, age: float = 0.5) -> np.ndarray:
+    def spatial_measured_cf(self, age: float = 0.5, timeout: float = 10.0) -> np.ndarray:
         """Force (N) and torque (N m) on the tool about its tip, in the measured_cp frame."""
+        if self._spatial_cf is None:
+            self._spatial_cf = _Latest()
+            self.ral.subscriber(WrenchStamped, f"{self.ns}/spatial/measured_cf", self._spatial_cf, PERIODIC)
+            self._spatial_cf.wait_for(lambda m: True, timeout)
         w = self._fresh(self._spatial_cf, age, "spatial/measured_cf").wrench
         return np.array([w.force.x, w.force.y, w.force.z, w.torque.x, w.torque.y, w.torque.z])
 
