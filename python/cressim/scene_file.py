@@ -248,6 +248,7 @@ class _Loader:
         self.root, self.base = root, base
         self.segmentation_offset, self.skip = segmentation_offset, skip
         self.labels: dict[int, str] = {}  # segmentation id -> the entity that drew it
+        self.probes: list[tuple] = []  # (position, xyzw) of each ultrasound probe entity, env 0's
         self.meshes: dict[str, int] = {}
         self.textures: dict[str, int] = {}
         self.materials: dict[str, dict] = {}
@@ -380,7 +381,10 @@ class _Loader:
         name = e["name"].str() if "name" in e else ""
         self.entity_name = name
         ent = self.world.create_entity(env=env, name=name)
-        ent.add(self.transform(e["transform"]) if "transform" in e else cressim.Transform())
+        transform = self.transform(e["transform"]) if "transform" in e else cressim.Transform()
+        ent.add(transform)
+        if env == 0 and "ultrasound_probe" in e:
+            self.probes.append((tuple(transform.position), tuple(transform.rotation)))
         for key, make in (("renderable", self.renderable), ("camera", self.camera), ("light", self.light),
                           ("rigid_body", self.rigid_body), ("collider", self.collider), ("soft_body", self.soft_body),
                           ("fluid", self.fluid), ("strand", self.strand), ("material", self.look),
@@ -729,13 +733,19 @@ def load_scene(path) -> cressim.World:
     return _loader(path).load()
 
 
-def add_scene(world: cressim.World, path, *, segmentation_offset: int = 0, skip: tuple = ("camera",)) -> dict:
+@dataclass
+class AddedScene:
+    labels: dict  # segmentation id drawn -> entity name
+    probes: list  # (position, xyzw) of each ultrasound probe entity (as authored, env frame)
+
+
+def add_scene(world: cressim.World, path, *, segmentation_offset: int = 0, skip: tuple = ("camera",)) -> AddedScene:
     """Adds the entities of scene file `path` to every env of `world` (the twin puts them beside
     its arm), leaving out entities with a component named in `skip` (the twin has its own
-    camera); segmentation ids are offset by `segmentation_offset`. Returns {id: entity name}."""
+    camera); segmentation ids are offset by `segmentation_offset`."""
     loader = _loader(Path(path), segmentation_offset=segmentation_offset, skip=skip)
     loader.load(world)
-    return dict(loader.labels)
+    return AddedScene(dict(loader.labels), list(loader.probes))
 
 
 def _loader(path: Path, **options) -> _Loader:

@@ -130,3 +130,19 @@ def test_the_needle_driver_has_no_suction(make_arms):
     arms = make_arms(scene=load_scene("psm_retraction.yaml"))
     refused = arms.suction_servo_jp(0, JointCommand(position=[1.0]))
     assert "has no suction tube" in [e.value for e in refused if e.topic == "error"][0]
+
+
+def test_the_twin_images_the_phantom_with_the_world_probe(make_arms):
+    """psm_ultrasound.yaml: the world file's probe is the twin's (its pose goes on /tf_static);
+    its image shows the gel's speckle and the cyst's dark."""
+    arms = make_arms(scene=load_scene("psm_ultrasound.yaml"), ultrasound=True)
+    scenery = arms.bodies.scenery
+    assert scenery.ultrasound is not None
+    position, rotation = scenery.probe_pose()
+    np.testing.assert_allclose(position, (0.0, 0.0, 0.182), atol=1e-6)  # ultrasound_phantom.yaml's probe
+    assert "phantom" in scenery.labels.values()
+    _run(arms, 5)
+    with arms.engine_lock:
+        arms.step_engine(sense=True)
+    image = arms.bodies.engine.buffer("ultrasound0.image").read()[0]
+    assert image.mean() > 0.1 and (image < 0.02).mean() > 0.005

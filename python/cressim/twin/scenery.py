@@ -155,8 +155,14 @@ class Scenery:
         n = len(visuals.names)
         self.tissue_id, self.table_id = n + 1, n + 2
         self.labels = {k + 1: name for k, name in enumerate(visuals.names)}
+        self.world_probe = None
         if scene_file:  # every env's world at once, its ids after the arm's
-            self.labels.update(add_scene(world, scene_file, segmentation_offset=n))
+            added = add_scene(world, scene_file, segmentation_offset=n)
+            self.labels.update(added.labels)
+            # the world's probe (ultrasound_phantom.yaml) is the twin's when it publishes ultrasound
+            self.world_probe = added.probes[0] if added.probes else None
+            if self.world_probe is None:
+                self.ultrasound = None
         else:
             self.labels.update({self.tissue_id: "tissue", self.table_id: "table"})
         self.camera_rotation = look_at_rotation(camera.position, camera.look_at)
@@ -195,7 +201,10 @@ class Scenery:
             self._add_ultrasound(world, env, tissue)
 
     def probe_pose(self) -> tuple:
-        """(position, xyzw) of the probe in the env's world: on the tissue's top face, +z down."""
+        """(position, xyzw) of the probe in the env's world: the world file's, or on the rigid
+        tissue's top face, +z down."""
+        if self.world_probe is not None:
+            return self.world_probe
         top = self.camera.table_z + 2 * TISSUE_HALF[2]
         return (self.ultrasound.x, 0.0, top), (1.0, 0.0, 0.0, 0.0)
 
