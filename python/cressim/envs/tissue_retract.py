@@ -21,7 +21,7 @@ within 6 mm of it while the grasp is closed.
 Action (7), each in [-1, 1] (NaN counts as 0): joint-target deltas per step for yaw, pitch,
 insertion, roll, wrist pitch, wrist yaw, scaled by 0.01 rad, 0.01 rad, 1 mm, 0.02, 0.02, 0.02 rad
 (0.6 rad/s, 60 mm/s, 1.2 rad/s at full action: within the URDF's velocity limits; the tip moves
-up to about 1.5 mm a step) and clamped to the URDF's joint limits; then the grasp: > 0 closes it
+up to about 2 mm a step) and clamped to the URDF's joint limits; then the grasp: > 0 closes it
 (the jaws shut, 0 rad), < 0 opens it (0.6 rad), 0 keeps it. A grasp that closes on nothing stays
 empty until it opens again.
 
