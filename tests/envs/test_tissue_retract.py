@@ -89,7 +89,7 @@ def test_scripted_grasp_and_lift_succeeds_alone_and_resets_that_env():
 
 
 def test_arguments_are_checked():
-    for bad in ({"youngs_modulus": -1.0}, {"poisson_ratio": 0.5}, {"target_lift": float("nan")},
+    for bad in ({"youngs_modulus": -1.0}, {"poisson_ratio": 0.5}, {"density": "dense"}, {"target_lift": float("nan")},
                 {"grasp_reach": 0}):
         with pytest.raises(ValueError, match=next(iter(bad))):
             cressim.envs.make("TissueRetract", num_envs=1, **bad)

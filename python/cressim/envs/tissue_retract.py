@@ -73,10 +73,15 @@ LENGTH_SCALE = 0.1  # m: one unit of the paper's scene
 FRAME = 1 / 60
 
 
-def _positive(name: str, value: float) -> float:
-    if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-        raise ValueError(f"TissueRetract: {name} must be a positive number, got {value!r}")
-    return float(value)
+def _number(name: str, value, low: float = 0.0, high: float = math.inf) -> float:
+    """`value` as a float strictly between low and high; raises otherwise."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        x = math.nan
+    if not low < x < high:
+        raise ValueError(f"TissueRetract: {name} must be a number in ({low}, {high}), got {value!r}")
+    return x
 
 
 class TissueRetract(VectorEnv):
@@ -90,15 +95,13 @@ class TissueRetract(VectorEnv):
                  density: float = 1000.0, target_lift: float = 0.02, grasp_reach: float = 0.006, **kwargs):
         """Tissue material (Pa, -, kg/m^3), the lift that counts as success (m) and the grasp's
         reach (m); other keywords go to VectorEnv."""
-        if not (isinstance(num_envs, int) and num_envs >= 1):
+        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"TissueRetract: num_envs must be a positive integer, got {num_envs!r}")
-        self.youngs_modulus = _positive("youngs_modulus", youngs_modulus)
-        self.density = _positive("density", density)
-        self.target_lift = _positive("target_lift", target_lift)
-        self.grasp_reach = _positive("grasp_reach", grasp_reach)
-        if not (isinstance(poisson_ratio, (int, float)) and 0 <= poisson_ratio < 0.5):
-            raise ValueError(f"TissueRetract: poisson_ratio must be in [0, 0.5), got {poisson_ratio!r}")
-        self.poisson_ratio = float(poisson_ratio)
+        self.youngs_modulus = _number("youngs_modulus", youngs_modulus)
+        self.poisson_ratio = _number("poisson_ratio", poisson_ratio, 0.0, 0.5)
+        self.density = _number("density", density)
+        self.target_lift = _number("target_lift", target_lift)
+        self.grasp_reach = _number("grasp_reach", grasp_reach)
         super().__init__(num_envs, **kwargs)
         self.joints = tensor_view(self.buffers.extra["arm_joints"], self.device)  # (N, 12): q, dq/dt
         self.grasp_commands = tensor_view(self.grasp.commands, self.device)  # (N, 4) int32, x: closed
