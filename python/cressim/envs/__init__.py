@@ -1,17 +1,19 @@
 """Batched RL tasks: `cressim.envs.make("CartPole", num_envs=4096, device="cuda")`,
 `make("TargetCenter", 1024)` (64x64 RGB observations), `make("UltrasoundScan", 32)` (B-mode images),
-`make("SoftBodyPush", 512)`, `make("FluidPour", 128)` (particles)."""
+`make("SoftBodyPush", 512)`, `make("FluidPour", 128)` (particles), `make("TissueRetract", 256)` (the dVRK PSM
+grasps and lifts a tissue sheet)."""
 from __future__ import annotations
 
 from .cartpole import CartPole
 from .fluid_pour import FluidPour
 from .soft_body_push import SoftBodyPush
 from .target_center import TargetCenter
+from .tissue_retract import TissueRetract
 from .ultrasound_scan import UltrasoundScan
 from .vector_env import Space, VectorEnv
 
 REGISTRY = {"CartPole": CartPole, "TargetCenter": TargetCenter, "UltrasoundScan": UltrasoundScan,
-            "SoftBodyPush": SoftBodyPush, "FluidPour": FluidPour}
+            "SoftBodyPush": SoftBodyPush, "FluidPour": FluidPour, "TissueRetract": TissueRetract}
 
 
 def make(name: str, num_envs: int, **kwargs) -> VectorEnv:
@@ -23,5 +25,5 @@ def make(name: str, num_envs: int, **kwargs) -> VectorEnv:
     return task(num_envs, **kwargs)
 
 
-__all__ = ["CartPole", "FluidPour", "REGISTRY", "SoftBodyPush", "Space", "TargetCenter", "UltrasoundScan", "VectorEnv",
-           "make"]
+__all__ = ["CartPole", "FluidPour", "REGISTRY", "SoftBodyPush", "Space", "TargetCenter", "TissueRetract",
+           "UltrasoundScan", "VectorEnv", "make"]

@@ -59,7 +59,8 @@ class VectorEnv:
     """Base of the batched tasks. Subclasses build the scene (`build_world`), name their HLSL
     file and its three entry points, and fill the task constants."""
 
-    hlsl: Path  # task passes: apply_action, evaluate, observe
+    hlsl: Path  # task passes: `entries` (evaluate also as evaluate_reset_all)
+    entries = ("apply_action", "evaluate", "observe")
     observation_space: Space
     action_space: Space
     max_episode_steps: int
@@ -161,7 +162,7 @@ class VectorEnv:
         source = self.hlsl.read_text()
         passes = {}
         # named by the file: compiler errors give its path and line, and "episode.hlsli" beside it resolves
-        for entry in ("apply_action", "evaluate", "observe"):
+        for entry in self.entries:
             passes[entry] = self.engine.create_compute_pass(
                 source, name=str(self.hlsl), entry=entry, threads=self.num_envs,
                 bindings={k: v for k, v in common.items() if k in _declared(source)},

@@ -43,6 +43,10 @@ REFERENCE = {
         "paper RTX 4090 step": {128: 5_967, 256: 7_501, 512: 8_858, 1024: 7_024},
         "paper RTX 4090 PPO": {512: 8_486},
     },
+    "TissueRetract": {
+        "paper RTX 4090 step": {128: 5_626, 256: 8_355},
+        "paper RTX 4090 PPO": {256: 7_809},
+    },
     "FluidPour": {
         "paper RTX 4090 step": {64: 5_417, 128: 6_002, 256: 4_544},
         "paper RTX 4090 PPO": {128: 5_168},

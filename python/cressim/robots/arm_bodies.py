@@ -141,9 +141,15 @@ class ArmBodies:
 
     def __init__(self, urdf_path, num_envs: int, *, base_position, base_rotation, publish_rate: float,
                  physics_rate: float, initial_q: np.ndarray, initial_jaw: float, dof: int, device=None,
-                 dynamics: str = "kinematic", gravity=(0.0, 0.0, -9.81), scenery=None):
+                 dynamics: str = "kinematic", gravity=(0.0, 0.0, -9.81), scenery=None,
+                 world: cressim.World | None = None):
+        """`world`: author the arm into this world (a task's, beside its own entities) instead of
+        one of its own; the caller then creates the engine with its own physics settings (a dynamic
+        arm wants `iterations=SOLVER_ITERATIONS`) and calls `bind(engine)` after `upload_world()`."""
         if dynamics not in DYNAMICS:
             raise ValueError(f"dynamics {dynamics!r} is not one of {', '.join(DYNAMICS)}")
+        if world is not None and scenery is not None:
+            raise ValueError("scenery is authored into the arm's own world: pass either scenery or world")
         self.num_envs, self.dof, self.dynamics = num_envs, dof, dynamics
         self.dynamic = dynamics == "dynamic"
         urdf = yourdfpy.URDF.load(str(urdf_path), build_scene_graph=False, load_meshes=False)
@@ -189,11 +195,11 @@ class ArmBodies:
         self.follower_links = [b.links[0].name for b in bodies if b.frame == 0]
 
         plan = scenery
+        own_world = world is None
         if plan is not None:
-            layout = cressim.SceneLayout(num_envs, **plan.layout_limits(len(bodies)))
-        else:
-            layout = cressim.SceneLayout(num_envs)
-        world = cressim.World(layout)
+            world = cressim.World(cressim.SceneLayout(num_envs, **plan.layout_limits(len(bodies))))
+        elif own_world:
+            world = cressim.World(cressim.SceneLayout(num_envs))
         scenery = None
         if plan is not None:  # what surrounds the arm (cameras, lights, props), from the caller's plan
             scenery = plan.build(world, ArmVisuals(urdf, Path(urdf_path).parent, bodies, poses))
@@ -237,23 +243,36 @@ class ArmBodies:
         self.joint_names = [spec["name"] for spec in joint_specs]
         self.joint_entity_ids = joint_ids
 
-        self.engine = cressim.Engine(world, device=device)
-        self.solver_iterations = SOLVER_ITERATIONS if self.dynamic else 1
-        substeps = int(round(physics_rate / publish_rate))
-        self.engine.physics = cressim.PhysicsSettings(dt=1.0 / publish_rate, substeps=substeps,
-                                                      iterations=self.solver_iterations,
-                                                      gravity=tuple(float(g) for g in self.gravity),
-                                                      **(plan.physics_settings() if plan is not None else {}))
         self.simulated = plan is not None and plan.simulated()  # a world that moves by itself (particles)
         self.has_fluid = plan is not None and plan.has_fluid()
         self.dt = 1.0 / publish_rate
-        self.engine.prepare()
-        self.engine.upload_world()
+        self._authored = (bodies, joint_specs, initial_q, initial_jaw)
+        self.engine = None
+        if not own_world:
+            return  # the caller's engine: bind(engine)
+        engine = cressim.Engine(world, device=device)
+        substeps = int(round(physics_rate / publish_rate))
+        engine.physics = cressim.PhysicsSettings(dt=1.0 / publish_rate, substeps=substeps,
+                                                 iterations=SOLVER_ITERATIONS if self.dynamic else 1,
+                                                 gravity=tuple(float(g) for g in self.gravity),
+                                                 **(plan.physics_settings() if plan is not None else {}))
+        engine.prepare()
+        engine.upload_world()
+        self.bind(engine, cuda_stream=True)
 
+    def bind(self, engine: cressim.Engine, *, cuda_stream: bool = False):
+        """Binds the arm to the engine of its world (prepared and uploaded): body and joint rows,
+        target buffers; a dynamic arm is posed at its initial joint values. `cuda_stream`: make the
+        engine's frames wait for torch's current stream (an engine the caller owns sets its own)."""
+        if self.engine is not None:
+            raise RuntimeError("ArmBodies.bind: the arm is bound to an engine already")
+        bodies, joint_specs, initial_q, initial_jaw = self._authored
+        body_ids, joint_ids, num_envs = self.body_entity_ids, self.joint_entity_ids, self.num_envs
+        self.engine = engine
         self.target_p = torch.from_dlpack(self.engine.buffer("control.body_target_positions"))
         self.target_r = torch.from_dlpack(self.engine.buffer("control.body_target_rotations"))
         self.device = self.target_p.device
-        if self.device.type == "cuda":  # frames wait for targets written on torch's stream
+        if cuda_stream and self.device.type == "cuda":  # frames wait for targets written on torch's stream
             self.engine.set_cuda_stream(torch.cuda.current_stream(self.device).cuda_stream)
         body_entity = np.asarray(self.engine.buffer("rigid.body_entity").read()).astype(np.int64)
         row_of_entity = {int(e): row for row, e in enumerate(body_entity)}

@@ -1,0 +1,106 @@
+"""TissueRetract: the batched PSM grasps the tissue sheet's edge and lifts it; per-env resets put
+the arm, the grasp and the tissue back; PPO runs on it."""
+import math
+
+import numpy as np
+import pytest
+import torch
+
+import cressim.envs
+from cressim.envs.tissue_retract import ACTION_SCALE, RCM, SHEET_HALF, START_Q
+from cressim.learn import train
+
+TOP = 2 * SHEET_HALF[2] + 0.0025  # rest height of the sheet's top layer (m)
+JOINTS, TARGET, TIP, ATTACHED, LIFT = slice(0, 6), slice(12, 15), slice(15, 18), 27, 28
+
+
+def reach(point: torch.Tensor) -> torch.Tensor:
+    """Joint values that put the grasp point at `point` (N, 3) with the wrist straight: the shaft
+    through the remote centre of motion, the grasp point 1.5 mm beyond the insertion value."""
+    v = point - torch.tensor(RCM, dtype=point.dtype, device=point.device)
+    d = v.norm(dim=-1)
+    u = v / d[:, None]
+    zero = torch.zeros_like(d)
+    return torch.stack([torch.atan2(u[:, 0], -u[:, 2]), torch.asin(-u[:, 1]), d - 0.0015, zero, zero, zero], -1)
+
+
+def toward(obs: torch.Tensor, point: torch.Tensor, grasp: float) -> torch.Tensor:
+    scale = torch.tensor(ACTION_SCALE, device=obs.device)
+    a = ((reach(point) - obs[:, JOINTS]) / scale).clamp(-1, 1)
+    return torch.cat([a, torch.full_like(a[:, :1], grasp)], 1)
+
+
+def test_reset_observation_and_a_grasp_on_nothing():
+    env = cressim.envs.make("TissueRetract", num_envs=2, validation=True)
+    obs, info = env.reset(seed=1)
+    assert obs.shape == (2, 29) and env.action_space.shape == (7,)
+    assert torch.allclose(obs[:, JOINTS], torch.tensor(START_Q)) and torch.all(obs[:, 6:12] == 0)
+    assert torch.allclose(obs[:, TARGET][:, 1:], torch.tensor([-SHEET_HALF[1], TOP]), atol=1e-6)  # on the free edge
+    assert torch.allclose(obs[:, TIP], torch.tensor([0.0, 0.0, 0.04]), atol=1e-5)
+    assert torch.allclose(obs[:, 24:27], obs[:, TARGET] - obs[:, TIP])
+    close = torch.zeros(2, 7)
+    close[0, 6], close[1, 2] = 1.0, 1.0  # env 0 closes in the air; env 1 pushes its insertion
+    for _ in range(5):
+        obs, reward, terminated, truncated, _ = env.step(close)
+    assert torch.all(obs[:, ATTACHED] == 0)  # nothing within reach
+    assert env.grasp_commands[0, 0] == 1 and env.grasp_commands[0, 2] == 2  # closed on nothing
+    assert math.isclose(float(obs[1, 2]), START_Q[2] + 5 * ACTION_SCALE[2], rel_tol=1e-5)
+    assert math.isclose(float(obs[1, 8]), ACTION_SCALE[2] * 60, rel_tol=1e-4)  # m/s
+    assert float(obs[1, TIP][2]) < 0.04 - 0.0049
+    distance = (obs[:, TARGET] - obs[:, TIP]).norm(dim=1)
+    assert torch.allclose(reward, -distance / 0.1, atol=1e-5) and not (terminated | truncated).any()
+    assert env.engine.validation_messages == []
+
+
+def test_scripted_grasp_and_lift_succeeds_alone_and_resets_that_env():
+    env = cressim.envs.make("TissueRetract", num_envs=2, validation=True)
+    obs, _ = env.reset()
+    rest = env.engine.buffer("particles.positions").read()[:, :3].copy()
+    above = torch.tensor([0.0, 0.0, 0.004])  # the jaws' ends on the target's top
+    closed_at, lift_to, rewards = None, None, []
+    for step in range(1, 120):
+        o = obs.clone()
+        if closed_at is None and (o[0, TIP] - o[0, TARGET] - above).norm() < 0.001:
+            closed_at, lift_to = step, (o[0, TARGET] + torch.tensor([0.0, 0.0, 0.03])).expand(2, 3)
+        if closed_at is None:
+            a = toward(o, o[:, TARGET] + above, -1.0)  # approach with the jaws open
+        else:
+            a = toward(o, lift_to, 1.0)  # close and lift
+        a[1] = 0  # env 1 idles
+        obs, reward, terminated, truncated, info = env.step(a)
+        assert not terminated[1] and not truncated.any() and torch.all(info["health"] == 0)
+        if step == closed_at:
+            assert obs[0, ATTACHED] == 1 and obs[0, LIFT] < 0.2
+        if closed_at is not None and not terminated[0]:
+            rewards.append(float(reward[0]))
+        if terminated[0]:
+            break
+    assert terminated[0], "the scripted retraction did not succeed"
+    assert 20 <= closed_at <= 60 and len(rewards) >= 10
+    assert rewards[-1] > rewards[0] + 3.0  # the lift term pays (up to 4)
+    assert float(info["finished_length"][0]) == step and int(info["episode_length"][1]) == step
+    # env 0 starts afresh: arm at its start, grasp open, tissue at rest; env 1 is untouched
+    assert torch.allclose(obs[0, JOINTS], torch.tensor(START_Q)) and obs[0, ATTACHED] == 0
+    assert torch.allclose(obs[0, TIP], torch.tensor([0.0, 0.0, 0.04]), atol=1e-5)
+    assert env.grasp_commands[0, 0] == 0 and env.grasp_commands[0, 3] == 0
+    x = env.engine.buffer("particles.positions").read()[:, :3].reshape(2, -1, 3)
+    assert np.abs(x - rest.reshape(2, -1, 3)).max() < 1e-3
+    assert env.engine.validation_messages == []
+
+
+def test_arguments_are_checked():
+    for bad in ({"youngs_modulus": -1.0}, {"poisson_ratio": 0.5}, {"density": "dense"}, {"target_lift": float("nan")},
+                {"grasp_reach": 0}):
+        with pytest.raises(ValueError, match=next(iter(bad))):
+            cressim.envs.make("TissueRetract", num_envs=1, **bad)
+    with pytest.raises(ValueError, match="num_envs"):
+        cressim.envs.make("TissueRetract", num_envs=0)
+
+
+def test_ppo_smoke(tmp_path):
+    result = train("TissueRetract", num_envs=2, iterations=2, seed=0, out_dir=tmp_path, rollout=8, save_every=2,
+                   progress=False)
+    assert result["ppo"]["hidden"] == (256, 256) and result["ppo"]["minibatch"] == 1024
+    for rec in result["history"]:
+        assert all(math.isfinite(rec[k]) for k in ("value", "surrogate", "entropy")), rec
+    assert (tmp_path / "model_2.pt").is_file()
