@@ -77,7 +77,7 @@ POCKET_HALF = (0.024, 0.024)  # m; the pocket's floor is one cell above the basi
 TISSUE_RADIUS = 0.004  # m
 BLOOD_RADIUS = 0.0015  # m
 BLOCK = (11, 11, 5)  # blood particles along x, y, z: 605
-TABLE_HALF = (0.1, 0.1, 0.01)  # m, top at z = 0
+TABLE_HALF = (0.15, 0.15, 0.01)  # m, top at z = 0; the camera sees no edge
 RCM = (0.0, 0.0, 0.15)  # m
 JOINTS = ("yaw", "pitch", "insertion", "roll")
 START_Q = (0.0, 0.0, 0.115, 0.0)
