@@ -48,8 +48,9 @@ def blood_state(env: BloodSuction, k: int):
 
 def test_observation_layout_and_values_checked():
     env = cressim.envs.make("BloodSuction", num_envs=2, validation=True)
-    obs, _ = env.reset()
-    assert obs.shape == (2, 13 + 64 * 64 * 3) and obs.dtype == torch.float32 and env.action_space.shape == (5,)
+    obs, _ = env.reset(seed=3)  # recorded; every episode starts alike
+    assert env.seed == 3 and obs.shape == (2, 13 + 64 * 64 * 3) and obs.dtype == torch.float32
+    assert env.action_space.shape == (5,)
     numbers, image = env.split_observation(obs)
     assert numbers.shape == (2, 13) and image.shape == (2, 64, 64, 3)
     assert torch.allclose(numbers[:, JOINTS], torch.tensor(START_Q))
@@ -69,7 +70,7 @@ def test_suction_in_the_pool_removes_blood_and_a_far_one_does_not():
     env = cressim.envs.make("BloodSuction", num_envs=2, validation=True)
     obs, _ = env.reset()
     total = torch.zeros(2)
-    for _ in range(80):  # env 0 goes for the blood, valve open; env 1 stays 15 mm above it, valve open
+    for _ in range(80):  # env 0 goes for the blood, valve open; env 1 stays 22 mm above it, valve open
         a = toward_blood(obs[:, :13], 1.0)
         a[1] = 0.0
         obs, reward, terminated, truncated, _ = env.step(a)

@@ -68,7 +68,8 @@ void evaluate(uint3 id : SV_DispatchThreadID) {
   const float4 target = task_aim[2 * env];
   const float3 before = task_aim[2 * env + 1].xyz;
   const float progress = target.w == 0 ? 0.0 : length(target.xyz - before) - length(target.xyz - tip_position(env));
-  rewards[env] = pc.reset_all != 0 ? 0.0 : pc.removal_reward * float(removed - task_state[env]) + progress / pc.length_scale;
+  const float reward = pc.removal_reward * float(removed - task_state[env]) + progress / pc.length_scale;
+  rewards[env] = pc.reset_all != 0 ? 0.0 : reward;
   task_state[env] = removed;
   const bool cleared = removed >= pc.fluid_count, failed = reset_mask[env] != 0;  // flagged unhealthy
   if (!end_step(env, cleared || failed)) return;

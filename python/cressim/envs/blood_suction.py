@@ -12,9 +12,10 @@ particles. The container is that scene's basin made deeper: elastic tissue 60 x 
 (6 mm tet cubes, 10 x 10 x 4, 458 particles of radius 4 mm, overlapping so the blood cannot slip
 between them) with a pocket 48 x 48 x 18 mm open at the top; Young's modulus 15 kPa, Poisson
 ratio 0.45, 1000 kg/m^3, velocity damping 2/s; its bottom layer is held to a table (a static
-box, top at z = 0). The 18 mm pocket (the scene file's is 12 mm) keeps the rim 7 mm above the
-settled pool (about 10 mm deep) when the tool displaces blood. The block starts 5.5 mm clear of
-the pocket's floor (a blood and a tissue radius) and settles within about 20 frames. Not
+box, top at z = 0). The block starts 5.5 mm clear of the pocket's floor (a blood and a tissue
+radius) and settles within about 20 frames into a pool about 6 mm deep (particle centres 12.5 to
+19 mm above the table); the 18 mm pocket (the scene file's is 12 mm) keeps the rim (its
+particles' centres at 28 mm) well above it when the tool displaces blood. Not
 modelled: the paper's pull toward the tip within 1.0 unit (the engine gives task passes no
 force on particles; cressim.passes.Suction only removes). 60 Hz frames, 4 substeps, 4 particle
 iterations.
@@ -23,13 +24,14 @@ The arm: the PSM with our suction/irrigator (robots/dvrk_psm/psm_suction.urdf: y
 insertion, roll, a straight nozzle) as kinematic bodies (cressim.robots.ArmBodies in this task's
 world), its remote centre of motion 150 mm above the table over the pool's centre, the tool
 pointing down at yaw = pitch = 0. It starts at q0 = (0, 0, 0.115 m, 0): the tip (the nozzle's
-open end, 9.1 mm along the suction tube link's z) 41.5 mm above the table, about 15 mm above the
-settled blood. The shaft and nozzle are drawn (URDF visuals); the rest of the arm is out of view.
+open end, 9.1 mm along the suction tube link's z) 41.5 mm above the table, about 22 mm above the
+settled blood (out of reach). The shaft and nozzle are drawn (URDF visuals); the rest of the
+arm is out of view.
 
 Action (5), each in [-1, 1] (NaN counts as 0): joint-target deltas per step for yaw, pitch,
 insertion, roll, scaled by 0.01 rad, 0.01 rad, 1 mm, 0.02 rad (the tip moves up to about 2 mm a
 step), clamped to task limits inside the URDF's: yaw and pitch +-0.35 rad (the tip stays over
-the basin), insertion 0.08 .. 0.135 m (the tip stops 3 mm above the pocket floor's particle
+the basin), insertion 0.08 .. 0.1395 m (the tip stops 3 mm above the pocket floor's particle
 spheres: squeezing the held floor between a kinematic tool and the table only strains the
 solver); roll turns the round nozzle about its axis (kept for the dVRK's joint set). Then the
 valve: the suction is on unless action 4 < 0. So zero actions (the benchmark's) suck, as the
@@ -42,10 +44,11 @@ fraction of the blood removed, 11 the valve (1 open), 12 the episode's elapsed s
 240); then the image (rows, columns, RGB) in [0, 1]. `split_observation` gives both parts. The
 camera looks at the basin from 65 mm in front and 95 mm above the table's centre (45 deg fov).
 
-Reward: 0.03 per particle removed this step + progress toward the nearest active particle: the
-decrease of the tip's distance to the particle that was nearest at the last observation / one
-paper unit (20 mm), 0 when that particle was removed (the removal pays for it; a plain nearest
-distance jumps up when the nearest is sucked away and would punish the removal). Terminated when
+Reward: 0.03 per particle removed this step + progress toward the nearest active particle: how
+much nearer the tip came to where that particle was at the last observation, / one paper unit
+(20 mm). Measured against that fixed point, blood that flows or is sucked away neither pays nor
+costs (a plain nearest distance jumps up when the nearest particle is removed, punishing the
+removal, and moves as the pool settles); a still tip earns no progress. Terminated when
 all blood is removed or the solver flags the env; truncated at 240 steps. Every episode starts
 alike (arm at q0, the block of blood); a finished env's arm, blood and counters are reset on the
 GPU (`evaluate`) by the engine's per-env reset.
@@ -134,9 +137,9 @@ def _look_at(eye, target) -> tuple:
     right = np.cross(forward, (0.0, 0.0, 1.0))
     right /= np.linalg.norm(right)
     down = np.cross(forward, right)
-    m = np.stack([right, down, forward], axis=1)
-    w = math.sqrt(max(1e-12, 1 + m[0, 0] + m[1, 1] + m[2, 2])) / 2
-    return ((m[2, 1] - m[1, 2]) / (4 * w), (m[0, 2] - m[2, 0]) / (4 * w), (m[1, 0] - m[0, 1]) / (4 * w), w)
+    from cressim.robots.kinematics import rotation_xyzw
+
+    return rotation_xyzw(np.stack([right, down, forward], axis=1))
 
 
 class BloodSuction(VectorEnv):
@@ -152,8 +155,9 @@ class BloodSuction(VectorEnv):
         material (Pa, -, kg/m^3); other keywords go to VectorEnv."""
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"BloodSuction: num_envs must be a positive integer, got {num_envs!r}")
-        if isinstance(image_size, bool) or not isinstance(image_size, (int, np.integer)) or not 8 <= image_size <= 512:
-            raise ValueError(f"BloodSuction: image_size must be an integer in [8, 512], got {image_size!r}")
+        # at least 32: the CNN's three strided convolutions leave a 2 x 2 map of it
+        if isinstance(image_size, bool) or not isinstance(image_size, (int, np.integer)) or not 32 <= image_size <= 512:
+            raise ValueError(f"BloodSuction: image_size must be an integer in [32, 512], got {image_size!r}")
         self.image_size = int(image_size)
         self.suction_radius = _number("suction_radius", suction_radius, 0.0, 0.05)
         self.youngs_modulus = _number("youngs_modulus", youngs_modulus)
@@ -313,6 +317,14 @@ class BloodSuction(VectorEnv):
         for observe_image in p["observe_image"]:
             e.execute_compute_pass(observe_image)
         e.end_frame()
+
+    def reset(self, *, seed: int | None = None):
+        """Starts a new episode in every env; returns (obs, info). Every episode starts alike (no
+        random draws), so `seed` is only recorded."""
+        if seed is not None:
+            self.seed = seed
+        self._frame(reset_all=True)
+        return self.obs, self._info()
 
     def split_observation(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """(numbers (N, 13), image (N, H, W, 3)) views of observations (N, 13 + H W 3)."""
