@@ -28,5 +28,5 @@ def make(name: str, num_envs: int, **kwargs) -> VectorEnv:
     return task(num_envs, **kwargs)
 
 
-__all__ = ["BloodSuction", "CartPole", "FluidPour", "REGISTRY", "SoftBodyPush", "Space", "TargetCenter", "TissueRetract",
-           "UltrasoundScan", "VectorEnv", "make"]
+__all__ = ["BloodSuction", "CartPole", "FluidPour", "REGISTRY", "SoftBodyPush", "Space", "TargetCenter",
+           "TissueRetract", "UltrasoundScan", "VectorEnv", "make"]
