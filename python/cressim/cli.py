@@ -110,7 +110,7 @@ def main(argv: list[str] | None = None) -> int:
     p = sub.add_parser("bench", help="stepping and PPO throughput (TASKS.md protocol)")
     p.add_argument("task", nargs="?", default="CartPole")
     p.add_argument("--envs", help="comma-separated counts (default: TASKS.md's sweep for the task, "
-                                  "1,8,...,8192 for CartPole, 1,8,32,64 for UltrasoundScan)")
+                                  "1,8,...,8192 for CartPole, 1,8,32,64 for UltrasoundScan, 1,8,...,256 for BloodSuction)")
     p.add_argument("--mode", default="both", choices=("step", "ppo", "both"))
     p.add_argument("--out", default="benchmarks/results", help="folder for the JSON and PNG")
     p.add_argument("--device", help="torch device (default: what the env picks)")

@@ -89,7 +89,7 @@ def test_observations_are_zero_copy_views_and_frames_replay():
 
 
 def test_unknown_task_lists_the_tasks():
-    with pytest.raises(KeyError, match="unknown task 'Cartpole'; tasks: CartPole"):
+    with pytest.raises(KeyError, match="unknown task 'Cartpole'; tasks: BloodSuction, CartPole"):
         cressim.envs.make("Cartpole", num_envs=1)
 
 

@@ -1,9 +1,11 @@
 """Batched RL tasks: `cressim.envs.make("CartPole", num_envs=4096, device="cuda")`,
 `make("TargetCenter", 1024)` (64x64 RGB observations), `make("UltrasoundScan", 32)` (B-mode images),
 `make("SoftBodyPush", 512)`, `make("FluidPour", 128)` (particles), `make("TissueRetract", 256)` (the dVRK PSM
-grasps and lifts a tissue sheet)."""
+grasps and lifts a tissue sheet), `make("BloodSuction", 128)` (the PSM's suction tool clears a pool of blood;
+13 numbers and a 64x64 RGB image)."""
 from __future__ import annotations
 
+from .blood_suction import BloodSuction
 from .cartpole import CartPole
 from .fluid_pour import FluidPour
 from .soft_body_push import SoftBodyPush
@@ -13,7 +15,8 @@ from .ultrasound_scan import UltrasoundScan
 from .vector_env import Space, VectorEnv
 
 REGISTRY = {"CartPole": CartPole, "TargetCenter": TargetCenter, "UltrasoundScan": UltrasoundScan,
-            "SoftBodyPush": SoftBodyPush, "FluidPour": FluidPour, "TissueRetract": TissueRetract}
+            "SoftBodyPush": SoftBodyPush, "FluidPour": FluidPour, "TissueRetract": TissueRetract,
+            "BloodSuction": BloodSuction}
 
 
 def make(name: str, num_envs: int, **kwargs) -> VectorEnv:
@@ -25,5 +28,5 @@ def make(name: str, num_envs: int, **kwargs) -> VectorEnv:
     return task(num_envs, **kwargs)
 
 
-__all__ = ["CartPole", "FluidPour", "REGISTRY", "SoftBodyPush", "Space", "TargetCenter", "TissueRetract",
-           "UltrasoundScan", "VectorEnv", "make"]
+__all__ = ["BloodSuction", "CartPole", "FluidPour", "REGISTRY", "SoftBodyPush", "Space", "TargetCenter",
+           "TissueRetract", "UltrasoundScan", "VectorEnv", "make"]

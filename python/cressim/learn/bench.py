@@ -22,7 +22,7 @@ from .vec_env import CressimVecEnv
 
 PAPER_SWEEP = (1, 8, 16, 32, 64, 128, 256, 512, 1024, 2048, 4096, 8192)
 # TASKS.md's sweeps where they differ from CartPole's
-TASK_SWEEPS = {"UltrasoundScan": (1, 8, 32, 64)}
+TASK_SWEEPS = {"UltrasoundScan": (1, 8, 32, 64), "BloodSuction": (1, 8, 16, 32, 64, 128, 256)}
 # The paper's figures (TASKS.md, RTX 4090, Vulkan) and MJX on an H100 as the peer, env-steps/s.
 REFERENCE = {
     "CartPole": {
@@ -46,6 +46,10 @@ REFERENCE = {
     "TissueRetract": {
         "paper RTX 4090 step": {128: 5_626, 256: 8_355},
         "paper RTX 4090 PPO": {256: 7_809},
+    },
+    "BloodSuction": {
+        "paper RTX 4090 step": {128: 831, 256: 826},
+        "paper RTX 4090 PPO": {128: 819},
     },
     "FluidPour": {
         "paper RTX 4090 step": {64: 5_417, 128: 6_002, 256: 4_544},

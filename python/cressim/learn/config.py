@@ -24,7 +24,9 @@ class PPOConfig:
     max_grad_norm: float = 0.5
     init_log_std: float = -0.5
     hidden: tuple = (128, 128)  # tanh MLP, actor and critic alike
-    network: str = "mlp"        # "cnn": conv32 k5 s2, conv64 k3 s2, conv64 k3 s2, ReLU, linear hidden[0]
+    network: str = "mlp"        # "cnn": conv32 k5 s2, conv64 k3 s2, conv64 k3 s2, ReLU, linear hidden[0];
+                                # "hybrid": that CNN on the observation's trailing image, the MLP on the rest
+    image: tuple = ()           # hybrid: the (H, W, C) image at the observation's end
 
     def num_mini_batches(self, num_envs: int) -> int:
         return max(1, round(num_envs * self.rollout / self.minibatch))
@@ -37,7 +39,7 @@ class PPOConfig:
         return asdict(self)
 
 
-# Per-task network and minibatch (TASKS.md); CNN tasks train with the built-in learner.
+# Per-task network and minibatch (TASKS.md); CNN and hybrid tasks train with the built-in learner.
 TASKS = {
     "CartPole": PPOConfig(hidden=(128, 128), minibatch=2048),
     "TargetCenter": PPOConfig(hidden=(256,), network="cnn", minibatch=256),
@@ -45,6 +47,7 @@ TASKS = {
     "FluidPour": PPOConfig(hidden=(128, 128), minibatch=1024),
     "TissueRetract": PPOConfig(hidden=(256, 256), minibatch=1024),
     "UltrasoundScan": PPOConfig(hidden=(256,), network="cnn", minibatch=256),
+    "BloodSuction": PPOConfig(hidden=(256, 256), network="hybrid", image=(64, 64, 3), minibatch=1024),
 }
 
 

@@ -19,12 +19,22 @@ from .config import PPOConfig
 from .cuda_graph import Captured
 
 
-def mlp(inputs: int, hidden: tuple, outputs: int) -> nn.Sequential:
+def tanh_layers(inputs: int, hidden: tuple) -> list:
     layers, width = [], inputs
     for h in hidden:
         layers += [nn.Linear(width, h), nn.Tanh()]
         width = h
-    return nn.Sequential(*layers, nn.Linear(width, outputs))
+    return layers
+
+
+def mlp(inputs: int, hidden: tuple, outputs: int) -> nn.Sequential:
+    return nn.Sequential(*tanh_layers(inputs, hidden), nn.Linear(hidden[-1] if hidden else inputs, outputs))
+
+
+def conv_trunk(channels: int) -> nn.Sequential:
+    """TASKS.md's convolutions: conv32 k5 s2, conv64 k3 s2, conv64 k3 s2, each with a ReLU, flattened."""
+    return nn.Sequential(nn.Conv2d(channels, 32, 5, 2), nn.ReLU(), nn.Conv2d(32, 64, 3, 2), nn.ReLU(),
+                         nn.Conv2d(64, 64, 3, 2), nn.ReLU(), nn.Flatten())
 
 
 class ImageCNN(nn.Module):
@@ -37,8 +47,7 @@ class ImageCNN(nn.Module):
         self.shape = tuple(shape)
         self.channels_last = shape[-1] <= 4 < shape[0]
         channels = shape[-1] if self.channels_last else shape[0]
-        self.convs = nn.Sequential(nn.Conv2d(channels, 32, 5, 2), nn.ReLU(), nn.Conv2d(32, 64, 3, 2), nn.ReLU(),
-                                   nn.Conv2d(64, 64, 3, 2), nn.ReLU(), nn.Flatten())
+        self.convs = conv_trunk(channels)
         with torch.no_grad():
             width = self.convs(self._images(torch.zeros(1, math.prod(shape)))).shape[1]
         self.head = nn.Sequential(nn.Linear(width, hidden), nn.ReLU(), nn.Linear(hidden, outputs))
@@ -53,6 +62,32 @@ class ImageCNN(nn.Module):
         return self.head(self.convs(self._images(x)))
 
 
+class HybridNet(nn.Module):
+    """TASKS.md's hybrid network on flat observations: a vector, then an (H, W, C) image of shape
+    `image` (floats in [0, 1], or uint8 scaled to them). The image goes through the CNN's
+    convolutions and a linear layer of hidden[0] (ReLU), the vector through the tanh MLP of
+    `hidden`; the two are concatenated (fused) into the linear output layer."""
+
+    def __init__(self, num_obs: int, image: tuple, hidden: tuple, outputs: int):
+        super().__init__()
+        self.image, self.vector = tuple(image), num_obs - math.prod(image)
+        if len(self.image) != 3 or self.vector < 1 or not hidden:
+            raise ValueError(f"network 'hybrid' needs an (H, W, C) image smaller than the {num_obs} observation values "
+                             f"and hidden layers, got image {image}, hidden {hidden}")
+        self.convs = conv_trunk(self.image[2])
+        with torch.no_grad():
+            width = self.convs(torch.zeros(1, self.image[2], self.image[0], self.image[1])).shape[1]
+        self.image_features = nn.Sequential(nn.Linear(width, hidden[0]), nn.ReLU())
+        self.vector_features = nn.Sequential(*tanh_layers(self.vector, hidden))
+        self.head = nn.Linear(hidden[0] + hidden[-1], outputs)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        images = x[:, self.vector:].reshape(-1, *self.image).permute(0, 3, 1, 2)
+        images = images.float() / 255.0 if images.dtype == torch.uint8 else images
+        features = [self.image_features(self.convs(images)), self.vector_features(x[:, :self.vector].float())]
+        return self.head(torch.cat(features, -1))
+
+
 def network(cfg: PPOConfig, num_obs: int, obs_shape: tuple | None, outputs: int) -> nn.Module:
     if cfg.network == "mlp":
         return mlp(num_obs, cfg.hidden, outputs)
@@ -60,7 +95,9 @@ def network(cfg: PPOConfig, num_obs: int, obs_shape: tuple | None, outputs: int)
         if obs_shape is None or len(obs_shape) != 3:
             raise ValueError(f"network 'cnn' needs image observations (C, H, W) or (H, W, C), got shape {obs_shape}")
         return ImageCNN(obs_shape, cfg.hidden[0], outputs)
-    raise ValueError(f"PPOConfig.network {cfg.network!r}: use 'mlp' or 'cnn'")
+    if cfg.network == "hybrid":
+        return HybridNet(num_obs, cfg.image, cfg.hidden, outputs)
+    raise ValueError(f"PPOConfig.network {cfg.network!r}: use 'mlp', 'cnn' or 'hybrid'")
 
 
 class TorchPPO:

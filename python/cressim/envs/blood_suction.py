@@ -1,0 +1,336 @@
+"""BloodSuction: the dVRK PSM's suction tool clears a pool of blood from a soft basin
+(../shared/TASKS.md), z up, SI units.
+
+Workload. The paper's scene has arbitrary units: about 605 fluid particles (11 x 5 x 11) in a
+soft tet-mesh container; suction pulls particles within 1.0 unit toward the tip and removes
+those within 0.25. Here the scene is at the PSM's real scale, one paper unit = 20 mm: the
+removal radius 0.25 units is 5 mm, about the nozzle's outer diameter (the twin's psm_suction
+radius, scenes/psm_suction.yaml). The blood is 605 particles (an 11 x 11 block, 5 layers)
+3 mm apart, radius 1.5 mm, 1060 kg/m^3 (whole blood), XSPH viscosity 0.05, cohesion 0.02, the
+radius scenes/blood_suction.yaml chose so that blood does not seep between the basin's
+particles. The container is that scene's basin made deeper: elastic tissue 60 x 60 x 24 mm
+(6 mm tet cubes, 10 x 10 x 4, 458 particles of radius 4 mm, overlapping so the blood cannot slip
+between them) with a pocket 48 x 48 x 18 mm open at the top; Young's modulus 15 kPa, Poisson
+ratio 0.45, 1000 kg/m^3, velocity damping 2/s; its bottom layer is held to a table (a static
+box, top at z = 0). The block starts 5.5 mm clear of the pocket's floor (a blood and a tissue
+radius) and settles within about 20 frames into a pool about 6 mm deep (particle centres 12.5 to
+19 mm above the table); the 18 mm pocket (the scene file's is 12 mm) keeps the rim (its
+particles' centres at 28 mm) well above it when the tool displaces blood. Not
+modelled: the paper's pull toward the tip within 1.0 unit (the engine gives task passes no
+force on particles; cressim.passes.Suction only removes). 60 Hz frames, 4 substeps, 4 particle
+iterations.
+
+The arm: the PSM with our suction/irrigator (robots/dvrk_psm/psm_suction.urdf: yaw, pitch,
+insertion, roll, a straight nozzle) as kinematic bodies (cressim.robots.ArmBodies in this task's
+world), its remote centre of motion 150 mm above the table over the pool's centre, the tool
+pointing down at yaw = pitch = 0. It starts at q0 = (0, 0, 0.115 m, 0): the tip (the nozzle's
+open end, 9.1 mm along the suction tube link's z) 41.5 mm above the table, about 22 mm above the
+settled blood (out of reach). The shaft and nozzle are drawn (URDF visuals); the rest of the
+arm is out of view.
+
+Action (5), each in [-1, 1] (NaN counts as 0): joint-target deltas per step for yaw, pitch,
+insertion, roll, scaled by 0.01 rad, 0.01 rad, 1 mm, 0.02 rad (the tip moves up to about 2 mm a
+step), clamped to task limits inside the URDF's: yaw and pitch +-0.35 rad (the tip stays over
+the basin), insertion 0.08 .. 0.1395 m (the tip stops 3 mm above the pocket floor's particle
+spheres: squeezing the held floor between a kinematic tool and the table only strains the
+solver); roll turns the round nozzle about its axis (kept for the dVRK's joint set). Then the
+valve: the suction is on unless action 4 < 0. So zero actions (the benchmark's) suck, as the
+paper's always-on suction; a policy may close the valve, which costs nothing and earns nothing.
+
+Observation: 13 numbers, then the camera's 64 x 64 RGB image, one float32 row per env
+(13 + 64 * 64 * 3): 0-3 joint targets (yaw, pitch, insertion, roll; rad, m), 4-6 the tip
+(env frame, m), 7-9 the nearest active blood particle - tip (m; 0 when none is left), 10 the
+fraction of the blood removed, 11 the valve (1 open), 12 the episode's elapsed share (steps /
+240); then the image (rows, columns, RGB) in [0, 1]. `split_observation` gives both parts. The
+camera looks at the basin from 65 mm in front and 95 mm above the table's centre (45 deg fov).
+
+Reward: 0.03 per particle removed this step + progress toward the nearest active particle: how
+much nearer the tip came to where that particle was at the last observation, / one paper unit
+(20 mm). Measured against that fixed point, blood that flows or is sucked away neither pays nor
+costs (a plain nearest distance jumps up when the nearest particle is removed, punishing the
+removal, and moves as the pool settles); a still tip earns no progress. Terminated when
+all blood is removed or the solver flags the env; truncated at 240 steps. Every episode starts
+alike (arm at q0, the block of blood); a finished env's arm, blood and counters are reset on the
+GPU (`evaluate`) by the engine's per-env reset.
+
+A step: in torch, the actions move the joint targets (shared buffer `arm_joints`) and the valve
+(the Suction's `commands`), and ArmBodies.write poses every env's arm in one batched FK call;
+then one frame: the Suction pass (removes blood within reach, counted per env), physics,
+`evaluate`, the engine's reset of flagged envs, rendering, `observe` (numbers) and one
+`observe_image` pass per camera group.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import torch
+
+import cressim
+from cressim.passes.suction import Suction
+from cressim.tet_mesh_file import boundary_triangles
+
+from .vector_env import Space, VectorEnv, tensor_view
+
+CELL = 0.006  # m: the basin's tet cubes
+BASIN_HALF = (0.03, 0.03, 0.012)  # m
+POCKET_HALF = (0.024, 0.024)  # m; the pocket's floor is one cell above the basin's bottom
+TISSUE_RADIUS = 0.004  # m
+BLOOD_RADIUS = 0.0015  # m
+BLOCK = (11, 11, 5)  # blood particles along x, y, z: 605
+TABLE_HALF = (0.15, 0.15, 0.01)  # m, top at z = 0; the camera sees no edge
+RCM = (0.0, 0.0, 0.15)  # m
+JOINTS = ("yaw", "pitch", "insertion", "roll")
+START_Q = (0.0, 0.0, 0.115, 0.0)
+ACTION_SCALE = (0.01, 0.01, 0.001, 0.02)  # rad or m per step per unit action
+TASK_LIMITS = {"yaw": (-0.35, 0.35), "pitch": (-0.35, 0.35), "insertion": (0.08, 0.1395)}
+TUBE = "PSM1_suction_tube_link"
+TIP = (0.0, 0.0, 0.0091)  # m, in TUBE's frame: the nozzle's open end
+SHOWN_LINKS = ("PSM1_shaft_link", TUBE)  # the links the camera sees
+EYE, LOOK_AT = (0.0, -0.065, 0.095), (0.0, 0.0, 0.012)
+LENGTH_SCALE = 0.02  # m: one unit of the paper's scene
+FRAME = 1 / 60
+NUMBERS = 13  # observation values before the image
+
+
+def _number(name: str, value, low: float = 0.0, high: float = math.inf) -> float:
+    """`value` as a float strictly between low and high; raises otherwise."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        x = math.nan
+    if not low < x < high:
+        raise ValueError(f"BloodSuction: {name} must be a number in ({low}, {high}), got {value!r}")
+    return x
+
+
+def basin_mesh() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The basin's particles (bottom at z = 0), tets and surface triangles: a box of tet cubes
+    without the pocket's."""
+    box = cressim.TetMesh.box(BASIN_HALF, tuple(round(2 * h / CELL) for h in BASIN_HALF))
+    points = np.asarray(box.positions, np.float64) + [0.0, 0.0, BASIN_HALF[2]]
+    tets = np.asarray(box.tets)
+    centre = points[tets].mean(axis=1)
+    pocket = (np.abs(centre[:, 0]) < POCKET_HALF[0]) & (np.abs(centre[:, 1]) < POCKET_HALF[1]) & (centre[:, 2] > CELL)
+    tets = tets[~pocket]
+    used = np.unique(tets)
+    index = np.full(len(points), -1)
+    index[used] = np.arange(len(used))
+    points, tets = points[used], index[tets]
+    return points.astype(np.float32), tets.astype(np.int32), boundary_triangles(points, tets)
+
+
+def blood_block() -> np.ndarray:
+    """The blood's start (basin frame): the block centred over the pocket floor, 5.5 mm above
+    the floor's particle centres."""
+    z, y, x = np.meshgrid(*(np.arange(n) for n in BLOCK[::-1]), indexing="ij")
+    grid = np.stack([x, y, z], -1).reshape(-1, 3) * 2 * BLOOD_RADIUS
+    origin = [-(BLOCK[0] - 1) * BLOOD_RADIUS, -(BLOCK[1] - 1) * BLOOD_RADIUS, CELL + TISSUE_RADIUS + BLOOD_RADIUS]
+    return (grid + origin).astype(np.float32)
+
+
+def _look_at(eye, target) -> tuple:
+    """xyzw rotation turning a camera's +z (view) toward target, its +y (image down) downward."""
+    forward = np.subtract(target, eye) / np.linalg.norm(np.subtract(target, eye))
+    right = np.cross(forward, (0.0, 0.0, 1.0))
+    right /= np.linalg.norm(right)
+    down = np.cross(forward, right)
+    from cressim.robots.kinematics import rotation_xyzw
+
+    return rotation_xyzw(np.stack([right, down, forward], axis=1))
+
+
+class BloodSuction(VectorEnv):
+    hlsl = Path(__file__).with_name("blood_suction.hlsl")
+    entries = ("evaluate", "observe")  # the arm moves in torch before the frame; images: observe_image
+    action_space = Space((5,), -1.0, 1.0)
+    max_episode_steps = 240
+    removal_reward = 0.03
+
+    def __init__(self, num_envs: int, *, image_size: int = 64, suction_radius: float = 0.005,
+                 youngs_modulus: float = 15e3, poisson_ratio: float = 0.45, density: float = 1000.0, **kwargs):
+        """The camera image's side (pixels), the suction's removal radius (m) and the basin's
+        material (Pa, -, kg/m^3); other keywords go to VectorEnv."""
+        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+            raise ValueError(f"BloodSuction: num_envs must be a positive integer, got {num_envs!r}")
+        # at least 32: the CNN's three strided convolutions leave a 2 x 2 map of it
+        if isinstance(image_size, bool) or not isinstance(image_size, (int, np.integer)) or not 32 <= image_size <= 512:
+            raise ValueError(f"BloodSuction: image_size must be an integer in [32, 512], got {image_size!r}")
+        self.image_size = int(image_size)
+        self.suction_radius = _number("suction_radius", suction_radius, 0.0, 0.05)
+        self.youngs_modulus = _number("youngs_modulus", youngs_modulus)
+        self.poisson_ratio = _number("poisson_ratio", poisson_ratio, 0.0, 0.5)
+        self.density = _number("density", density)
+        self.observation_space = Space((NUMBERS + 3 * self.image_size ** 2,))
+        super().__init__(num_envs, **kwargs)
+        self.joints = tensor_view(self.buffers.extra["arm_joints"], self.device)  # (N, 4)
+        self.suction_commands = tensor_view(self.suction.commands, self.device)  # (N, 4) int32: x on, w removed
+        limits = {j.name: j.limit for j in self.arm.urdf.robot.joints}
+        bounds = [TASK_LIMITS.get(n, (limits[n].lower, limits[n].upper)) for n in JOINTS]
+        on = dict(device=self.device, dtype=torch.float32)
+        self._lower = torch.tensor([lo for lo, _ in bounds], **on)
+        self._upper = torch.tensor([hi for _, hi in bounds], **on)
+        self._scale = torch.tensor(ACTION_SCALE, **on)
+        self._jaw = torch.zeros(num_envs, 1)
+
+    # --- the scene ---------------------------------------------------------------------------
+    def build_world(self, num_envs: int) -> cressim.World:
+        from cressim.robots import ArmBodies, robot_dir  # on first use: the URDF stack takes a second to import
+
+        s = self.image_size
+        world = cressim.World(cressim.SceneLayout(num_envs, max_renderables_per_env=3 + len(SHOWN_LINKS),
+                                                  max_lights_per_env=1, max_cameras_per_env=1))
+        self.arm = ArmBodies(
+            robot_dir() / "psm_suction.urdf", num_envs, base_position=RCM, base_rotation=(0.0, 0.0, 0.0, 1.0),
+            publish_rate=1 / FRAME, physics_rate=4 / FRAME, initial_q=np.array(START_Q), initial_jaw=0.0, dof=4,
+            world=world)
+        self._show_arm(world)
+        points, tets, triangles = basin_mesh()
+        held = np.nonzero(points[:, 2] < 1e-6)[0]  # the bottom layer, on the table
+        block = blood_block()
+        self.fluid_count = len(block)
+        self.particles_per_env = len(points) + len(block)
+        table_mesh = world.add_mesh(cressim.Mesh.box(TABLE_HALF))
+        on_table = (0.0, 0.0, TISSUE_RADIUS)  # the bottom particles' spheres rest on the table
+        for env in range(num_envs):
+            table = world.create_entity(env=env, name="table")
+            table.add(cressim.Transform(position=(0.0, 0.0, -TABLE_HALF[2])))
+            table.add(cressim.Collider(cressim.Shape.box(TABLE_HALF)))
+            table.add(cressim.Renderable(table_mesh, color=(0.35, 0.42, 0.35, 1.0), roughness=0.8))
+            basin = world.create_entity(env=env, name="basin")
+            basin.add(cressim.Transform(position=on_table))
+            basin.add(cressim.SoftBody(points, tets, triangles, fixed=held, youngs_modulus=self.youngs_modulus,
+                                       poisson_ratio=self.poisson_ratio, density=self.density,
+                                       radius=TISSUE_RADIUS, damping=2.0, friction=0.5))
+            basin.add(cressim.Material(color=(0.78, 0.42, 0.38, 1.0), roughness=0.45))
+            blood = world.create_entity(env=env, name="blood")
+            blood.add(cressim.Transform(position=on_table))
+            blood.add(cressim.Fluid(block, radius=BLOOD_RADIUS, rest_density=1060, viscosity=0.05, cohesion=0.02))
+            blood.add(cressim.Material(color=(0.05, 0.001, 0.001, 1.0), roughness=0.15))
+            light = world.create_entity(env=env, name="light")
+            light.add(cressim.Transform(rotation=_look_at((0.2, -0.3, 1.0), (0.0, 0.0, 0.0))))
+            light.add(cressim.Light(intensity=1.0, ambient=0.3))
+            camera = world.create_entity(env=env, name="camera")
+            camera.add(cressim.Transform(position=EYE, rotation=_look_at(EYE, LOOK_AT)))
+            camera.add(cressim.Camera(width=s, height=s, fov_y=45.0, near=0.01, far=1.0, products=["rgb"]))
+        return world
+
+    def _show_arm(self, world: cressim.World):
+        """Renderables (URDF visuals) on the bodies of SHOWN_LINKS: in kinematic mode each link is
+        a body whose frame is the link's."""
+        from cressim.robots import robot_dir
+        from cressim.robots.arm_visuals import ArmVisuals
+
+        links = {link.name: link for link in self.arm.urdf.robot.links}
+        for name in SHOWN_LINKS:
+            body = SimpleNamespace(links=[links[name]], pose=np.eye(4), name=name)
+            visuals = ArmVisuals(self.arm.urdf, robot_dir(), [body], {name: np.eye(4)})
+            m = visuals.meshes[0]
+            mesh = world.add_mesh(cressim.Mesh(np.asarray(m.vertices, np.float32), np.asarray(m.faces, np.uint32),
+                                               np.asarray(m.vertex_normals, np.float32)))
+            k = self.arm.body_names.index(name)
+            for entity in self.arm.body_entity_ids[:, k]:
+                world.entity(int(entity)).add(cressim.Renderable(mesh, color=visuals.colors[0], metallic=0.3,
+                                                                 roughness=0.4))
+
+    def physics_settings(self) -> cressim.PhysicsSettings:
+        return cressim.PhysicsSettings(dt=FRAME, substeps=4, particle_iterations=4, max_particle_attachments_per_env=0)
+
+    # --- buffers and passes -------------------------------------------------------------------
+    def _create_passes(self) -> dict:
+        e, n = self.engine, self.num_envs
+        self.arm.bind(e)
+        mapping = e.particle_mapping
+        fluid = mapping["object_kind"] == mapping["kinds"]["fluid"]
+        offsets = mapping["object_offset"][fluid] - mapping["env_offset"][mapping["object_env"][fluid]]
+        if not (np.all(offsets == offsets[0]) and np.all(mapping["object_count"][fluid] == self.fluid_count)):
+            raise RuntimeError("BloodSuction: the blood is not at the same place in every env's particles")
+        self.fluid_offset = int(offsets[0])  # env-relative index of the first blood particle
+        tubes, tip = self.arm.link_point(TUBE, TIP)
+        self.suction = Suction(e, tubes, tip, self.suction_radius)
+        tube_rows = self.arm.body_rows[:, self.arm.body_names.index(TUBE)].cpu().numpy().astype(np.uint32)
+        extra = {"arm_joints": e.create_shared_buffer("arm_joints", (n, len(JOINTS)), "float32"),
+                 "arm_start": e.create_shared_buffer("arm_start", len(JOINTS), "float32"),
+                 "tip_bodies": e.create_shared_buffer("tip_bodies", n, "uint32"),
+                 "task_aim": e.create_shared_buffer("task_aim", (n, 2, 4), "float32"),
+                 "task_state": e.create_shared_buffer("task_state", n, "uint32")}
+        extra["arm_start"].write(np.asarray(START_Q, np.float32))
+        extra["tip_bodies"].write(tube_rows)
+        self.buffers.extra = extra
+        self._camera_groups = self._check_cameras()
+        passes = super()._create_passes()
+        source = self.hlsl.read_text()
+        passes["observe_image"] = [e.create_compute_pass(
+            source, name=str(self.hlsl), entry="observe_image", threads=count * 3 * self.image_size ** 2,
+            bindings={"observations": self.buffers.observations, "rgb": f"camera{g}.rgb"},
+            constants={**self.task_constants(False), "first_env": first, "group_envs": count})
+            for g, (first, count) in enumerate(self._camera_groups)]
+        return passes
+
+    def _check_cameras(self) -> list:
+        """Camera groups (an image array of up to maxImageArrayLayers envs each) as (first env,
+        envs), after checking that env k's camera is layer k of its group."""
+        cams, n = self.engine.cameras, self.num_envs
+        layers = int((cams["group"] == 0).sum())
+        envs = np.arange(n)
+        if not (np.array_equal(cams["env"], envs) and np.array_equal(cams["group"], envs // layers)
+                and np.array_equal(cams["layer"], envs % layers)):
+            raise RuntimeError("BloodSuction: cameras are not laid out one per env, envs in layer order")
+        return [(g * layers, int((cams["group"] == g).sum())) for g in range(int(cams["group"].max()) + 1)]
+
+    def task_bindings(self) -> dict:
+        return {**self.buffers.extra, "suctions": self.suction.commands, "suction_tips": self.suction.tips,
+                "particle_positions": "particles.positions", "particle_phases": "particles.phases",
+                "particle_env_ranges": "particles.env_ranges", "body_positions": "rigid.positions",
+                "body_rotations": "rigid.rotations"}
+
+    def task_constants(self, reset_all: bool) -> dict:
+        return {"envs": self.num_envs, "max_steps": self.max_episode_steps, "reset_all": int(reset_all),
+                "fluid_offset": self.fluid_offset, "fluid_count": self.fluid_count,
+                "removal_reward": self.removal_reward, "length_scale": LENGTH_SCALE,
+                "row": self.observation_space.shape[0], "first_env": 0, "group_envs": self.num_envs,
+                "pixels": self.image_size ** 2}
+
+    # --- a step ---------------------------------------------------------------------------------
+    def _move_arm(self):
+        """Joint targets and the valve from the actions, then every env's arm posed (batched)."""
+        a = torch.nan_to_num(self.actions, nan=0.0).clamp(-1.0, 1.0)
+        target = torch.minimum(torch.maximum(self.joints + a[:, :4] * self._scale, self._lower), self._upper)
+        self.joints.copy_(target)
+        self.suction_commands[:, 0] = (a[:, 4] >= 0).to(torch.int32)
+        self.arm.write(target, self._jaw)
+
+    def _frame(self, reset_all: bool):
+        e, p = self.engine, self.passes
+        if reset_all:  # no physics: every env starts afresh
+            e.execute_compute_pass(p["evaluate_reset_all"])
+        else:
+            self._move_arm()
+            self.suction.execute()
+            e.step_physics()
+            e.execute_compute_pass(p["evaluate"])
+        e.reset_flagged_envs()
+        e.step_visual_sensors()
+        e.execute_compute_pass(p["observe"])
+        for observe_image in p["observe_image"]:
+            e.execute_compute_pass(observe_image)
+        e.end_frame()
+
+    def reset(self, *, seed: int | None = None):
+        """Starts a new episode in every env; returns (obs, info). Every episode starts alike (no
+        random draws), so `seed` is only recorded."""
+        if seed is not None:
+            self.seed = seed
+        self._frame(reset_all=True)
+        return self.obs, self._info()
+
+    def split_observation(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """(numbers (N, 13), image (N, H, W, 3)) views of observations (N, 13 + H W 3)."""
+        s = self.image_size
+        return obs[:, :NUMBERS], obs[:, NUMBERS:].reshape(-1, s, s, 3)
+
+    def removed(self) -> torch.Tensor:
+        """Blood particles each env's suction has removed this episode."""
+        return self.suction_commands[:, 3]
