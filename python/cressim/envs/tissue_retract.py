@@ -1,8 +1,9 @@
 """TissueRetract: the dVRK PSM grasps the free edge of a tissue sheet and lifts it (../shared/TASKS.md), z up.
 
-Workload. The paper's scene has arbitrary units: a sheet 0.96 x 0.96 x 0.08 on a grid of spacing
-0.08 (about 12 x 2 x 12 particles), volume compliance 2.6e-3, 4 substeps. Here the scene is at
-the PSM's real scale: every length x 0.1 (one paper unit = 0.1 m), so the sheet is 96 x 96 x 8 mm
+Workload. The paper's scene has arbitrary units: a sheet 0.96 x 0.08 x 0.96 (y up) on a grid of
+spacing 0.08 (about 12 x 2 x 12 particles), volume compliance 2.6e-3, 4 substeps. Read as metres
+it would dwarf the PSM (240 mm of insertion, 10 mm jaws), so here the scene is at the PSM's real
+scale: every length x 0.1 (one paper unit = 0.1 m), so the sheet is 96 x 96 x 8 mm
 on the same grid (13 x 13 x 2 particles, 8 mm apart, 338 per env; 12 x 12 x 1 cells of 6 tets),
 and its material is elastic tissue in SI units instead of a compliance: Young's modulus 10 kPa,
 Poisson ratio 0.45, density 1000 kg/m^3 (soft tissue; 74 g), velocity damping 2/s, particle
@@ -14,7 +15,7 @@ bodies (cressim.robots.ArmBodies: each link with collision geometry is a body, p
 URDF's FK), its remote centre of motion 150 mm above the sheet's centre, the base frame
 unrotated (the instrument points down at yaw = pitch = 0). It starts at q0 = (0, 0, 0.1085, 0,
 0, 0) with the jaws open, the grasp point 40 mm above the table. The grasp point ("tool tip"
-below) is between the jaws, 8 mm beyond the jaw pivot (the 10 mm jaws' middle third), fixed in
+below) is between the jaws, 8 mm beyond the jaw pivot (near the ends of the 10 mm jaws), fixed in
 the wrist_yaw link; the Grasp pass (cressim.passes.Grasp) attaches up to 4 tissue particles
 within 6 mm of it while the grasp is closed.
 
