@@ -16,7 +16,7 @@ import numpy as np
 
 import cressim
 
-from . import source
+from . import body_rows, source
 
 
 class Grasp:
@@ -29,17 +29,7 @@ class Grasp:
             raise ValueError("Grasp: no attachment slots (PhysicsSettings.max_particle_attachments_per_env = 0)")
         if not (np.isfinite(radius) and radius > 0):
             raise ValueError(f"Grasp: radius must be positive, got {radius}")
-        body_entities = [int(getattr(e, "id", e)) for e in body_entities]
-        if len(body_entities) != envs:
-            raise ValueError(f"Grasp: {len(body_entities)} bodies for {envs} envs (one per env)")
-        body_entity = engine.buffer("rigid.body_entity").read()
-        body_env = engine.buffer("rigid.body_env").read()
-        bodies = []
-        for env, entity in enumerate(body_entities):
-            found = np.nonzero(body_entity == entity)[0]
-            if len(found) != 1 or body_env[found[0]] != env:
-                raise ValueError(f"Grasp: entity {entity} is not a rigid body of env {env}")
-            bodies.append(int(found[0]))
+        bodies = body_rows(engine, body_entities, "Grasp")
         points = np.broadcast_to(np.asarray(point, dtype=np.float32), (envs, 3))
         if not np.isfinite(points).all():
             raise ValueError(f"Grasp: point must be finite, got {point}")
@@ -47,9 +37,9 @@ class Grasp:
         self.commands = engine.create_shared_buffer(f"{name}_commands", (envs, 4), "int32")
         self.points = engine.create_shared_buffer(f"{name}_points", (envs, 4), "float32")
         self.points.write(np.concatenate([points, np.full((envs, 1), radius, np.float32)], axis=1))
-        self._state = np.zeros((envs, 4), np.int32)
-        self._state[:, 1] = bodies
-        self.commands.write(self._state)
+        state = np.zeros((envs, 4), np.int32)
+        state[:, 1] = bodies
+        self.commands.write(state)
         self.compute_pass = engine.create_compute_pass(
             source("grasp"), name="passes/grasp.hlsl", threads=envs, constants={"envs": envs, "slots": slots},
             bindings={"positions": "particles.positions", "phases": "particles.phases",

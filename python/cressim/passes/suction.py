@@ -15,7 +15,7 @@ import numpy as np
 
 import cressim
 
-from . import source
+from . import body_rows, source
 
 
 class Suction:
@@ -28,16 +28,7 @@ class Suction:
             raise ValueError(f"Suction: radius must be positive, got {radius}")
         bodies = np.full(envs, -1, dtype=np.int32)
         if body_entities is not None:
-            ids = [int(getattr(e, "id", e)) for e in body_entities]
-            if len(ids) != envs:
-                raise ValueError(f"Suction: {len(ids)} bodies for {envs} envs (one per env)")
-            body_entity = engine.buffer("rigid.body_entity").read()
-            body_env = engine.buffer("rigid.body_env").read()
-            for env, entity in enumerate(ids):
-                found = np.nonzero(body_entity == entity)[0]
-                if len(found) != 1 or body_env[found[0]] != env:
-                    raise ValueError(f"Suction: entity {entity} is not a rigid body of env {env}")
-                bodies[env] = found[0]
+            bodies[:] = body_rows(engine, body_entities, "Suction")
         tips = np.broadcast_to(np.asarray(tip, dtype=np.float32), (envs, 3))
         if not np.isfinite(tips).all():
             raise ValueError(f"Suction: tip must be finite, got {tip}")
