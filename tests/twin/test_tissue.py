@@ -25,12 +25,12 @@ def _settle(arms):
         _run(arms, 5)
 
 
-def _tips_at(arms, height, jaws=None):
-    """Every env's tool tip over the edge with the jaws' middle `height` above it (IK at the
+def _tips_at(arms, height, jaws=None, point=EDGE):
+    """Every env's tool tip over `point` (world) with the jaws' middle `height` above it (IK at the
     current setpoint, jaws down as at home); `jaws` (one per env) commands the jaw angles."""
     for env in range(arms.num_envs):
         T = arms.kin.forward(arms.setpoint[env:env + 1])[0].clone()
-        T[:3, 3] = torch.as_tensor(EDGE + [0, 0, height + JAW_MIDDLE]) - arms.bodies.base[:3, 3]
+        T[:3, 3] = torch.as_tensor(point + np.array([0, 0, height + JAW_MIDDLE])) - arms.bodies.base[:3, 3]
         q, ok = arms.kin.inverse(T[None], arms.setpoint[env:env + 1])
         assert bool(ok[0])
         assert not [e for e in arms.move_jp(env, JointCommand(position=q[0].tolist())) if e.topic == "error"]
@@ -61,7 +61,8 @@ def test_the_jaws_grasp_lift_and_release_the_flap(make_arms):
     slots = arms.bodies.engine.buffer("control.particle_attachments").read()
     taken = slots[:held[0], 0].astype(np.int64)  # env 0: its slots come first, its particles too
     np.testing.assert_allclose(x[0, taken, 2] - before[0, taken, 2], LIFT, atol=1e-3)
-    free_edge = flat[0, :, 1] < flat[0, :, 1].min() + 1e-4
+    flap = np.arange(len(flat[0])) < int(arms.bodies.engine.particle_mapping["object_count"][0])  # then the suture
+    free_edge = flap & (flat[0, :, 1] < flat[0, flap, 1].min() + 1e-4)
     assert (x[0, free_edge, 2] - flat[0, free_edge, 2]).mean() > 0.5 * LIFT  # the edge comes up with the jaws
     assert abs(x[1] - flat[1]).max() < 2e-3  # open jaws passed the edge without taking it
     snap = arms.snapshot()
@@ -146,3 +147,28 @@ def test_the_twin_images_the_phantom_with_the_world_probe(make_arms):
         arms.step_engine(sense=True)
     image = arms.bodies.engine.buffer("ultrasound0.image").read()[0]
     assert image.mean() > 0.1 and (image < 0.02).mean() > 0.005
+
+
+def test_the_jaws_pick_up_the_suture(make_arms):
+    """tissue_retraction.yaml's thread lies on the table beside the flap: the jaws close on its
+    middle and lift it 20 mm; the thread's held particles follow and its ends hang below."""
+    arms = make_arms(scene=load_scene("psm_retraction.yaml"))
+    arms.state_command(0, "enable")
+    arms.state_command(0, "home")
+    _settle(arms)
+    first = int(arms.bodies.engine.particle_mapping["object_count"][0])  # the flap's particles come first
+    x0 = arms.bodies.engine.buffer("particles.positions").read()[:, :3].copy()
+    thread = slice(first, len(x0))
+    middle = x0[thread][len(x0[thread]) // 2].astype(np.float64)
+    _tips_at(arms, 0.02, jaws=[0.8], point=middle)
+    _tips_at(arms, 0.0, point=middle)
+    arms.jaw_move_jp(0, JointCommand(position=[-0.2]))
+    _settle(arms)
+    held = arms.grasp.held()[0]
+    taken = arms.bodies.engine.buffer("control.particle_attachments").read()[:held, 0].astype(np.int64)
+    assert held > 0 and (taken >= first).all()  # thread particles only
+    _tips_at(arms, LIFT, point=middle)
+    _run(arms, 60)
+    x = arms.bodies.engine.buffer("particles.positions").read()[:, :3]
+    np.testing.assert_allclose(x[taken, 2] - x0[taken, 2], LIFT, atol=2e-3)
+    assert x[thread][[0, -1], 2].max() < x[taken, 2].min()  # the ends hang lower than where it is held

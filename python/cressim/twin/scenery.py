@@ -125,7 +125,8 @@ class SceneryPlan:
             return dict(max_renderables_per_env=num_bodies + 2, max_lights_per_env=1, max_cameras_per_env=1)
         entities = self._entities()
         lights = 1 + sum("light" in e for e in entities) + ("environment" in self._file())
-        return dict(max_renderables_per_env=num_bodies + 2 + sum("renderable" in e for e in entities),
+        drawn = sum("renderable" in e or any(k in e for k in PARTICLE_KEYS) for e in entities)  # particles count
+        return dict(max_renderables_per_env=num_bodies + drawn,
                     max_lights_per_env=lights, max_cameras_per_env=1)
 
     def simulated(self) -> bool:
