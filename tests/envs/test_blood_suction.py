@@ -11,6 +11,8 @@ import cressim.envs
 from cressim.envs.blood_suction import ACTION_SCALE, RCM, START_Q, BloodSuction
 from cressim.learn import train
 
+from .on_host import on_host
+
 JOINTS, TIP, NEAREST, REMOVED, VALVE, ELAPSED = slice(0, 4), slice(4, 7), slice(7, 10), 10, 11, 12
 
 
@@ -48,7 +50,7 @@ def blood_state(env: BloodSuction, k: int):
 
 def test_observation_layout_and_values_checked():
     env = cressim.envs.make("BloodSuction", num_envs=2, validation=True)
-    obs, _ = env.reset(seed=3)  # recorded; every episode starts alike
+    obs, _ = on_host(env.reset(seed=3))  # recorded; every episode starts alike
     assert env.seed == 3 and obs.shape == (2, 13 + 64 * 64 * 3) and obs.dtype == torch.float32
     assert env.action_space.shape == (5,)
     numbers, image = env.split_observation(obs)
@@ -68,12 +70,12 @@ def test_observation_layout_and_values_checked():
 
 def test_suction_in_the_pool_removes_blood_and_a_far_one_does_not():
     env = cressim.envs.make("BloodSuction", num_envs=2, validation=True)
-    obs, _ = env.reset()
+    obs, _ = on_host(env.reset())
     total = torch.zeros(2)
     for _ in range(80):  # env 0 goes for the blood, valve open; env 1 stays 22 mm above it, valve open
         a = toward_blood(obs[:, :13], 1.0)
         a[1] = 0.0
-        obs, reward, terminated, truncated, _ = env.step(a)
+        obs, reward, terminated, truncated, _ = on_host(env.step(a))
         total += reward
         assert not (terminated | truncated).any()
     numbers, image = env.split_observation(obs)
@@ -92,10 +94,10 @@ def test_a_shut_valve_removes_nothing_and_each_env_resets_alone():
         max_episode_steps = 40
 
     env = Short(2)
-    obs, _ = env.reset()
+    obs, _ = on_host(env.reset())
     env.episode_length[0] = 10  # env 0's episode ends 10 steps before env 1's
     for step in range(1, 41):
-        obs, reward, terminated, truncated, info = env.step(toward_blood(obs[:, :13], [[1.0], [-1.0]]))
+        obs, reward, terminated, truncated, info = on_host(env.step(toward_blood(obs[:, :13], [[1.0], [-1.0]])))
         if step < 30:
             removed = env.removed().clone()
         assert bool(truncated[0]) == (step == 30) and bool(truncated[1]) == (step == 40) and not terminated.any()

@@ -10,6 +10,8 @@ import cressim.envs
 from cressim.envs.tissue_retract import ACTION_SCALE, RCM, SHEET_HALF, START_Q
 from cressim.learn import train
 
+from .on_host import on_host
+
 TOP = 2 * SHEET_HALF[2] + 0.0025  # rest height of the sheet's top layer (m)
 JOINTS, TARGET, TIP, ATTACHED, LIFT = slice(0, 6), slice(12, 15), slice(15, 18), 27, 28
 
@@ -32,7 +34,7 @@ def toward(obs: torch.Tensor, point: torch.Tensor, grasp: float) -> torch.Tensor
 
 def test_reset_observation_and_a_grasp_on_nothing():
     env = cressim.envs.make("TissueRetract", num_envs=2, validation=True)
-    obs, info = env.reset(seed=1)
+    obs, info = on_host(env.reset(seed=1))
     assert obs.shape == (2, 29) and env.action_space.shape == (7,)
     assert torch.allclose(obs[:, JOINTS], torch.tensor(START_Q)) and torch.all(obs[:, 6:12] == 0)
     assert torch.allclose(obs[:, TARGET][:, 1:], torch.tensor([-SHEET_HALF[1], TOP]), atol=1e-6)  # on the free edge
@@ -41,7 +43,7 @@ def test_reset_observation_and_a_grasp_on_nothing():
     close = torch.zeros(2, 7)
     close[0, 6], close[1, 2] = 1.0, 1.0  # env 0 closes in the air; env 1 pushes its insertion
     for _ in range(5):
-        obs, reward, terminated, truncated, _ = env.step(close)
+        obs, reward, terminated, truncated, _ = on_host(env.step(close))
     assert torch.all(obs[:, ATTACHED] == 0)  # nothing within reach
     assert env.grasp_commands[0, 0] == 1 and env.grasp_commands[0, 2] == 2  # closed on nothing
     assert math.isclose(float(obs[1, 2]), START_Q[2] + 5 * ACTION_SCALE[2], rel_tol=1e-5)
@@ -54,7 +56,7 @@ def test_reset_observation_and_a_grasp_on_nothing():
 
 def test_scripted_grasp_and_lift_succeeds_alone_and_resets_that_env():
     env = cressim.envs.make("TissueRetract", num_envs=2, validation=True)
-    obs, _ = env.reset()
+    obs, _ = on_host(env.reset())
     rest = env.engine.buffer("particles.positions").read()[:, :3].copy()
     above = torch.tensor([0.0, 0.0, 0.004])  # the jaws' ends on the target's top
     closed_at, lift_to, rewards = None, None, []
@@ -67,7 +69,7 @@ def test_scripted_grasp_and_lift_succeeds_alone_and_resets_that_env():
         else:
             a = toward(o, lift_to, 1.0)  # close and lift
         a[1] = 0  # env 1 idles
-        obs, reward, terminated, truncated, info = env.step(a)
+        obs, reward, terminated, truncated, info = on_host(env.step(a))
         assert not terminated[1] and not truncated.any() and torch.all(info["health"] == 0)
         if step == closed_at:
             assert obs[0, ATTACHED] == 1 and obs[0, LIFT] < 0.2
