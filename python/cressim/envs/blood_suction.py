@@ -61,7 +61,6 @@ then one frame: the Suction pass (removes blood within reach, counted per env), 
 """
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -72,7 +71,7 @@ import cressim
 from cressim.passes.suction import Suction
 from cressim.tet_mesh_file import boundary_triangles
 
-from .vector_env import Space, VectorEnv, tensor_view
+from .vector_env import Space, VectorEnv, checked_number, tensor_view
 
 CELL = 0.006  # m: the basin's tet cubes
 BASIN_HALF = (0.03, 0.03, 0.012)  # m
@@ -93,17 +92,6 @@ EYE, LOOK_AT = (0.0, -0.065, 0.095), (0.0, 0.0, 0.012)
 LENGTH_SCALE = 0.02  # m: one unit of the paper's scene
 FRAME = 1 / 60
 NUMBERS = 13  # observation values before the image
-
-
-def _number(name: str, value, low: float = 0.0, high: float = math.inf) -> float:
-    """`value` as a float strictly between low and high; raises otherwise."""
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        x = math.nan
-    if not low < x < high:
-        raise ValueError(f"BloodSuction: {name} must be a number in ({low}, {high}), got {value!r}")
-    return x
 
 
 def basin_mesh() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -159,10 +147,10 @@ class BloodSuction(VectorEnv):
         if isinstance(image_size, bool) or not isinstance(image_size, (int, np.integer)) or not 32 <= image_size <= 512:
             raise ValueError(f"BloodSuction: image_size must be an integer in [32, 512], got {image_size!r}")
         self.image_size = int(image_size)
-        self.suction_radius = _number("suction_radius", suction_radius, 0.0, 0.05)
-        self.youngs_modulus = _number("youngs_modulus", youngs_modulus)
-        self.poisson_ratio = _number("poisson_ratio", poisson_ratio, 0.0, 0.5)
-        self.density = _number("density", density)
+        self.suction_radius = checked_number("BloodSuction", "suction_radius", suction_radius, 0.0, 0.05)
+        self.youngs_modulus = checked_number("BloodSuction", "youngs_modulus", youngs_modulus)
+        self.poisson_ratio = checked_number("BloodSuction", "poisson_ratio", poisson_ratio, 0.0, 0.5)
+        self.density = checked_number("BloodSuction", "density", density)
         self.observation_space = Space((NUMBERS + 3 * self.image_size ** 2,))
         super().__init__(num_envs, **kwargs)
         self.joints = tensor_view(self.buffers.extra["arm_joints"], self.device)  # (N, 4)
@@ -294,29 +282,21 @@ class BloodSuction(VectorEnv):
                 "pixels": self.image_size ** 2}
 
     # --- a step ---------------------------------------------------------------------------------
-    def _move_arm(self):
-        """Joint targets and the valve from the actions, then every env's arm posed (batched)."""
+    def act(self):
+        """Joint targets and the valve from the actions, every env's arm posed (batched), then the
+        suction pass."""
         a = torch.nan_to_num(self.actions, nan=0.0).clamp(-1.0, 1.0)
         target = torch.minimum(torch.maximum(self.joints + a[:, :4] * self._scale, self._lower), self._upper)
         self.joints.copy_(target)
         self.suction_commands[:, 0] = (a[:, 4] >= 0).to(torch.int32)
         self.arm.write(target, self._jaw)
+        self.suction.execute()
 
-    def _frame(self, reset_all: bool):
-        e, p = self.engine, self.passes
-        if reset_all:  # no physics: every env starts afresh
-            e.execute_compute_pass(p["evaluate_reset_all"])
-        else:
-            self._move_arm()
-            self.suction.execute()
-            e.step_physics()
-            e.execute_compute_pass(p["evaluate"])
-        e.reset_flagged_envs()
-        e.step_visual_sensors()
-        e.execute_compute_pass(p["observe"])
-        for observe_image in p["observe_image"]:
-            e.execute_compute_pass(observe_image)
-        e.end_frame()
+    def sense(self):
+        """The cameras, and their images into the observations (beside the numbers `observe` writes)."""
+        self.engine.step_visual_sensors()
+        for observe_image in self.passes["observe_image"]:
+            self.engine.execute_compute_pass(observe_image)
 
     def reset(self, *, seed: int | None = None):
         """Starts a new episode in every env; returns (obs, info). Every episode starts alike (no

@@ -48,7 +48,6 @@ envs (tissue, arm bodies at their start pose, attachments freed), `observe`.
 """
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
@@ -57,7 +56,7 @@ import torch
 import cressim
 from cressim.passes.grasp import Grasp
 
-from .vector_env import Space, VectorEnv, tensor_view
+from .vector_env import Space, VectorEnv, checked_number, tensor_view
 
 SHEET_HALF = (0.048, 0.048, 0.004)  # m
 CELLS = (12, 12, 1)  # 8 mm spacing: 13 x 13 x 2 particles
@@ -74,17 +73,6 @@ LENGTH_SCALE = 0.1  # m: one unit of the paper's scene
 FRAME = 1 / 60
 
 
-def _number(name: str, value, low: float = 0.0, high: float = math.inf) -> float:
-    """`value` as a float strictly between low and high; raises otherwise."""
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        x = math.nan
-    if not low < x < high:
-        raise ValueError(f"TissueRetract: {name} must be a number in ({low}, {high}), got {value!r}")
-    return x
-
-
 class TissueRetract(VectorEnv):
     hlsl = Path(__file__).with_name("tissue_retract.hlsl")
     entries = ("evaluate", "observe")  # the arm moves in torch before the frame (module docstring)
@@ -98,11 +86,11 @@ class TissueRetract(VectorEnv):
         reach (m); other keywords go to VectorEnv."""
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"TissueRetract: num_envs must be a positive integer, got {num_envs!r}")
-        self.youngs_modulus = _number("youngs_modulus", youngs_modulus)
-        self.poisson_ratio = _number("poisson_ratio", poisson_ratio, 0.0, 0.5)
-        self.density = _number("density", density)
-        self.target_lift = _number("target_lift", target_lift)
-        self.grasp_reach = _number("grasp_reach", grasp_reach)
+        self.youngs_modulus = checked_number("TissueRetract", "youngs_modulus", youngs_modulus)
+        self.poisson_ratio = checked_number("TissueRetract", "poisson_ratio", poisson_ratio, 0.0, 0.5)
+        self.density = checked_number("TissueRetract", "density", density)
+        self.target_lift = checked_number("TissueRetract", "target_lift", target_lift)
+        self.grasp_reach = checked_number("TissueRetract", "grasp_reach", grasp_reach)
         super().__init__(num_envs, **kwargs)
         self.joints = tensor_view(self.buffers.extra["arm_joints"], self.device)  # (N, 12): q, dq/dt
         self.grasp_commands = tensor_view(self.grasp.commands, self.device)  # (N, 4) int32, x: closed
@@ -158,9 +146,7 @@ class TissueRetract(VectorEnv):
         extra["tip_bodies"].write(tip_rows)
         extra["target_candidates"].write(self.target_particles)
         self.buffers.extra = extra
-        passes = super()._create_passes()
-        passes["grasp"] = self.grasp.compute_pass
-        return passes
+        return super()._create_passes()
 
     def task_bindings(self) -> dict:
         return {**self.buffers.extra, "grasps": self.grasp.commands, "grasp_points": self.grasp.points,
@@ -174,8 +160,9 @@ class TissueRetract(VectorEnv):
                 "length_scale": LENGTH_SCALE}
 
     # --- a step ---------------------------------------------------------------------------------
-    def _move_arm(self):
-        """Joint targets and grasp commands from the actions, then every env's arm posed (batched)."""
+    def act(self):
+        """Joint targets and grasp commands from the actions, every env's arm posed (batched),
+        then the grasp pass."""
         a = torch.nan_to_num(self.actions, nan=0.0).clamp(-1.0, 1.0)
         q = self.joints[:, :6]
         target = torch.minimum(torch.maximum(q + a[:, :6] * self._scale, self._lower), self._upper)
@@ -186,16 +173,4 @@ class TissueRetract(VectorEnv):
         self.grasp_commands[:, 0] = closed
         jaw = torch.where(closed > 0, JAW_CLOSED, JAW_OPEN).unsqueeze(1)
         self.arm.write(target, jaw)
-
-    def _frame(self, reset_all: bool):
-        e, p = self.engine, self.passes
-        if reset_all:  # no physics: every env starts afresh
-            e.execute_compute_pass(p["evaluate_reset_all"])
-        else:
-            self._move_arm()
-            e.execute_compute_pass(p["grasp"])
-            e.step_physics()
-            e.execute_compute_pass(p["evaluate"])
-        e.reset_flagged_envs()
-        e.execute_compute_pass(p["observe"])
-        e.end_frame()
+        self.grasp.execute()

@@ -9,6 +9,8 @@ NVIDIA through Vulkan external memory).
 """
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -107,6 +109,11 @@ class VectorEnv:
         """Extra HLSL bindings (name -> buffer or key) beyond the common ones."""
         return {}
 
+    def act(self) -> None:
+        """What the actions do before the frame's physics: the task's `apply_action` pass; a task
+        that moves its bodies in torch (no `apply_action` in `entries`) does it here instead."""
+        self.engine.execute_compute_pass(self.passes["apply_action"])
+
     def sense(self) -> None:
         """Sensor stages the observation reads, recorded before `observe` (none by default)."""
 
@@ -178,13 +185,25 @@ class VectorEnv:
         if reset_all:  # no physics: flag and randomise every env, reset, observe
             e.execute_compute_pass(p["evaluate_reset_all"])
         else:
-            e.execute_compute_pass(p["apply_action"])
+            self.act()
             e.step_physics()
             e.execute_compute_pass(p["evaluate"])
         e.reset_flagged_envs()
         self.sense()
         e.execute_compute_pass(p["observe"])
         e.end_frame()
+
+
+def checked_number(task: str, name: str, value, low: float = 0.0, high: float = math.inf) -> float:
+    """`value` as a float strictly between low and high (a task's constructor argument); raises
+    naming the task and the argument otherwise."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        x = math.nan
+    if not low < x < high:
+        raise ValueError(f"{task}: {name} must be a number in ({low}, {high}), got {value!r}")
+    return x
 
 
 def _bool_view(flags: torch.Tensor) -> torch.Tensor:

@@ -3,6 +3,8 @@ built on them: `grasp.Grasp` (jaws that hold soft bodies and threads), `suction.
 that removes fluid)."""
 from pathlib import Path
 
+import numpy as np
+
 
 def source(name: str) -> str:
     """The HLSL of pass `name` ("grasp", "suction")."""
@@ -13,11 +15,36 @@ def source(name: str) -> str:
     return path.read_text()
 
 
+class EnvTool:
+    """What a per-env tool pass shares (Grasp, Suction): `commands`, int32 (envs, 4) on the GPU,
+    x the command (1 on / closed, 0 off / open), y the rigid body (-1: none), z the pass's state,
+    w its count; a task pass may write x itself, the host through `set`."""
+
+    def __init__(self, engine, name: str, bodies):
+        self.engine = engine
+        self.envs = engine.buffer("particles.env_ranges").shape[0]
+        self.commands = engine.create_shared_buffer(f"{name}_commands", (self.envs, 4), "int32")
+        state = np.zeros((self.envs, 4), np.int32)
+        state[:, 1] = bodies
+        self.commands.write(state)
+        self.compute_pass = None  # the subclass's
+
+    def set(self, on) -> None:
+        """Host-driven commands: `on` (envs bools) for the next execute()."""
+        state = self.commands.read()
+        state[:, 0] = np.asarray(on, dtype=bool).reshape(self.envs)
+        self.commands.write(state)
+
+    def execute(self) -> None:
+        self.engine.execute_compute_pass(self.compute_pass)
+
+    def count(self) -> np.ndarray:
+        return self.commands.read()[:, 3].copy()
+
+
 def body_rows(engine, body_entities, what: str):
     """The rigid-body row of each env's body (entities or ids, one per env, in env order), checked:
     each must be a rigid body of its own env."""
-    import numpy as np
-
     envs = engine.buffer("particles.env_ranges").shape[0]
     ids = [int(getattr(e, "id", e)) for e in body_entities]
     if len(ids) != envs:

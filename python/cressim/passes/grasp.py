@@ -16,10 +16,10 @@ import numpy as np
 
 import cressim
 
-from . import body_rows, source
+from . import EnvTool, body_rows, source
 
 
-class Grasp:
+class Grasp(EnvTool):
     def __init__(self, engine: cressim.Engine, body_entities, point, radius: float, *, name: str = "grasp"):
         """`body_entities`: the body (entity or its id) of each env's grasp, in env order; `point`: the
         grasp point in that body's frame (m; one for all envs, or one per env); `radius`: reach (m)."""
@@ -33,13 +33,10 @@ class Grasp:
         points = np.broadcast_to(np.asarray(point, dtype=np.float32), (envs, 3))
         if not np.isfinite(points).all():
             raise ValueError(f"Grasp: point must be finite, got {point}")
-        self.engine, self.envs, self.slots = engine, envs, slots
-        self.commands = engine.create_shared_buffer(f"{name}_commands", (envs, 4), "int32")
+        super().__init__(engine, name, bodies)
+        self.slots = slots
         self.points = engine.create_shared_buffer(f"{name}_points", (envs, 4), "float32")
         self.points.write(np.concatenate([points, np.full((envs, 1), radius, np.float32)], axis=1))
-        state = np.zeros((envs, 4), np.int32)
-        state[:, 1] = bodies
-        self.commands.write(state)
         self.compute_pass = engine.create_compute_pass(
             source("grasp"), name="passes/grasp.hlsl", threads=envs, constants={"envs": envs, "slots": slots},
             bindings={"positions": "particles.positions", "phases": "particles.phases",
@@ -47,15 +44,6 @@ class Grasp:
                       "body_rotations": "rigid.rotations", "grasp_points": self.points, "grasps": self.commands,
                       "attachments": "control.particle_attachments"})
 
-    def set(self, closed) -> None:
-        """Host-driven grasps: `closed` (envs bools) is each env's command for the next execute()."""
-        state = self.commands.read()
-        state[:, 0] = np.asarray(closed, dtype=bool).reshape(self.envs)
-        self.commands.write(state)
-
-    def execute(self) -> None:
-        self.engine.execute_compute_pass(self.compute_pass)
-
     def held(self) -> np.ndarray:
         """Particles each env's grasp holds (0 when open or closed on nothing)."""
-        return self.commands.read()[:, 3].copy()
+        return self.count()

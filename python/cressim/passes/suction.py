@@ -15,10 +15,10 @@ import numpy as np
 
 import cressim
 
-from . import body_rows, source
+from . import EnvTool, body_rows, source
 
 
-class Suction:
+class Suction(EnvTool):
     def __init__(self, engine: cressim.Engine, body_entities, tip, radius: float, *, name: str = "suction"):
         """`body_entities`: each env's body (entity or id) carrying the tip, in env order, or None
         (the tip in the world); `tip`: the point in that body's frame (m; one for all envs, or one
@@ -32,13 +32,9 @@ class Suction:
         tips = np.broadcast_to(np.asarray(tip, dtype=np.float32), (envs, 3))
         if not np.isfinite(tips).all():
             raise ValueError(f"Suction: tip must be finite, got {tip}")
-        self.engine, self.envs = engine, envs
-        self.commands = engine.create_shared_buffer(f"{name}_commands", (envs, 4), "int32")
+        super().__init__(engine, name, bodies)
         self.tips = engine.create_shared_buffer(f"{name}_tips", (envs, 4), "float32")
         self.tips.write(np.concatenate([tips, np.full((envs, 1), radius, np.float32)], axis=1))
-        state = np.zeros((envs, 4), np.int32)
-        state[:, 1] = bodies
-        self.commands.write(state)
         count = engine.buffer("particles.positions").shape[0]
         rigid = "rigid.positions" in engine.internal_keys  # a world without rigid bodies: the tips stand in
         self.compute_pass = engine.create_compute_pass(
@@ -48,15 +44,6 @@ class Suction:
                       "body_rotations": "rigid.rotations" if rigid else self.tips,
                       "suction_tips": self.tips, "suctions": self.commands, "remove": "control.particle_remove"})
 
-    def set(self, on) -> None:
-        """Host-driven suction: `on` (envs bools) for the next execute()."""
-        state = self.commands.read()
-        state[:, 0] = np.asarray(on, dtype=bool).reshape(self.envs)
-        self.commands.write(state)
-
-    def execute(self) -> None:
-        self.engine.execute_compute_pass(self.compute_pass)
-
     def removed(self) -> np.ndarray:
         """Fluid particles each env's suction has removed so far."""
-        return self.commands.read()[:, 3].copy()
+        return self.count()
