@@ -1,8 +1,8 @@
-// BloodSuction task logic (blood_suction.py). `evaluate` and `observe`: one thread per env;
-// `observe_image` (one pass per camera group): one thread per image value. The arm's joint
-// targets and the valve are stepped in torch before the frame, the Suction pass removes and
-// counts the blood within reach; here the task scores, ends and restarts episodes and writes the
-// observations.
+// BloodSuction task logic (blood_suction.py). `apply_action`, `evaluate` and `observe`: one
+// thread per env; `observe_image` (one pass per camera group): one thread per image value.
+// apply_action steps the arm's joint targets and the valve (and writes the arm's FK input), the
+// Suction pass removes and counts the blood within reach; evaluate scores, ends and restarts
+// episodes, observe writes the observations.
 #include "cressim/layout.h"
 #include "cressim/particle.h"
 #include "cressim/quat.h"
@@ -32,6 +32,9 @@ StructuredBuffer<float4> suction_tips;         // per env: xyz the tip in that b
 RWStructuredBuffer<int4> suctions;             // the Suction's commands: x on, y body, w removed so far
 StructuredBuffer<float> arm_start;             // (4): the start joint values
 RWStructuredBuffer<float> arm_joints;          // (envs, 4): joint targets
+StructuredBuffer<float> arm_limits;            // (3, 4): lower and upper joint limits, action scale
+RWStructuredBuffer<float> arm_joint_values;    // (envs, 5): the FK pass's input, joints then the jaw (0)
+StructuredBuffer<float> actions;               // (envs, 5)
 // (envs, 2): the aim at the last observation: the nearest active blood particle's position (w 1;
 // 0: none left) and the tip's
 RWStructuredBuffer<float4> task_aim;
@@ -57,6 +60,26 @@ float3 tip_position(uint env) {
 uint blood_particle(uint env, uint k) { return particle_env_ranges[env].x + pc.fluid_offset + k; }
 
 bool active(uint p) { return (particle_phases[p].w & PARTICLE_ACTIVE) != 0; }
+
+// NaN counts as 0; every action is clamped to [-1, 1]
+float action(uint env, uint k) {
+  const float a = actions[5 * env + k];
+  return isnan(a) ? 0.0 : clamp(a, -1.0, 1.0);
+}
+
+[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
+void apply_action(uint3 id : SV_DispatchThreadID) {
+  const uint env = id.x;
+  if (env >= pc.envs) return;
+  for (uint k = 0; k < 4; ++k) {
+    const float target = clamp(arm_joints[4 * env + k] + action(env, k) * arm_limits[8 + k], arm_limits[k],
+                               arm_limits[4 + k]);
+    arm_joints[4 * env + k] = target;
+    arm_joint_values[5 * env + k] = target;
+  }
+  arm_joint_values[5 * env + 4] = 0.0;
+  suctions[env].x = action(env, 4) >= 0 ? 1 : 0;
+}
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
 void evaluate(uint3 id : SV_DispatchThreadID) {

@@ -53,10 +53,10 @@ all blood is removed or the solver flags the env; truncated at 240 steps. Every 
 alike (arm at q0, the block of blood); a finished env's arm, blood and counters are reset on the
 GPU (`evaluate`) by the engine's per-env reset.
 
-A step: in torch, the actions move the joint targets (shared buffer `arm_joints`) and the valve
-(the Suction's `commands`), and ArmBodies.write poses every env's arm in one batched FK call;
-then one frame: the Suction pass (removes blood within reach, counted per env), physics,
-`evaluate`, the engine's reset of flagged envs, rendering, `observe` (numbers) and one
+A step is one frame, all on the GPU: `apply_action` (the actions move the joint targets in the
+shared buffer `arm_joints` and the valve, the Suction's `commands`), the arm's FK pass
+(cressim.robots.link_poses), the Suction pass (removes blood within reach, counted per env),
+physics, `evaluate`, the engine's reset of flagged envs, rendering, `observe` (numbers) and one
 `observe_image` pass per camera group.
 """
 from __future__ import annotations
@@ -132,7 +132,7 @@ def _look_at(eye, target) -> tuple:
 
 class BloodSuction(VectorEnv):
     hlsl = Path(__file__).with_name("blood_suction.hlsl")
-    entries = ("evaluate", "observe")  # the arm moves in torch before the frame; images: observe_image
+    entries = ("apply_action", "evaluate", "observe")  # images: observe_image
     action_space = Space((5,), -1.0, 1.0)
     max_episode_steps = 240
     removal_reward = 0.03
@@ -155,13 +155,6 @@ class BloodSuction(VectorEnv):
         super().__init__(num_envs, **kwargs)
         self.joints = tensor_view(self.buffers.extra["arm_joints"], self.device)  # (N, 4)
         self.suction_commands = tensor_view(self.suction.commands, self.device)  # (N, 4) int32: x on, w removed
-        limits = {j.name: j.limit for j in self.arm.urdf.robot.joints}
-        bounds = [TASK_LIMITS.get(n, (limits[n].lower, limits[n].upper)) for n in JOINTS]
-        on = dict(device=self.device, dtype=torch.float32)
-        self._lower = torch.tensor([lo for lo, _ in bounds], **on)
-        self._upper = torch.tensor([hi for _, hi in bounds], **on)
-        self._scale = torch.tensor(ACTION_SCALE, **on)
-        self._jaw = torch.zeros(num_envs, 1)
 
     # --- the scene ---------------------------------------------------------------------------
     def build_world(self, num_envs: int) -> cressim.World:
@@ -241,10 +234,15 @@ class BloodSuction(VectorEnv):
         tube_rows = self.arm.body_rows[:, self.arm.body_names.index(TUBE)].cpu().numpy().astype(np.uint32)
         extra = {"arm_joints": e.create_shared_buffer("arm_joints", (n, len(JOINTS)), "float32"),
                  "arm_start": e.create_shared_buffer("arm_start", len(JOINTS), "float32"),
+                 "arm_limits": e.create_shared_buffer("arm_limits", (3, len(JOINTS)), "float32"),
                  "tip_bodies": e.create_shared_buffer("tip_bodies", n, "uint32"),
                  "task_aim": e.create_shared_buffer("task_aim", (n, 2, 4), "float32"),
                  "task_state": e.create_shared_buffer("task_state", n, "uint32")}
         extra["arm_start"].write(np.asarray(START_Q, np.float32))
+        limits = {j.name: j.limit for j in self.arm.urdf.robot.joints}
+        bounds = [TASK_LIMITS.get(n, (limits[n].lower, limits[n].upper)) for n in JOINTS]
+        extra["arm_limits"].write(np.array([[lo for lo, _ in bounds], [hi for _, hi in bounds], ACTION_SCALE],
+                                           np.float32))
         extra["tip_bodies"].write(tube_rows)
         self.buffers.extra = extra
         self._camera_groups = self._check_cameras()
@@ -270,6 +268,7 @@ class BloodSuction(VectorEnv):
 
     def task_bindings(self) -> dict:
         return {**self.buffers.extra, "suctions": self.suction.commands, "suction_tips": self.suction.tips,
+                "arm_joint_values": self.arm.link_poses.joint_values,
                 "particle_positions": "particles.positions", "particle_phases": "particles.phases",
                 "particle_env_ranges": "particles.env_ranges", "body_positions": "rigid.positions",
                 "body_rotations": "rigid.rotations"}
@@ -283,13 +282,9 @@ class BloodSuction(VectorEnv):
 
     # --- a step ---------------------------------------------------------------------------------
     def act(self):
-        """Joint targets and the valve from the actions, every env's arm posed (batched), then the
-        suction pass."""
-        a = torch.nan_to_num(self.actions, nan=0.0).clamp(-1.0, 1.0)
-        target = torch.minimum(torch.maximum(self.joints + a[:, :4] * self._scale, self._lower), self._upper)
-        self.joints.copy_(target)
-        self.suction_commands[:, 0] = (a[:, 4] >= 0).to(torch.int32)
-        self.arm.write(target, self._jaw)
+        """The task's `apply_action`, the arm's FK pass, then the suction pass."""
+        self.engine.execute_compute_pass(self.passes["apply_action"])
+        self.arm.pose()
         self.suction.execute()
 
     def sense(self):

@@ -1,6 +1,6 @@
-// TissueRetract task logic, one thread per env (evaluate, observe). The arm's joint targets and
-// grasp commands are stepped in torch before the frame (tissue_retract.py); here the task scores,
-// ends and restarts episodes and writes the observations.
+// TissueRetract task logic, one thread per env: apply_action (joint targets and grasp commands
+// from the actions, and the arm's FK inputs), evaluate (scores, ends and restarts episodes),
+// observe.
 #include "cressim/layout.h"
 #include "cressim/quat.h"
 
@@ -12,6 +12,9 @@ struct Params {
   uint candidates;     // target_candidates' length
   float target_lift;   // m: the target particle's rise that counts as retracted
   float length_scale;  // m: the reward's distance unit (one unit of the paper's scene)
+  float frame;         // s
+  float jaw_open;      // rad
+  float jaw_closed;    // rad
 };
 [[vk::push_constant]] ConstantBuffer<Params> pc;
 
@@ -25,6 +28,9 @@ StructuredBuffer<float4> grasp_points;         // per env: xyz the grasp point i
 RWStructuredBuffer<int4> grasps;               // the Grasp's commands: x closed, y body, z 1 holding, w held
 StructuredBuffer<float> arm_start;             // (6): the start joint values
 RWStructuredBuffer<float> arm_joints;          // (envs, 12): joint targets, their velocities
+StructuredBuffer<float> arm_limits;            // (3, 6): lower and upper joint limits, action scale
+RWStructuredBuffer<float> arm_joint_values;    // (envs, 7): the FK pass's input, joints then jaw
+StructuredBuffer<float> actions;               // (envs, 7)
 StructuredBuffer<uint> target_candidates;      // particles (env-relative) a target is drawn from
 RWStructuredBuffer<uint4> task_state;          // x the target particle (env-relative), y episodes started
 RWStructuredBuffer<uint> reset_mask;
@@ -56,6 +62,30 @@ uint target_particle(uint env) { return particle_env_ranges[env].x + task_state[
 float lift(uint env, bool attached) {
   const uint p = target_particle(env);
   return attached ? saturate((particle_positions[p].z - initial_positions[p].z) / pc.target_lift) : 0.0;
+}
+
+// NaN counts as 0; every action is clamped to [-1, 1]
+float action(uint env, uint k) {
+  const float a = actions[7 * env + k];
+  return isnan(a) ? 0.0 : clamp(a, -1.0, 1.0);
+}
+
+[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
+void apply_action(uint3 id : SV_DispatchThreadID) {
+  const uint env = id.x;
+  if (env >= pc.envs) return;
+  for (uint k = 0; k < 6; ++k) {
+    const float q = arm_joints[12 * env + k];
+    const float target = clamp(q + action(env, k) * arm_limits[12 + k], arm_limits[k], arm_limits[6 + k]);
+    arm_joints[12 * env + 6 + k] = (target - q) / pc.frame;
+    arm_joints[12 * env + k] = target;
+    arm_joint_values[7 * env + k] = target;
+  }
+  const float grasp = action(env, 6);
+  int4 g = grasps[env];
+  g.x = grasp > 0 ? 1 : (grasp < 0 ? 0 : g.x);
+  grasps[env] = g;
+  arm_joint_values[7 * env + 6] = g.x != 0 ? pc.jaw_closed : pc.jaw_open;
 }
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]

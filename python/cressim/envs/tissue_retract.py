@@ -40,18 +40,17 @@ the free edge (y = -48 mm), one of 13, drawn per episode from a hash of seed, en
 Note: as in the paper, success ends the episode while holding the tissue just below the target
 lift keeps paying about 4.5 a step, so `terminated` (not the return) tells how often it succeeds.
 
-A step: in torch, the actions move the joint targets (in the shared buffer `arm_joints`) and the
-grasp commands, and ArmBodies.write poses every env's arm in one batched FK call (on the CPU, as
-ArmBodies does); then one frame: the Grasp pass, physics, `evaluate` (reward, ends, a finished
-env's arm, grasp and target reset on the GPU, `env.reset_mask` set), the engine's reset of those
-envs (tissue, arm bodies at their start pose, attachments freed), `observe`.
+A step is one frame, all on the GPU: `apply_action` (the actions move the joint targets in the
+shared buffer `arm_joints` and the grasp commands, and write the arm's FK input), the arm's FK pass
+(cressim.robots.link_poses: every env's link bodies posed), the Grasp pass, physics, `evaluate`
+(reward, ends, a finished env's arm, grasp and target reset, `env.reset_mask` set), the engine's
+reset of those envs (tissue, arm bodies at their start pose, attachments freed), `observe`.
 """
 from __future__ import annotations
 
 from pathlib import Path
 
 import numpy as np
-import torch
 
 import cressim
 from cressim.passes.grasp import Grasp
@@ -75,7 +74,7 @@ FRAME = 1 / 60
 
 class TissueRetract(VectorEnv):
     hlsl = Path(__file__).with_name("tissue_retract.hlsl")
-    entries = ("evaluate", "observe")  # the arm moves in torch before the frame (module docstring)
+    entries = ("apply_action", "evaluate", "observe")
     observation_space = Space((29,))
     action_space = Space((7,), -1.0, 1.0)
     max_episode_steps = 180
@@ -94,11 +93,6 @@ class TissueRetract(VectorEnv):
         super().__init__(num_envs, **kwargs)
         self.joints = tensor_view(self.buffers.extra["arm_joints"], self.device)  # (N, 12): q, dq/dt
         self.grasp_commands = tensor_view(self.grasp.commands, self.device)  # (N, 4) int32, x: closed
-        limits = {j.name: j.limit for j in self.arm.urdf.robot.joints}
-        on = dict(device=self.device, dtype=torch.float32)
-        self._lower = torch.tensor([limits[n].lower for n in JOINTS], **on)
-        self._upper = torch.tensor([limits[n].upper for n in JOINTS], **on)
-        self._scale = torch.tensor(ACTION_SCALE, **on)
 
     # --- the scene ---------------------------------------------------------------------------
     def build_world(self, num_envs: int) -> cressim.World:
@@ -136,13 +130,17 @@ class TissueRetract(VectorEnv):
         tip = self.arm.body_names.index(TIP_BODY)
         self.grasp = Grasp(e, self.arm.body_entity_ids[:, tip], GRASP_POINT, self.grasp_reach)
         tip_rows = self.arm.body_rows[:, tip].cpu().numpy().astype(np.uint32)
+        limits = {j.name: j.limit for j in self.arm.urdf.robot.joints}
         extra = {"arm_joints": e.create_shared_buffer("arm_joints", (n, 12), "float32"),
                  "arm_start": e.create_shared_buffer("arm_start", 6, "float32"),
+                 "arm_limits": e.create_shared_buffer("arm_limits", (3, 6), "float32"),
                  "tip_bodies": e.create_shared_buffer("tip_bodies", n, "uint32"),
                  "target_candidates": e.create_shared_buffer("target_candidates", len(self.target_particles),
                                                              "uint32"),
                  "task_state": e.create_shared_buffer("task_state", (n, 4), "uint32")}
         extra["arm_start"].write(np.asarray(START_Q, np.float32))
+        extra["arm_limits"].write(np.array([[limits[j].lower for j in JOINTS], [limits[j].upper for j in JOINTS],
+                                            ACTION_SCALE], np.float32))
         extra["tip_bodies"].write(tip_rows)
         extra["target_candidates"].write(self.target_particles)
         self.buffers.extra = extra
@@ -150,6 +148,7 @@ class TissueRetract(VectorEnv):
 
     def task_bindings(self) -> dict:
         return {**self.buffers.extra, "grasps": self.grasp.commands, "grasp_points": self.grasp.points,
+                "arm_joint_values": self.arm.link_poses.joint_values,
                 "particle_positions": "particles.positions", "initial_positions": "particles.initial_positions",
                 "particle_env_ranges": "particles.env_ranges", "body_positions": "rigid.positions",
                 "body_rotations": "rigid.rotations"}
@@ -157,20 +156,11 @@ class TissueRetract(VectorEnv):
     def task_constants(self, reset_all: bool) -> dict:
         return {"envs": self.num_envs, "max_steps": self.max_episode_steps, "reset_all": int(reset_all),
                 "seed": self.seed, "candidates": len(self.target_particles), "target_lift": self.target_lift,
-                "length_scale": LENGTH_SCALE}
+                "length_scale": LENGTH_SCALE, "frame": FRAME, "jaw_open": JAW_OPEN, "jaw_closed": JAW_CLOSED}
 
     # --- a step ---------------------------------------------------------------------------------
     def act(self):
-        """Joint targets and grasp commands from the actions, every env's arm posed (batched),
-        then the grasp pass."""
-        a = torch.nan_to_num(self.actions, nan=0.0).clamp(-1.0, 1.0)
-        q = self.joints[:, :6]
-        target = torch.minimum(torch.maximum(q + a[:, :6] * self._scale, self._lower), self._upper)
-        self.joints[:, 6:] = (target - q) / FRAME
-        self.joints[:, :6] = target
-        grasp = a[:, 6]
-        closed = torch.where(grasp > 0, 1, torch.where(grasp < 0, 0, self.grasp_commands[:, 0]))
-        self.grasp_commands[:, 0] = closed
-        jaw = torch.where(closed > 0, JAW_CLOSED, JAW_OPEN).unsqueeze(1)
-        self.arm.write(target, jaw)
+        """The task's `apply_action`, the arm's FK pass, then the grasp pass."""
+        self.engine.execute_compute_pass(self.passes["apply_action"])
+        self.arm.pose()
         self.grasp.execute()

@@ -49,12 +49,12 @@ import numpy as np
 import pytorch_kinematics as pk
 import torch
 import yourdfpy
-from pytorch_kinematics.transforms import matrix_to_quaternion
 
 import cressim
 from .arm_visuals import ArmVisuals
 from .dh import PSM_DH, dh_forward_kinematics
 from .kinematics import rotation_xyzw
+from .link_poses import LinkPoses
 
 ARM_GROUP = 2  # collision group of arm links; they do not collide with each other (mask below)
 DYNAMICS = ("kinematic", "dynamic")
@@ -269,17 +269,18 @@ class ArmBodies:
         bodies, joint_specs, initial_q, initial_jaw = self._authored
         body_ids, joint_ids, num_envs = self.body_entity_ids, self.joint_entity_ids, self.num_envs
         self.engine = engine
-        self.target_p = torch.from_dlpack(self.engine.buffer("control.body_target_positions"))
-        self.target_r = torch.from_dlpack(self.engine.buffer("control.body_target_rotations"))
-        self.device = self.target_p.device
+        self.device = torch.from_dlpack(self.engine.buffer("control.body_target_positions")).device
         if cuda_stream and self.device.type == "cuda":  # frames wait for targets written on torch's stream
             self.engine.set_cuda_stream(torch.cuda.current_stream(self.device).cuda_stream)
         body_entity = np.asarray(self.engine.buffer("rigid.body_entity").read()).astype(np.int64)
         row_of_entity = {int(e): row for row, e in enumerate(body_entity)}
         follower = [k for k, b in enumerate(bodies) if b.frame == 0]
-        # rows[env * F + k]: the body row of follower link k in that env
-        self.rows = torch.as_tensor([row_of_entity[int(e)] for e in body_ids[:, follower].reshape(-1)],
-                                    device=self.device, dtype=torch.long)
+        follower_rows = np.vectorize(row_of_entity.get, otypes=[np.int64])(body_ids[:, follower])
+        # the followers' poses: FK on the GPU from `joint_values` (interface joints, then the jaw)
+        self.link_poses = LinkPoses(engine, self.urdf, self.follower_links,
+                                    list(INTERFACE_JOINTS[:self.dof]) + ["jaw"], follower_rows.reshape(num_envs, -1),
+                                    self.base[:3, 3].tolist(), rotation_xyzw(self.base[:3, :3].numpy()))
+        self.joint_values = torch.from_dlpack(self.link_poses.joint_values)  # (N, dof + 1) float32
         self.body_rows = torch.as_tensor(np.vectorize(row_of_entity.get)(body_ids), device=self.device,
                                          dtype=torch.long).reshape(num_envs, len(bodies))
         self.health = torch.from_dlpack(self.engine.buffer("env.health"))
@@ -494,23 +495,18 @@ class ArmBodies:
         child = torch.stack([frames[b].get_matrix() for _, b in pairs], dim=1)
         return pairs, torch.linalg.solve(parent, child)
 
-    def _link_poses(self, q, jaw, names):
-        """(N, dof), (N, 1) -> (N, L, 4, 4): frames of `names` in the world (base pose applied)."""
-        th = torch.cat([q[:, : self.dof], jaw], dim=-1) @ self._expand.T + self._shift
-        frames = self.chain.forward_kinematics(th)
-        T = torch.stack([frames[name].get_matrix() for name in names], dim=1)
-        return self.base @ T
-
     # ------------------------------------------------------------------ per tick
     def write(self, q: torch.Tensor, jaw: torch.Tensor):
-        """Sets the kinematic bodies' targets (all links; dynamic mode: the followers) from joint
-        values q (N, >= dof) and jaw (N, 1)."""
-        if self.rows.numel() == 0:
-            return
-        T = self._link_poses(q.to(**self._on), jaw.to(**self._on), self.follower_links).reshape(-1, 4, 4)
-        quat = matrix_to_quaternion(T[:, :3, :3])  # w, x, y, z
-        self.target_p[self.rows, :3] = T[:, :3, 3].to(self.target_p)
-        self.target_r[self.rows] = quat[:, [1, 2, 3, 0]].to(self.target_r)
+        """Poses the kinematic bodies (all links; dynamic mode: the followers) at joint values
+        q (N, >= dof) and jaw (N, 1): one copy into `joint_values` and the GPU's FK pass,
+        recorded in the current frame (before step_physics)."""
+        self.joint_values[:, : self.dof] = q[:, : self.dof].to(self.joint_values)
+        self.joint_values[:, self.dof:] = jaw.to(self.joint_values)
+        self.link_poses.execute()
+
+    def pose(self):
+        """Records the FK pass on `joint_values` as they are (a task pass wrote them)."""
+        self.link_poses.execute()
 
     def gravity_torques(self, q: torch.Tensor) -> torch.Tensor:
         """(M, >= dof) -> (M, dof): generalized gravity force on each arm joint (N m or N) from the
