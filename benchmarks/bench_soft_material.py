@@ -3,7 +3,9 @@ XPBD compliance model on the same mesh, and what each solver knob costs. Per env
 (5 x 5 x 5 cells: 216 particles, 750 tets, 40 x 40 x 40 mm, 10 kPa, nu 0.45) clamped at its base
 on a plane, with a kinematic sphere pressing into its top (contacts every substep). Env-steps
 per second of 60 Hz frames (one submit each, a device wait per frame) and the block's top drop
-after the run (the material's answer, the same at every setting).
+after the run (the material's answer, the same at every setting). The elastic 4 x 4 row runs in
+both particle solver schedules (`workgroup`: one workgroup per env, `dispatch`: one dispatch per
+vertex colour).
 
     PYTHONPATH=python python3 benchmarks/bench_soft_material.py --envs 64,512,4096 --json out.json
 """
@@ -44,10 +46,10 @@ def build(num_envs: int, model: str):
     return world, rest
 
 
-def run(num_envs: int, model: str, substeps: int, iterations: int, frames: int, device):
+def run(num_envs: int, model: str, substeps: int, iterations: int, frames: int, device, solver: str = "auto"):
     world, rest = build(num_envs, model)
     engine = cressim.Engine(world, device=device)
-    engine.physics = cressim.PhysicsSettings(substeps=substeps, particle_iterations=iterations)
+    engine.physics = cressim.PhysicsSettings(substeps=substeps, particle_iterations=iterations, particle_solver=solver)
     engine.prepare()
     engine.upload_world()
     for _ in range(10):  # warm-up (pipelines, caches)
@@ -62,6 +64,7 @@ def run(num_envs: int, model: str, substeps: int, iterations: int, frames: int, 
     top = rest[:, 2] > HALF - 1e-6
     drop = float(((rest[top, 2] + HALF) - p[0][top, 2]).mean())
     return {"envs": num_envs, "model": model, "substeps": substeps, "particle_iterations": iterations,
+            "particle_solver": solver,
             "frames": frames, "env_steps_per_s": num_envs * frames / elapsed, "frame_ms": elapsed / frames * 1e3,
             "top_drop_mm": drop * 1e3, "device": engine.device["name"],
             "unhealthy_envs": int((engine.buffer("env.health").read() != 0).sum())}
@@ -76,11 +79,14 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     rows = []
     for n in (int(x) for x in args.envs.split(",")):
-        for model, substeps, iterations in (("elastic", 4, 4), ("compliance", 4, 4), ("elastic", 4, 1),
-                                            ("elastic", 8, 2), ("elastic", 4, 8), ("elastic", 16, 1)):
-            r = run(n, model, substeps, iterations, args.frames, args.device)
+        for model, substeps, iterations, solver in (
+                ("elastic", 4, 4, "auto"), ("elastic", 4, 4, "dispatch"), ("compliance", 4, 4, "auto"),
+                ("elastic", 4, 1, "auto"), ("elastic", 8, 2, "auto"), ("elastic", 4, 8, "auto"),
+                ("elastic", 16, 1, "auto")):
+            r = run(n, model, substeps, iterations, args.frames, args.device, solver)
             rows.append(r)
-            print(f"{r['device']}: {n:5d} envs {model:10s} substeps {substeps:2d} iterations {iterations}: "
+            print(f"{r['device']}: {n:5d} envs {model:10s} substeps {substeps:2d} iterations {iterations} "
+                  f"solver {solver:8s}: "
                   f"{r['env_steps_per_s']:12,.0f} env-steps/s ({r['frame_ms']:.2f} ms/frame), top drop "
                   f"{r['top_drop_mm']:.3f} mm, unhealthy {r['unhealthy_envs']}", flush=True)
     if args.json:

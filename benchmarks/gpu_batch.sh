@@ -5,6 +5,7 @@
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-b bench-twin  # ultrasound; the twin
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-soft bench-fluid  # SoftBodyPush, FluidPour
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-soft-material      # elastic tets' cost
+#   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-surgical  # TissueRetract, BloodSuction
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-r bench-us  # render extras, ultrasound
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-pr          # particles drawn by the renderer
 #   source .gpu/prelude.sh; CRESSIM_TESTS=OFF bash benchmarks/gpu_batch.sh setup bench-tc bench-ppo  # PPO
@@ -125,6 +126,21 @@ for stage in "$@"; do
         --raster compute --json "$OUT/particle_render.json"
       run particle_render_graphics 150 python3 benchmarks/bench_particle_render.py --envs 1024 --frames 30 \
         --raster graphics --json "$OUT/particle_render_graphics.json"
+      ;;
+    bench-surgical)  # TissueRetract and BloodSuction at the paper's counts and up; where a step goes
+      mkdir -p "$OUT/tissueretract" "$OUT/bloodsuction" "$OUT/tissueretract_ppo" "$OUT/bloodsuction_ppo"
+      run tissueretract 240 python3 -m cressim bench TissueRetract --envs ${TR_ENVS:-128,256,512,1024,2048,4096} \
+        --mode step --out "$OUT/tissueretract"
+      run bloodsuction 240 python3 -m cressim bench BloodSuction --envs ${BS_ENVS:-64,128,256,512,1024} \
+        --mode step --out "$OUT/bloodsuction"
+      run tissueretract_ppo 150 python3 -m cressim bench TissueRetract --envs 256 --mode ppo --device cuda \
+        --out "$OUT/tissueretract_ppo"
+      run bloodsuction_ppo 150 python3 -m cressim bench BloodSuction --envs 128 --mode ppo --device cuda \
+        --out "$OUT/bloodsuction_ppo"
+      run profile_tissueretract 120 python3 benchmarks/profile_task.py TissueRetract --envs 256,1024 \
+        --json "$OUT/profile_tissueretract.json"
+      run profile_bloodsuction 120 python3 benchmarks/profile_task.py BloodSuction --envs 128 \
+        --json "$OUT/profile_bloodsuction.json"
       ;;
     bench-us)
       mkdir -p "$OUT/ultrasound"

@@ -25,9 +25,10 @@ foreach(src ${CRESSIM_SHADERS})
   else()
     string(REGEX REPLACE "\\.hlsl$" "" name ${rel})
   endif()
-  # positional constraint families also get a one-workgroup-per-env build (particle_solve.hlsli)
+  # positional constraint families (particle_solve.hlsli) and the elastic vertex solve also get a
+  # one-workgroup-per-env build
   set(variants "${name}|")
-  file(STRINGS ${src} block_solve REGEX "#include \"particle_solve.hlsli\"")
+  file(STRINGS ${src} block_solve REGEX "#include \"particle_solve.hlsli\"|^#ifdef CRESSIM_BLOCK")
   if(block_solve)
     list(APPEND variants "${name}.block|-DCRESSIM_BLOCK=1")
   endif()

@@ -397,6 +397,24 @@ void env_colours(ConstraintSet& s, const ParticleModel& m) {
   }
 }
 
+// vertex-solved families: each env's slice of each vertex colour in `vertices` (particles are
+// numbered env by env and each colour lists them in order)
+void env_vertex_colours(ConstraintSet& s, const ParticleModel& m) {
+  const size_t envs = m.env_ranges.size(), colours = s.vertex_colour_count.size();
+  s.env_colours.assign(envs * colours * 2, 0);
+  for (size_t k = 0; k < colours; ++k) {
+    uint32_t last_env = 0;
+    for (uint32_t v = s.vertex_colour_offset[k]; v < s.vertex_colour_offset[k] + s.vertex_colour_count[k]; ++v) {
+      const uint32_t env = m.phases[s.vertices[v]].z;
+      if (env < last_env) throw std::logic_error("solved particles of " + s.name + " are not in env order");
+      last_env = env;
+      uint32_t* r = &s.env_colours[(env * colours + k) * 2];
+      if (r[1] == 0) r[0] = v;
+      ++r[1];
+    }
+  }
+}
+
 // the fluid passes' density kernel (shaders/physics/particle_fluid.hlsli)
 float spiky(float r, float h) {
   if (r >= h) return 0;
@@ -513,6 +531,8 @@ ParticleModel build_particle_model(const scene::World& world, const scene::Layou
       colour_vertices(s, m.size());
       s.colour_offset = {0};
       s.colour_count = {uint32_t(s.records.size())};
+      env_vertex_colours(s, m);
+      continue;
     } else if (s.chains.empty()) {
       colour(s, m.size() + m.orientations.size());
     } else {  // chain order is kept: one colour of all records

@@ -28,7 +28,9 @@ struct ConstraintSet {
   uint32_t multipliers = 1;             // XPBD multipliers per record (particles.<name>_lambdas)
   std::vector<uint32_t> chains;         // (first record, count) of each chain, for chain-solved families
   std::vector<uint32_t> colour_offset, colour_count;  // each colour's slice of records
-  std::vector<uint32_t> env_colours;   // (first, count) of each env's records per colour, env-major
+  // (first, count) of each env's records per colour, env-major; vertex-solved families: of each
+  // env's particles per vertex colour, into `vertices`
+  std::vector<uint32_t> env_colours;
   std::vector<uint32_t> object_count;  // constraints of each object
   // A vertex-solved family (particle_tet.comp.hlsl) is solved per particle instead: each thread
   // moves one particle by a Newton step on the energy of the records around it, so particles are

@@ -229,6 +229,7 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
       f.per_env = compute::create_builtin_pass(ctx, s.shader + ".block", b);
       f.per_env->groups = {uint32_t(ne), 1, 1};
       all_.push_back(f.per_env);
+      if (s.rows_per_record) moving_.push_back(f.per_env.get());
     }
     families_.push_back(f);
     auto r = compute::create_builtin_pass(ctx, "physics/particle_cut_reset", b);
@@ -293,7 +294,8 @@ void ParticleSystem::record_families(VkCommandBuffer cmd, uint32_t passes) const
   };
   for (auto& f : families_) {
     if (f.per_env && workgroup_solve()) {
-      put(*f.per_env, passes, uint32_t(f.set->colour_count.size()));
+      const bool vertices = !f.set->vertices.empty();
+      put(*f.per_env, passes, uint32_t(vertices ? f.set->vertex_colour_count.size() : f.set->colour_count.size()));
       f.per_env->record(cmd);
       gpu::compute_barrier(cmd);
       continue;

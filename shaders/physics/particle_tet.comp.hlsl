@@ -18,6 +18,11 @@
 // pressed on a surface is at the energy's minimum with the contact force in the balance. Contacts
 // projected after the solve instead made a resting 5 kPa block 2.7 times too soft and a
 // frictionless one spread without end. Dynamic bodies share their contacts in the gather.
+// Two builds (cmake/shaders.cmake): by default a thread per particle of one colour, a dispatch per
+// colour; with CRESSIM_BLOCK one workgroup per env that loads the env's particles into group
+// memory and solves every colour in turn, `item_offset` times over (a group barrier between
+// colours): one dispatch where the first needs colours x iterations, and for small bodies in many
+// envs the dispatches, not the arithmetic, are the cost.
 #include "cressim/layout.h"
 #include "cressim/particle.h"
 #include "cressim/quat.h"
@@ -44,6 +49,18 @@ RWStructuredBuffer<float4> rigid_contacts;  // xyz the contact point on that bod
 StructuredBuffer<ParticleAttachment> attachments;
 
 #include "particle_collide.hlsli"
+
+#ifdef CRESSIM_BLOCK
+StructuredBuffer<ParticleEnvRange> env_ranges;
+StructuredBuffer<uint2> env_colours;  // (first, count) into `vertices` per env and colour
+groupshared float4 block_x[PARTICLE_BLOCK_CAPACITY];
+static uint block_first;  // the env's first particle
+float4 load_x(uint i) { return block_x[i - block_first]; }
+void store_x(uint i, float3 x) { block_x[i - block_first].xyz = x; }
+#else
+float4 load_x(uint i) { return positions[i]; }
+void store_x(uint i, float3 x) { positions[i].xyz = x; }
+#endif
 
 // H x = b for a symmetric positive definite H, by its adjugate
 float3 solve3(float3x3 H, float3 b) {
@@ -98,11 +115,10 @@ float4 contact_step(inout float3 x, float3 xi, float3x3 H, float3 f, float3 x0, 
   return on_body;
 }
 
-[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
-void main(uint3 id : SV_DispatchThreadID) {
-  if (id.x >= pc.item_count) return;
-  const uint v = pc.item_offset + id.x, i = vertices[v];
-  const float4 xi = positions[i];
+// one Newton step of the particle at `vertices[v]`
+void solve(uint v) {
+  const uint i = vertices[v];
+  const float4 xi = load_x(i);
   if (xi.w <= 0 || (phases[i].w & PARTICLE_ACTIVE) == 0) return;  // fixed, kinematic or inactive
   const float h = pc.gravity.w, m_h2 = 1 / (xi.w * h * h);
   const float3 y = prev_positions[i].xyz + h * velocities[i].xyz;  // velocities hold v + h g here
@@ -113,9 +129,9 @@ void main(uint3 id : SV_DispatchThreadID) {
     const uint rc = vertex_corners[range.x + n], t = rc >> 2, k = rc & 3;
     if (cut[t] != 0) continue;
     const ParticleConstraint rec = constraints[t];
-    const float3 x0 = positions[rec.particles.x].xyz;
-    const float3 d1 = positions[rec.particles.y].xyz - x0, d2 = positions[rec.particles.z].xyz - x0,
-                 d3 = positions[rec.particles.w].xyz - x0;
+    const float3 x0 = load_x(rec.particles.x).xyz;
+    const float3 d1 = load_x(rec.particles.y).xyz - x0, d2 = load_x(rec.particles.z).xyz - x0,
+                 d3 = load_x(rec.particles.w).xyz - x0;
     const float3 r0 = record_rows[3 * t].xyz, r1 = record_rows[3 * t + 1].xyz, r2 = record_rows[3 * t + 2].xyz;
     // columns of F = d1 r0^T + d2 r1^T + d3 r2^T
     const float3 f0 = d1 * r0.x + d2 * r1.x + d3 * r2.x;
@@ -155,5 +171,35 @@ void main(uint3 id : SV_DispatchThreadID) {
     }
   }
   tet_contact_forces[i] = load;
-  positions[i].xyz = x;
+  store_x(i, x);
 }
+
+#ifndef CRESSIM_BLOCK
+
+[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
+void main(uint3 id : SV_DispatchThreadID) {
+  if (id.x < pc.item_count) solve(pc.item_offset + id.x);
+}
+
+#else
+
+static const uint BLOCK_THREADS = 128;
+
+[numthreads(BLOCK_THREADS, 1, 1)]
+void main(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
+  const uint env = group.x, lane = thread.x, colours = pc.item_count;
+  block_first = env_ranges[env].range.x;
+  const uint count = env_ranges[env].range.y;
+  for (uint i = lane; i < count; i += BLOCK_THREADS) block_x[i] = positions[block_first + i];
+  GroupMemoryBarrierWithGroupSync();
+  for (uint pass = 0; pass < pc.item_offset; ++pass) {
+    for (uint k = 0; k < colours; ++k) {
+      const uint2 r = env_colours[env * colours + k];
+      for (uint j = lane; j < r.y; j += BLOCK_THREADS) solve(r.x + j);
+      GroupMemoryBarrierWithGroupSync();
+    }
+  }
+  for (uint i = lane; i < count; i += BLOCK_THREADS) positions[block_first + i] = block_x[i];
+}
+
+#endif

@@ -1,0 +1,66 @@
+"""Where a task's step goes: GPU milliseconds per frame op (timestamps around each recorded op:
+the task's passes, physics, sensors, resets) beside the wall time of a step, for some env counts.
+
+    PYTHONPATH=python python3 benchmarks/profile_task.py TissueRetract --envs 256,1024 [--json OUT]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from collections import defaultdict
+
+import torch
+
+import cressim.envs
+
+
+def profile(task: str, envs: int, warmup: int, steps: int) -> dict:
+    env = cressim.envs.make(task, num_envs=envs)
+    env.reset()
+    cuda = env.device.type == "cuda"
+    for _ in range(warmup):
+        env.step(env.actions)
+    if cuda:
+        torch.cuda.synchronize()
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        env.step(env.actions)
+        if cuda:
+            torch.cuda.synchronize()
+    wall_ms = (time.perf_counter() - t0) * 1e3 / steps
+    env.engine.profiling = True
+    ops = defaultdict(float)
+    for _ in range(steps):
+        env.step(env.actions)
+        for label, ms in env.engine.last_timings:
+            ops[label] += ms / steps
+    env.engine.profiling = False
+    env.close()
+    return {"task": task, "envs": envs, "wall_ms_per_step": wall_ms, "env_steps_per_s": envs * 1e3 / wall_ms,
+            "gpu_ms": dict(ops), "gpu_ms_total": sum(ops.values())}
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("task")
+    parser.add_argument("--envs", default="256")
+    parser.add_argument("--warmup", type=int, default=32)
+    parser.add_argument("--steps", type=int, default=64)
+    parser.add_argument("--json")
+    args = parser.parse_args()
+    rows = []
+    for n in (int(v) for v in args.envs.split(",")):
+        r = profile(args.task, n, args.warmup, args.steps)
+        rows.append(r)
+        print(f"{args.task} {n} envs: {r['wall_ms_per_step']:.3f} ms a step ({r['env_steps_per_s']:,.0f} env-steps/s), "
+              f"GPU {r['gpu_ms_total']:.3f} ms:")
+        for label, ms in r["gpu_ms"].items():
+            print(f"    {label:40s} {ms:8.3f} ms")
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(rows, f, indent=1)
+
+
+if __name__ == "__main__":
+    main()
