@@ -41,7 +41,8 @@ def test_workgroup_solve_matches_per_colour_dispatches(make_engine, frames):
 
 def test_workgroup_solve_matches_per_colour_dispatches_for_elastic_tets(make_engine):
     """The elastic vertex solve (particle_tet) in both schedules: a 20 kPa cube dropped on the
-    ground, two envs (the second shifted and tilted by its start), contacts inside the solve."""
+    ground, two envs (the second shifted and tilted by its start), contacts inside the solve, and a
+    kinematic sphere that the cube lands on the edge of (colliders read from group memory)."""
     runs = {}
     for solver in ("dispatch", "workgroup"):
         world = cressim.World(cressim.SceneLayout(2))
@@ -52,12 +53,17 @@ def test_workgroup_solve_matches_per_colour_dispatches_for_elastic_tets(make_eng
             cube.add(cressim.Transform(position=(0.0, 0.0, 0.03 + 0.01 * env), rotation=(0.0, 0.1 * env, 0.0, 1.0)))
             cube.add(cressim.SoftBody(mesh, youngs_modulus=2e4, poisson_ratio=0.45, density=1000.0, radius=0.003,
                                       damping=1.0))
+            tool = world.create_entity(env=env, name="tool")
+            tool.add(cressim.Transform(position=(0.02, 0.0, 0.012)))
+            tool.add(cressim.RigidBody(kinematic=True))
+            tool.add(cressim.Collider([cressim.Shape.sphere(0.01)]))
         engine = start(world, make_engine, substeps=4, particle_iterations=4, particle_solver=solver)
         before = positions(engine)
         step(engine, 30)
         runs[solver] = positions(engine)
         forces = engine.buffer("particles.tet_contact_forces").read()
         runs[solver + " forces"] = forces[:, :3]
+        assert (forces[:, 3] > 0).any(), "the cube rests partly on the kinematic sphere"
     assert np.abs(runs["dispatch"] - before).max() > 0.01  # it fell onto the ground
     assert runs["dispatch"][:, 2].min() > 0.0  # and rests on it
     np.testing.assert_allclose(runs["workgroup"], runs["dispatch"], atol=1e-5)
