@@ -1,5 +1,6 @@
-"""TissueRetract: the batched PSM grasps the tissue sheet's edge and lifts it; per-env resets put
-the arm, the grasp and the tissue back; PPO runs on it."""
+"""TissueRetract: the batched PSM grasps the tissue flap's edge and lifts it; per-env resets put
+the arm, the grasp and the tissue back; the CRTK observation tracks what a client can know; PPO
+runs on it."""
 import math
 
 import numpy as np
@@ -7,23 +8,28 @@ import pytest
 import torch
 
 import cressim.envs
-from cressim.envs.tissue_retract import ACTION_SCALE, RCM, SHEET_HALF, START_Q
+from cressim.envs.tissue_retract import ACTION_SCALE
 from cressim.learn import train
 
 from .on_host import on_host
 
-TOP = 2 * SHEET_HALF[2] + 0.0025  # rest height of the sheet's top layer (m)
+RCM = (0.0, 0.0, 0.3)  # scenes/psm_twin.yaml's base, which psm_retraction.yaml keeps
+START_Q = (0.0, 0.0, 0.1, 0.0, 0.0, 0.0)  # psm_retraction.yaml's home_jp
+FLAP_TOP = 0.15 + 0.0015 + 0.006  # table top, particle radius, flap thickness (tissue_retraction.yaml)
+FREE_EDGE = -0.02  # y of the flap's free edge
 JOINTS, TARGET, TIP, ATTACHED, LIFT = slice(0, 6), slice(12, 15), slice(15, 18), 27, 28
+# the grasp point sits this far beyond the insertion value along the shaft (wrist straight)
+BEYOND = 0.3 - 0.1 - 0.2005
 
 
 def reach(point: torch.Tensor) -> torch.Tensor:
     """Joint values that put the grasp point at `point` (N, 3) with the wrist straight: the shaft
-    through the remote centre of motion, the grasp point 1.5 mm beyond the insertion value."""
+    through the remote centre of motion."""
     v = point - torch.tensor(RCM, dtype=point.dtype, device=point.device)
     d = v.norm(dim=-1)
     u = v / d[:, None]
     zero = torch.zeros_like(d)
-    return torch.stack([torch.atan2(u[:, 0], -u[:, 2]), torch.asin(-u[:, 1]), d - 0.0015, zero, zero, zero], -1)
+    return torch.stack([torch.atan2(u[:, 0], -u[:, 2]), torch.asin(-u[:, 1]), d - BEYOND, zero, zero, zero], -1)
 
 
 def toward(obs: torch.Tensor, point: torch.Tensor, grasp: float) -> torch.Tensor:
@@ -37,8 +43,8 @@ def test_reset_observation_and_a_grasp_on_nothing():
     obs, info = on_host(env.reset(seed=1))
     assert obs.shape == (2, 29) and env.action_space.shape == (7,)
     assert torch.allclose(obs[:, JOINTS], torch.tensor(START_Q)) and torch.all(obs[:, 6:12] == 0)
-    assert torch.allclose(obs[:, TARGET][:, 1:], torch.tensor([-SHEET_HALF[1], TOP]), atol=1e-6)  # on the free edge
-    assert torch.allclose(obs[:, TIP], torch.tensor([0.0, 0.0, 0.04]), atol=1e-5)
+    assert torch.allclose(obs[:, TARGET][:, 1:], torch.tensor([FREE_EDGE, FLAP_TOP]), atol=1e-4)  # on the free edge
+    assert torch.allclose(obs[:, TIP], torch.tensor([0.0, 0.0, 0.2005]), atol=1e-5)
     assert torch.allclose(obs[:, 24:27], obs[:, TARGET] - obs[:, TIP])
     close = torch.zeros(2, 7)
     close[0, 6], close[1, 2] = 1.0, 1.0  # env 0 closes in the air; env 1 pushes its insertion
@@ -48,7 +54,7 @@ def test_reset_observation_and_a_grasp_on_nothing():
     assert env.grasp_commands[0, 0] == 1 and env.grasp_commands[0, 2] == 2  # closed on nothing
     assert math.isclose(float(obs[1, 2]), START_Q[2] + 5 * ACTION_SCALE[2], rel_tol=1e-5)
     assert math.isclose(float(obs[1, 8]), ACTION_SCALE[2] * 60, rel_tol=1e-4)  # m/s
-    assert float(obs[1, TIP][2]) < 0.04 - 0.0049
+    assert float(obs[1, TIP][2]) < 0.2005 - 0.0049
     distance = (obs[:, TARGET] - obs[:, TIP]).norm(dim=1)
     assert torch.allclose(reward, -distance / 0.1, atol=1e-5) and not (terminated | truncated).any()
     assert env.engine.validation_messages == []
@@ -58,7 +64,7 @@ def test_scripted_grasp_and_lift_succeeds_alone_and_resets_that_env():
     env = cressim.envs.make("TissueRetract", num_envs=2, validation=True)
     obs, _ = on_host(env.reset())
     rest = env.engine.buffer("particles.positions").read()[:, :3].copy()
-    above = torch.tensor([0.0, 0.0, 0.004])  # the jaws' ends on the target's top
+    above = torch.tensor([0.0, 0.0, 0.002])  # the grasp point just over the target particle
     closed_at, lift_to, rewards = None, None, []
     for step in range(1, 120):
         o = obs.clone()
@@ -83,20 +89,54 @@ def test_scripted_grasp_and_lift_succeeds_alone_and_resets_that_env():
     assert float(info["finished_length"][0]) == step and int(info["episode_length"][1]) == step
     # env 0 starts afresh: arm at its start, grasp open, tissue at rest; env 1 is untouched
     assert torch.allclose(obs[0, JOINTS], torch.tensor(START_Q)) and obs[0, ATTACHED] == 0
-    assert torch.allclose(obs[0, TIP], torch.tensor([0.0, 0.0, 0.04]), atol=1e-5)
+    assert torch.allclose(obs[0, TIP], torch.tensor([0.0, 0.0, 0.2005]), atol=1e-5)
     assert env.grasp_commands[0, 0] == 0 and env.grasp_commands[0, 3] == 0
     x = env.engine.buffer("particles.positions").read()[:, :3].reshape(2, -1, 3)
     assert np.abs(x - rest.reshape(2, -1, 3)).max() < 1e-3
     assert env.engine.validation_messages == []
 
 
+def test_crtk_observation_is_what_a_client_knows():
+    """observation="crtk": the target is the particle's rest position, 27 the commanded grasp, 28
+    the tip's rise since the grasp closed; the state observation's env beside it sees the particle
+    itself rise with the tip."""
+    envs = {kind: cressim.envs.make("TissueRetract", num_envs=1, observation=kind, validation=True)
+            for kind in ("crtk", "state")}
+    obs = {kind: on_host(env.reset(seed=3))[0] for kind, env in envs.items()}
+    rest = obs["crtk"][0, TARGET].clone()
+    above = torch.tensor([0.0, 0.0, 0.002])
+    closed_tip, lifted = None, {}
+    for step in range(150):
+        o = obs["crtk"]
+        if closed_tip is None and (o[0, TIP] - o[0, TARGET] - above).norm() < 0.001:
+            closed_tip = o[0, TIP].clone()
+        a = toward(o, o[:, TARGET] + above, -1.0) if closed_tip is None else \
+            toward(o, (closed_tip + torch.tensor([0.0, 0.0, 0.012]))[None], 1.0)
+        for kind, env in envs.items():
+            obs[kind] = on_host(env.step(a))[0]
+        if closed_tip is not None and (obs["crtk"][0, TIP] - closed_tip)[2] > 0.0119:
+            lifted = {kind: o.clone() for kind, o in obs.items()}
+            break
+    assert lifted, "the scripted grasp did not lift the tip by 12 mm"
+    crtk, state = lifted["crtk"][0], lifted["state"][0]
+    assert torch.allclose(crtk[TARGET], rest)  # the rest position, not the moving particle
+    assert crtk[ATTACHED] == 1 and state[ATTACHED] == 1
+    assert math.isclose(float(crtk[LIFT]), float((crtk[TIP] - closed_tip)[2]) / 0.02, abs_tol=1e-4)
+    assert 0.55 < float(crtk[LIFT]) < 0.65
+    assert state[TARGET][2] > rest[2] + 0.005  # the held particle rose with the jaws
+    assert torch.allclose(crtk[:12], state[:12]) and torch.allclose(crtk[TIP], state[TIP], atol=1e-6)
+    for env in envs.values():
+        assert env.engine.validation_messages == []
+
+
 def test_arguments_are_checked():
-    for bad in ({"youngs_modulus": -1.0}, {"poisson_ratio": 0.5}, {"density": "dense"}, {"target_lift": float("nan")},
-                {"grasp_reach": 0}):
+    for bad in ({"target_lift": float("nan")}, {"grasp_reach": 0}, {"observation": "pixels"}):
         with pytest.raises(ValueError, match=next(iter(bad))):
             cressim.envs.make("TissueRetract", num_envs=1, **bad)
     with pytest.raises(ValueError, match="num_envs"):
         cressim.envs.make("TissueRetract", num_envs=0)
+    with pytest.raises(ValueError, match="needle driver"):
+        cressim.envs.make("TissueRetract", num_envs=1, scene="psm_suction.yaml")
 
 
 def test_ppo_smoke(tmp_path):

@@ -15,6 +15,7 @@ struct Params {
   float frame;         // s
   float jaw_open;      // rad
   float jaw_closed;    // rad
+  uint crtk;           // observations from what a CRTK client knows (tissue_retract.py)
 };
 [[vk::push_constant]] ConstantBuffer<Params> pc;
 
@@ -32,7 +33,9 @@ StructuredBuffer<float> arm_limits;            // (3, 6): lower and upper joint 
 RWStructuredBuffer<float> arm_joint_values;    // (envs, 7): the FK pass's input, joints then jaw
 StructuredBuffer<float> actions;               // (envs, 7)
 StructuredBuffer<uint> target_candidates;      // particles (env-relative) a target is drawn from
-RWStructuredBuffer<uint4> task_state;          // x the target particle (env-relative), y episodes started
+// x the target particle (env-relative), y episodes started, z the tip's height when the grasp
+// closed (float bits)
+RWStructuredBuffer<uint4> task_state;
 RWStructuredBuffer<uint> reset_mask;
 RWStructuredBuffer<float> observations;        // (envs, 29)
 RWStructuredBuffer<float> rewards;
@@ -83,7 +86,9 @@ void apply_action(uint3 id : SV_DispatchThreadID) {
   }
   const float grasp = action(env, 6);
   int4 g = grasps[env];
-  g.x = grasp > 0 ? 1 : (grasp < 0 ? 0 : g.x);
+  const int closed = grasp > 0 ? 1 : (grasp < 0 ? 0 : g.x);
+  if (closed != 0 && g.x == 0) task_state[env].z = asuint(tip_position(env).z);  // where the lift counts from
+  g.x = closed;
   grasps[env] = g;
   arm_joint_values[7 * env + 6] = g.x != 0 ? pc.jaw_closed : pc.jaw_open;
 }
@@ -116,12 +121,24 @@ void observe(uint3 id : SV_DispatchThreadID) {
   if (env >= pc.envs) return;
   const uint o = OBS * env;
   for (uint k = 0; k < 12; ++k) observations[o + k] = arm_joints[12 * env + k];
-  const float3 target = particle_positions[target_particle(env)].xyz, tip = tip_position(env);
+  const uint p = target_particle(env);
+  const float3 tip = tip_position(env);
   const float4 r = body_rotations[tip_bodies[env]];
   const float3 x_axis = quat_rotate(r, float3(1, 0, 0)), y_axis = quat_rotate(r, float3(0, 1, 0));
-  const bool attached = grasps[env].z == 1;
+  float3 target;
+  float grasp, lifted;
+  if (pc.crtk != 0) {  // the target's rest position, the commanded grasp, the tip's rise since it closed
+    target = initial_positions[p].xyz;
+    grasp = float(grasps[env].x != 0);
+    lifted = grasp * saturate((tip.z - asfloat(task_state[env].z)) / pc.target_lift);
+  } else {
+    target = particle_positions[p].xyz;
+    const bool attached = grasps[env].z == 1;
+    grasp = float(attached);
+    lifted = lift(env, attached);
+  }
   const float values[17] = {target.x, target.y, target.z, tip.x, tip.y, tip.z, x_axis.x, x_axis.y, x_axis.z,
                             y_axis.x, y_axis.y, y_axis.z, target.x - tip.x, target.y - tip.y, target.z - tip.z,
-                            float(attached), lift(env, attached)};
+                            grasp, lifted};
   for (uint i = 0; i < 17; ++i) observations[o + 12 + i] = values[i];
 }

@@ -1,23 +1,22 @@
-"""TissueRetract: the dVRK PSM grasps the free edge of a tissue sheet and lifts it (../shared/TASKS.md), z up.
+"""TissueRetract: the dVRK PSM grasps the free edge of a tissue flap and lifts it (../shared/TASKS.md), z up.
 
-Workload. The paper's scene has arbitrary units: a sheet 0.96 x 0.08 x 0.96 (y up) on a grid of
-spacing 0.08 (about 12 x 2 x 12 particles), volume compliance 2.6e-3, 4 substeps. Read as metres
-it would dwarf the PSM (240 mm of insertion, 10 mm jaws), so here the scene is at the PSM's real
-scale: every length x 0.1 (one paper unit = 0.1 m), so the sheet is 96 x 96 x 8 mm
-on the same grid (13 x 13 x 2 particles, 8 mm apart, 338 per env; 12 x 12 x 1 cells of 6 tets),
-and its material is elastic tissue in SI units instead of a compliance: Young's modulus 10 kPa,
-Poisson ratio 0.45, density 1000 kg/m^3 (soft tissue; 74 g), velocity damping 2/s, particle
-radius 2.5 mm (contacts). Its far edge (y = +48 mm, both layers) is fixed to a table (a static
-box, top at z = 0) that the sheet rests on. 60 Hz frames, 4 substeps, 4 elastic iterations.
+Scene: the twin's (scenes/psm_retraction.yaml), so that a policy trained here meets the same
+world in the twin (examples/sim_to_real.py): its engine scene (scenes/tissue_retraction.yaml:
+a table, top at z = 0.15 m, and a 60 x 40 x 6 mm flap of 10 kPa tissue, Poisson ratio 0.45,
+1000 kg/m^3, on 13 x 9 x 3 particles (351, 1,152 tets), its far edge (+y) held to the table),
+without its camera, light and suture thread; the arm's base (its remote centre of motion, 150 mm
+above the table at the flap's centre), its robot (the PSM with the Large Needle Driver,
+robots/dvrk_psm/psm_lnd.urdf) and the grasp's reach. The paper's workload is a sheet of about
+12 x 2 x 12 particles (338), volume compliance 2.6e-3, 4 substeps, in arbitrary units: this flap
+has about as many particles, in SI units at the PSM's real scale. Physics: 60 Hz frames, 4
+substeps, 4 elastic iterations, up to 4 held particles per env.
 
-The arm: the PSM with the Large Needle Driver (robots/dvrk_psm/psm_lnd.urdf) as kinematic
-bodies (cressim.robots.ArmBodies: each link with collision geometry is a body, posed by the
-URDF's FK), its remote centre of motion 150 mm above the sheet's centre, the base frame
-unrotated (the instrument points down at yaw = pitch = 0). It starts at q0 = (0, 0, 0.1085, 0,
-0, 0) with the jaws open, the grasp point 40 mm above the table. The grasp point ("tool tip"
-below) is between the jaws, 8 mm beyond the jaw pivot (near the ends of the 10 mm jaws), fixed in
-the wrist_yaw link; the Grasp pass (cressim.passes.Grasp) attaches up to 4 tissue particles
-within 6 mm of it while the grasp is closed.
+The arm: every link with collision geometry is a kinematic body (cressim.robots.ArmBodies, posed
+by the URDF's FK on the GPU). It starts at the twin's home joints q0 = (0, 0, 0.1, 0, 0, 0) with
+the jaws open, the grasp point 43 mm above the flap. The grasp point ("tool tip" below) is
+cressim.robots.JAW_GRASP_POINT, between the jaws, fixed in the wrist_yaw link; the Grasp pass
+(cressim.passes.Grasp) attaches up to 4 tissue particles within the grasp's reach of it while
+the grasp is closed, as the twin's jaws do.
 
 Action (7), each in [-1, 1] (NaN counts as 0): joint-target deltas per step for yaw, pitch,
 insertion, roll, wrist pitch, wrist yaw, scaled by 0.01 rad, 0.01 rad, 1 mm, 0.02, 0.02, 0.02 rad
@@ -27,18 +26,24 @@ up to about 2 mm a step) and clamped to the URDF's joint limits; then the grasp:
 empty until it opens again.
 
 Observation (29, SI units, positions in the env's frame): 0-5 joint targets q (rad, m), 6-11
-their velocities (rad/s, m/s), 12-14 the target point (the current position of the tissue
-particle to grasp), 15-17 the tool tip, 18-23 the tip's orientation (the wrist_yaw link's x and
-y axes, y along the jaws), 24-26 target - tip, 27 attached (1 while the grasp holds particles),
-28 lift (below).
+their velocities (rad/s, m/s), 12-14 the target point, 15-17 the tool tip, 18-23 the tip's
+orientation (the wrist_yaw link's x and y axes, y along the jaws), 24-26 target - tip, 27 the
+grasp, 28 lift. Two kinds (`observation`):
+- "state" (the paper's): the target point is the current position of the tissue particle to
+  grasp, 27 is 1 while the grasp holds particles, lift is the particle's rise (below);
+- "crtk": only what a dVRK client knows from CRTK topics and its own commands, so that the same
+  policy runs against the twin or a real arm: the target is the particle's rest position (given
+  to the client, as a camera would), 27 is 1 while the grasp is commanded closed, and lift is the
+  tool tip's rise since the grasp closed, / the target lift, clamped to [0, 1] (0 while open).
 
-Reward: - |tip - target| / 0.1 m (distance in the paper's units) + 0.5 attached + 4 lift, where
-lift = the target particle's rise above its rest height / 20 mm (the target lift, 0.2 paper
-units), clamped to [0, 1], and 0 unless attached. Terminated on success (attached and lift 1)
-or when the solver flags the env; truncated at 180 steps. The target is a top-layer particle of
-the free edge (y = -48 mm), one of 13, drawn per episode from a hash of seed, env and episode.
-Note: as in the paper, success ends the episode while holding the tissue just below the target
-lift keeps paying about 4.5 a step, so `terminated` (not the return) tells how often it succeeds.
+Reward (both kinds): - |tip - target| / 0.1 m (distance in the paper's units) + 0.5 attached + 4
+lift, where lift = the target particle's rise above its rest height / 20 mm (the target lift,
+0.2 paper units), clamped to [0, 1], and 0 unless attached. Terminated on success (attached and
+lift 1) or when the solver flags the env; truncated at 180 steps. The target is a top-layer
+particle of the flap's free edge (y = -20 mm), one of 13, drawn per episode from a hash of seed,
+env and episode. Note: as in the paper, success ends the episode while holding the tissue just
+below the target lift keeps paying about 4.5 a step, so `terminated` (not the return) tells how
+often it succeeds.
 
 A step is one frame, all on the GPU: `apply_action` (the actions move the joint targets in the
 shared buffer `arm_joints` and the grasp commands, and write the arm's FK input), the arm's FK pass
@@ -57,19 +62,15 @@ from cressim.passes.grasp import Grasp
 
 from .vector_env import Space, VectorEnv, checked_number, tensor_view
 
-SHEET_HALF = (0.048, 0.048, 0.004)  # m
-CELLS = (12, 12, 1)  # 8 mm spacing: 13 x 13 x 2 particles
-PARTICLE_RADIUS = 0.0025  # m
-TABLE_HALF = (0.1, 0.1, 0.01)  # m, top at z = 0
-RCM = (0.0, 0.0, 0.15)  # m: the arm's remote centre of motion, above the sheet's centre
+SCENE = "psm_retraction.yaml"  # the twin's scene: its world, the arm's base and the grasp
+FLAP = "flap"  # the scene's entity whose free edge is grasped
+SKIPPED = ("camera", "light", "strand")  # what the task leaves out of the world (sensors, the thread)
 JOINTS = ("yaw", "pitch", "insertion", "roll", "wrist_pitch", "wrist_yaw")  # the dVRK's order, as ArmBodies
-START_Q = (0.0, 0.0, 0.1085, 0.0, 0.0, 0.0)
 ACTION_SCALE = (0.01, 0.01, 0.001, 0.02, 0.02, 0.02)  # rad or m per step per unit action
 JAW_OPEN, JAW_CLOSED = 0.6, 0.0  # rad
-TIP_BODY = "PSM1_wrist_yaw_link"  # the jaws' pivot; its y axis points along the jaws
-GRASP_POINT = (0.0, 0.008, 0.0)  # m, in TIP_BODY's frame
 LENGTH_SCALE = 0.1  # m: one unit of the paper's scene
 FRAME = 1 / 60
+OBSERVATIONS = ("state", "crtk")
 
 
 class TissueRetract(VectorEnv):
@@ -79,17 +80,25 @@ class TissueRetract(VectorEnv):
     action_space = Space((7,), -1.0, 1.0)
     max_episode_steps = 180
 
-    def __init__(self, num_envs: int, *, youngs_modulus: float = 1e4, poisson_ratio: float = 0.45,
-                 density: float = 1000.0, target_lift: float = 0.02, grasp_reach: float = 0.006, **kwargs):
-        """Tissue material (Pa, -, kg/m^3), the lift that counts as success (m) and the grasp's
-        reach (m); other keywords go to VectorEnv."""
+    def __init__(self, num_envs: int, *, scene: str = SCENE, observation: str = "state", target_lift: float = 0.02,
+                 grasp_reach: float | None = None, **kwargs):
+        """`scene`: a twin scene file (its world, arm base and grasp reach); `observation`: "state"
+        or "crtk" (module docstring); the lift that counts as success (m) and the grasp's reach (m,
+        default the scene's); other keywords go to VectorEnv."""
+        from cressim.twin.scene import load_scene
+
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"TissueRetract: num_envs must be a positive integer, got {num_envs!r}")
-        self.youngs_modulus = checked_number("TissueRetract", "youngs_modulus", youngs_modulus)
-        self.poisson_ratio = checked_number("TissueRetract", "poisson_ratio", poisson_ratio, 0.0, 0.5)
-        self.density = checked_number("TissueRetract", "density", density)
+        if observation not in OBSERVATIONS:
+            raise ValueError(f"TissueRetract: observation must be one of {', '.join(OBSERVATIONS)}, got {observation!r}")
+        self.scene = load_scene(scene)
+        if self.scene.robot != "psm_lnd" or not self.scene.world:
+            raise ValueError(f"TissueRetract: {self.scene.path} must give a world and the needle driver (psm_lnd)")
+        self.observation = observation
         self.target_lift = checked_number("TissueRetract", "target_lift", target_lift)
-        self.grasp_reach = checked_number("TissueRetract", "grasp_reach", grasp_reach)
+        self.grasp_reach = checked_number("TissueRetract", "grasp_reach",
+                                          self.scene.grasp_reach if grasp_reach is None else grasp_reach)
+        self.start_q = tuple(float(v) for v in (self.scene.home_jp or self.scene.initial_jp))
         super().__init__(num_envs, **kwargs)
         self.joints = tensor_view(self.buffers.extra["arm_joints"], self.device)  # (N, 12): q, dq/dt
         self.grasp_commands = tensor_view(self.grasp.commands, self.device)  # (N, 4) int32, x: closed
@@ -97,27 +106,18 @@ class TissueRetract(VectorEnv):
     # --- the scene ---------------------------------------------------------------------------
     def build_world(self, num_envs: int) -> cressim.World:
         from cressim.robots import ArmBodies, robot_dir  # on first use: the URDF stack takes a second to import
+        from cressim.scene_file import add_scene
 
-        world = cressim.World(cressim.SceneLayout(num_envs))
+        scene = self.scene
+        world = cressim.World(cressim.SceneLayout(num_envs, max_renderables_per_env=2))  # the table, the flap
         self.arm = ArmBodies(
-            robot_dir() / "psm_lnd.urdf", num_envs, base_position=RCM, base_rotation=(0.0, 0.0, 0.0, 1.0),
-            publish_rate=1 / FRAME, physics_rate=4 / FRAME, initial_q=np.array(START_Q), initial_jaw=JAW_OPEN,
-            dof=6, world=world)
-        mesh = cressim.TetMesh.box(SHEET_HALF, CELLS)
-        rest = np.asarray(mesh.positions)
-        fixed = np.nonzero(rest[:, 1] > SHEET_HALF[1] - 1e-6)[0]  # the far edge
-        top_edge = (rest[:, 1] < -SHEET_HALF[1] + 1e-6) & (rest[:, 2] > SHEET_HALF[2] - 1e-6)
-        self.target_particles = np.nonzero(top_edge)[0].astype(np.uint32)  # local indices, env-relative
-        self.particles_per_env = len(rest)
-        for env in range(num_envs):
-            table = world.create_entity(env=env, name="table")
-            table.add(cressim.Transform(position=(0.0, 0.0, -TABLE_HALF[2])))
-            table.add(cressim.Collider(cressim.Shape.box(TABLE_HALF)))
-            sheet = world.create_entity(env=env, name="tissue")
-            sheet.add(cressim.Transform(position=(0.0, 0.0, SHEET_HALF[2] + PARTICLE_RADIUS)))
-            sheet.add(cressim.SoftBody(mesh, fixed=fixed, youngs_modulus=self.youngs_modulus,
-                                       poisson_ratio=self.poisson_ratio, density=self.density,
-                                       radius=PARTICLE_RADIUS, damping=2.0))
+            robot_dir() / f"{scene.robot}.urdf", num_envs, base_position=scene.base_position,
+            base_rotation=scene.base_rotation, publish_rate=1 / FRAME, physics_rate=4 / FRAME,
+            initial_q=np.array(self.start_q), initial_jaw=JAW_OPEN, dof=6, world=world)
+        added = add_scene(world, scene.world, skip=SKIPPED)
+        if FLAP not in added.labels.values():
+            raise ValueError(f"TissueRetract: {scene.world} has no entity '{FLAP}' to grasp")
+        self._world = world
         return world
 
     def physics_settings(self) -> cressim.PhysicsSettings:
@@ -127,8 +127,11 @@ class TissueRetract(VectorEnv):
     def _create_passes(self) -> dict:
         e, n = self.engine, self.num_envs
         self.arm.bind(e)
-        tip = self.arm.body_names.index(TIP_BODY)
-        self.grasp = Grasp(e, self.arm.body_entity_ids[:, tip], GRASP_POINT, self.grasp_reach)
+        self._find_targets()
+        from cressim.robots import JAW_GRASP_POINT, JAW_LINK
+
+        tip = self.arm.body_names.index(JAW_LINK)
+        self.grasp = Grasp(e, self.arm.body_entity_ids[:, tip], JAW_GRASP_POINT, self.grasp_reach)
         tip_rows = self.arm.body_rows[:, tip].cpu().numpy().astype(np.uint32)
         limits = {j.name: j.limit for j in self.arm.urdf.robot.joints}
         extra = {"arm_joints": e.create_shared_buffer("arm_joints", (n, 12), "float32"),
@@ -138,13 +141,29 @@ class TissueRetract(VectorEnv):
                  "target_candidates": e.create_shared_buffer("target_candidates", len(self.target_particles),
                                                              "uint32"),
                  "task_state": e.create_shared_buffer("task_state", (n, 4), "uint32")}
-        extra["arm_start"].write(np.asarray(START_Q, np.float32))
+        extra["arm_start"].write(np.asarray(self.start_q, np.float32))
         extra["arm_limits"].write(np.array([[limits[j].lower for j in JOINTS], [limits[j].upper for j in JOINTS],
                                             ACTION_SCALE], np.float32))
         extra["tip_bodies"].write(tip_rows)
         extra["target_candidates"].write(self.target_particles)
         self.buffers.extra = extra
         return super()._create_passes()
+
+    def _find_targets(self):
+        """The flap's particles (env-relative) that a target is drawn from: its free edge's top
+        layer (the lowest y, the highest z of its rest shape), checked to be alike in every env."""
+        mapping = self.engine.particle_mapping
+        entity_name = {int(i): self._world.entity(int(i)).name for i in mapping["object_entity"]}
+        flaps = [k for k, entity in enumerate(mapping["object_entity"]) if entity_name[int(entity)] == FLAP]
+        offsets = mapping["object_offset"][flaps] - mapping["env_offset"][mapping["object_env"][flaps]]
+        if len(flaps) != self.num_envs or np.any(offsets != offsets[0]):
+            raise RuntimeError("TissueRetract: the flap is not at the same place in every env's particles")
+        first, count = int(mapping["object_offset"][flaps[0]]), int(mapping["object_count"][flaps[0]])
+        rest = self.engine.buffer("particles.initial_positions").read()[first:first + count, :3]
+        edge = (rest[:, 1] < rest[:, 1].min() + 1e-6) & (rest[:, 2] > rest[:, 2].max() - 1e-6)
+        self.target_particles = (np.nonzero(edge)[0] + int(offsets[0])).astype(np.uint32)
+        self.particles_per_env = int(mapping["env_count"][0])
+        self.target_rest = rest[edge]  # (candidates, 3): where each candidate rests, env frame
 
     def task_bindings(self) -> dict:
         return {**self.buffers.extra, "grasps": self.grasp.commands, "grasp_points": self.grasp.points,
@@ -156,7 +175,8 @@ class TissueRetract(VectorEnv):
     def task_constants(self, reset_all: bool) -> dict:
         return {"envs": self.num_envs, "max_steps": self.max_episode_steps, "reset_all": int(reset_all),
                 "seed": self.seed, "candidates": len(self.target_particles), "target_lift": self.target_lift,
-                "length_scale": LENGTH_SCALE, "frame": FRAME, "jaw_open": JAW_OPEN, "jaw_closed": JAW_CLOSED}
+                "length_scale": LENGTH_SCALE, "frame": FRAME, "jaw_open": JAW_OPEN, "jaw_closed": JAW_CLOSED,
+                "crtk": int(self.observation == "crtk")}
 
     # --- a step ---------------------------------------------------------------------------------
     def act(self):

@@ -20,7 +20,16 @@ from cressim.robots.kinematics import (
     pose7_to_matrix,
     rotation_xyzw,
 )
-from cressim.robots.psm import BASE_LINK, PSM, TIP_LINK, IKResult, canonical_joint_name, robot_dir
+from cressim.robots.psm import (
+    BASE_LINK,
+    JAW_GRASP_POINT,
+    JAW_LINK,
+    PSM,
+    TIP_LINK,
+    IKResult,
+    canonical_joint_name,
+    robot_dir,
+)
 
 _LAZY = {"ArmBodies": "cressim.robots.arm_bodies", "describe_health": "cressim.robots.arm_bodies",
          "ArmVisuals": "cressim.robots.arm_visuals"}
@@ -41,7 +50,9 @@ __all__ = [
     "BASE_LINK",
     "INTERFACE_DOF",
     "IKResult",
+    "JAW_GRASP_POINT",
     "JAW_LIMITS",
+    "JAW_LINK",
     "PSM",
     "PSM_DH",
     "PSM_JOINT_NAMES",

@@ -24,6 +24,8 @@ from .dh import PSM_DH, PSM_JOINT_NAMES, PSM_OLD_JOINT_NAMES, TOOL_TIP_OFFSET, d
 
 BASE_LINK = "PSM1_base"  # the remote centre of motion, DH frame 0
 TIP_LINK = "PSM1_tool_tip_link"  # DH frame 6 times the tool-tip offset
+JAW_LINK = "PSM1_wrist_yaw_link"  # the jaws' pivot; its +y runs along the 10 mm jaws
+JAW_GRASP_POINT = (0.0, 0.006, 0.0)  # m, in JAW_LINK: between the jaws, where they hold what they grasp
 ROBOT_DIR_ENV = "CRESSIM_ROBOT_DIR"  # overrides where robots/dvrk_psm is
 
 # dVRK 2.2 and earlier names -> 2.3 names; the new names map to themselves

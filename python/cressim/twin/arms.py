@@ -48,7 +48,7 @@ from typing import NamedTuple, Sequence
 import numpy as np
 import torch
 
-from cressim.robots import PSM, PSM_JOINT_NAMES, robot_dir
+from cressim.robots import JAW_GRASP_POINT, PSM, PSM_JOINT_NAMES, robot_dir
 from cressim.robots.arm_bodies import ArmBodies, describe_health
 from cressim.robots.kinematics import INTERFACE_DOF, ArmKinematics, body_jacobian, matrix_to_pose7
 
@@ -62,7 +62,6 @@ from cressim.passes.grasp import Grasp
 from cressim.passes.suction import Suction
 
 TOOL_LINKS = ("shaft_link", "wrist_pitch_link", "wrist_yaw_link", "jaw_1_link", "jaw_2_link")  # name endings
-GRASP_POINT = (0.0, 0.006, 0.0)  # m, in the wrist yaw link: between the jaws (10 mm long along its +y)
 SUCTION_TIP = (0.0, 0.0, 0.0091)  # m, in the suction tube link: the tube's open end
 
 
@@ -145,7 +144,7 @@ class TwinArms:
         self.grasp = None
         wrist = [n for n in names if n.endswith("wrist_yaw_link")]
         if self.simulated and self.psm.has_jaw and wrist:
-            bodies, point = self.bodies.link_point(wrist[0], GRASP_POINT)
+            bodies, point = self.bodies.link_point(wrist[0], JAW_GRASP_POINT)
             self.grasp = Grasp(self.bodies.engine, bodies, point, scene.grasp_reach)
         self._grasp_closed = np.zeros(self.num_envs, dtype=bool)
         self.suction = None
