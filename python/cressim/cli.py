@@ -51,15 +51,29 @@ def _render(args: argparse.Namespace) -> int:
     return 0
 
 
+def _task_options(pairs: list[str]) -> dict:
+    """KEY=VALUE strings -> keywords of a task's constructor (numbers parsed as YAML does)."""
+    import yaml
+
+    options = {}
+    for pair in pairs or []:
+        key, sep, value = pair.partition("=")
+        if not sep or not key.isidentifier():
+            raise SystemExit(f"--task-option {pair!r}: expected KEY=VALUE (e.g. observation=crtk)")
+        options[key] = yaml.safe_load(value)
+    return options
+
+
 def _train(args: argparse.Namespace) -> int:
     from cressim.learn import train
 
     result = train(args.task, num_envs=args.envs, iterations=args.iterations, device=args.device, seed=args.seed,
                    out_dir=args.out or f"runs/{args.task.lower()}", rollout=args.rollout, save_every=args.save_every,
-                   backend=args.backend, minibatch=args.minibatch)
+                   backend=args.backend, minibatch=args.minibatch, task_options=_task_options(args.task_option))
     last = result["history"][-1]
     print(f"done in {result['wall_s']:.1f} s ({result['backend']}): {last['env_steps']:,} env steps, "
-          f"mean episode length {last['mean_length']:.1f}, return {last['mean_return']:.1f}; "
+          f"mean episode length {last['mean_length']:.1f}, return {last['mean_return']:.1f}, "
+          f"terminated {last['terminated']:.2f}; "
           f"checkpoint {result['checkpoint']}, plot {result['plot']}")
     return 0
 
@@ -106,6 +120,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--save-every", type=int, default=50, help="checkpoint every K updates")
     p.add_argument("--backend", default="auto", choices=("auto", "rsl_rl", "torch"))
     p.add_argument("--minibatch", type=int, help="samples per minibatch (default: the paper's, 2048 for CartPole)")
+    p.add_argument("--task-option", action="append", metavar="KEY=VALUE",
+                   help="a keyword of the task's constructor, e.g. observation=crtk (repeatable)")
     p.set_defaults(run=_train)
     p = sub.add_parser("bench", help="stepping and PPO throughput (TASKS.md protocol)")
     p.add_argument("task", nargs="?", default="CartPole")

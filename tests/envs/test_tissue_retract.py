@@ -146,3 +146,28 @@ def test_ppo_smoke(tmp_path):
     for rec in result["history"]:
         assert all(math.isfinite(rec[k]) for k in ("value", "surrogate", "entropy")), rec
     assert (tmp_path / "model_2.pt").is_file()
+
+
+def test_the_client_computes_the_crtk_observation_from_measured_cp():
+    """cressim.envs.tissue_retract_client, fed the tool tip pose a twin publishes for the task's
+    joint targets (measured_cp = the tip FK in the base frame), computes the batched task's CRTK
+    observation, and steps the joint targets as the task does, over random actions with the grasp
+    closing and opening."""
+    from cressim.envs.tissue_retract_client import TissueRetractClient
+
+    env = cressim.envs.make("TissueRetract", num_envs=1, observation="crtk", validation=True)
+    obs, _ = on_host(env.reset(seed=5))
+    client = TissueRetractClient(obs[0, TARGET].numpy())
+    rng = np.random.default_rng(0)
+    for step in range(40):
+        q = env.joints[0, :6].detach().cpu().to(torch.float64)
+        measured_cp = client.psm.forward_kinematics(q).numpy()
+        mine = client.observation(measured_cp)
+        np.testing.assert_allclose(mine, obs[0].numpy(), atol=1e-4, err_msg=f"step {step}")  # float32 FK
+        a = rng.uniform(-1, 1, 7).astype(np.float32)
+        a[6] = 1.0 if 10 <= step < 30 else -1.0  # closed in the middle, so the lift counts
+        a[2] = -1.0 if 10 <= step < 30 else a[2]  # and the tip rises meanwhile
+        targets, jaw = client.act(a)
+        obs = on_host(env.step(torch.as_tensor(a)[None]))[0]
+        assert jaw == (0.0 if 10 <= step < 30 else 0.6)
+    assert env.engine.validation_messages == []

@@ -1,6 +1,7 @@
 """PNG plots of training curves and benchmark throughput (matplotlib, Agg: no display)."""
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import matplotlib
@@ -17,6 +18,11 @@ def plot_training(history: list[dict], path: Path, title: str) -> Path:
     ax_len.set(xlabel="env steps", ylabel="mean episode length", title=title)
     ax_ret.plot(steps, [h["mean_return"] for h in history], color="tab:orange")
     ax_ret.set(xlabel="env steps", ylabel="mean episode reward (return)")
+    if any(h.get("terminated", 0) > 0 for h in history):  # tasks that end on success: how often they do
+        ax_term = ax_len.twinx()
+        ax_term.plot(steps, [h.get("terminated", math.nan) for h in history], color="tab:green")
+        ax_term.set_ylabel("share of episodes that terminated (success)", color="tab:green")
+        ax_term.set_ylim(0, 1)
     for ax in (ax_len, ax_ret):
         ax.xaxis.set_major_formatter(EngFormatter())  # 800k, 100M: plain integers overlap
         ax.grid(alpha=0.3)

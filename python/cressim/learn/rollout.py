@@ -17,20 +17,24 @@ class EpisodeStats:
         self._clear()
 
     def _clear(self):
-        self.sums = torch.zeros(3, device=self.device)  # episodes, length, return
+        self.sums = torch.zeros(4, device=self.device)  # episodes, length, return, terminated
 
-    def add(self, rewards: torch.Tensor, dones: torch.Tensor, finished_length: torch.Tensor) -> None:
+    def add(self, rewards: torch.Tensor, dones: torch.Tensor, finished_length: torch.Tensor,
+            time_outs: torch.Tensor | None = None) -> None:
         self.running_return += rewards
         ended = self.running_return * dones
-        self.sums += torch.stack([dones.float().sum(), finished_length.sum(), ended.sum()])
+        terminated = dones & ~time_outs if time_outs is not None else torch.zeros_like(dones)
+        self.sums += torch.stack([dones.float().sum(), finished_length.sum(), ended.sum(), terminated.float().sum()])
         self.running_return.masked_fill_(dones, 0.0)
 
     def pop(self) -> dict:
-        """Episodes since the last pop: count, mean length, mean return (NaN when none ended)."""
-        n, length, ret = self.sums.tolist()
+        """Episodes since the last pop: count, mean length, mean return, and the share that
+        terminated rather than ran out of time (the task's success where it ends on success; NaN
+        when none ended)."""
+        n, length, ret, terminated = self.sums.tolist()
         self._clear()
         return {"episodes": int(n), "mean_length": length / n if n else math.nan,
-                "mean_return": ret / n if n else math.nan}
+                "mean_return": ret / n if n else math.nan, "terminated": terminated / n if n else math.nan}
 
 
 def collect_rollout(venv, alg, steps: int, stats: EpisodeStats | None = None) -> None:
@@ -43,7 +47,7 @@ def collect_rollout(venv, alg, steps: int, stats: EpisodeStats | None = None) ->
             obs, rewards, dones, extras = venv.step(actions)
             alg.process_env_step(obs, rewards, dones, extras)
             if stats is not None:
-                stats.add(rewards, dones, extras["finished_length"])
+                stats.add(rewards, dones, extras["finished_length"], extras["time_outs"])
         alg.compute_returns(obs)
 
 

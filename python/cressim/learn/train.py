@@ -47,24 +47,26 @@ def _fmt(x: float) -> str:
 
 def train(task: str = "CartPole", num_envs: int = 4096, iterations: int = 200, device=None, seed: int = 0,
           out_dir="runs/cartpole", *, rollout: int | None = None, save_every: int = 50, backend: str = "auto",
-          progress: bool = True, **ppo_overrides) -> dict:
+          progress: bool = True, task_options: dict | None = None, **ppo_overrides) -> dict:
     """Trains a PPO policy; returns a summary with the per-update history.
 
     device: the env's torch device (None: what the env picks, cuda where Vulkan shares memory
     with CUDA, else cpu); the learner runs there too. rollout and `ppo_overrides` (fields of
-    PPOConfig) override TASKS.md's settings, e.g. for a short smoke run.
+    PPOConfig) override TASKS.md's settings, e.g. for a short smoke run. task_options: keywords
+    of the task's constructor (TissueRetract's observation="crtk").
     """
     from cressim import envs
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     torch.manual_seed(seed)
-    env = envs.make(task, num_envs=num_envs, device=resolve_device(device), seed=seed)
+    env = envs.make(task, num_envs=num_envs, device=resolve_device(device), seed=seed, **(task_options or {}))
     venv = CressimVecEnv(env)
     cfg = ppo_config(task, rollout=rollout, **ppo_overrides)
     alg, backend = make_learner(venv, cfg, backend)
     stats = EpisodeStats(num_envs, env.device)
-    meta = {"task": task, "num_envs": num_envs, "seed": seed, "device": str(env.device), "backend": backend,
+    meta = {"task": task, "task_options": dict(task_options or {}), "num_envs": num_envs, "seed": seed,
+            "device": str(env.device), "backend": backend,
             "vulkan_device": env.engine.device["name"], "ppo": cfg.to_dict()}
     if progress:
         print(f"PPO ({backend}) on {task}: {num_envs} envs on {env.device} ({meta['vulkan_device']}), "
@@ -86,6 +88,7 @@ def train(task: str = "CartPole", num_envs: int = 4096, iterations: int = 200, d
                "steps_per_s": num_envs * cfg.rollout / dt, "wall_s": time.perf_counter() - start}
         history.append(rec)
         bar.set_postfix({"len": _fmt(rec["mean_length"]), "rew": _fmt(rec["mean_return"]),
+                         "term": _fmt(rec["terminated"]),
                          "sps": f"{rec['steps_per_s']:,.0f}"})
         bar.update(1)
         if it % save_every == 0 or it == iterations:

@@ -164,6 +164,12 @@ class PSM:
         T = self.chain.forward_kinematics_tensor(th)[self._tip_index]
         return T.reshape(*lead, 4, 4)
 
+    def link_pose(self, link: str, q) -> torch.Tensor:
+        """Pose of a link on the base-to-tip chain in PSM1_base: (..., dof) -> (..., 4, 4)."""
+        th, lead = self._chain_values(q)
+        index = self.chain.get_frame_indices(link)
+        return self.chain.forward_kinematics_tensor(th)[int(index[0])].reshape(*lead, 4, 4)
+
     def jacobian(self, q, *, return_pose: bool = False):
         """Geometric Jacobian of the tool tip in PSM1_base: (..., dof) -> (..., 6, dof).
 
