@@ -60,8 +60,9 @@ def test_reset_observation_and_a_grasp_on_nothing():
     assert env.engine.validation_messages == []
 
 
-def test_scripted_grasp_and_lift_succeeds_alone_and_resets_that_env():
-    env = cressim.envs.make("TissueRetract", num_envs=2, validation=True)
+@pytest.mark.parametrize("absorbing", [False, True])
+def test_scripted_grasp_and_lift_succeeds_alone_and_resets_that_env(absorbing):
+    env = cressim.envs.make("TissueRetract", num_envs=2, absorbing_success=absorbing, validation=True)
     obs, _ = on_host(env.reset())
     rest = env.engine.buffer("particles.positions").read()[:, :3].copy()
     above = torch.tensor([0.0, 0.0, 0.002])  # the grasp point just over the target particle
@@ -85,6 +86,8 @@ def test_scripted_grasp_and_lift_succeeds_alone_and_resets_that_env():
             break
     assert terminated[0], "the scripted retraction did not succeed"
     assert 20 <= closed_at <= 60 and len(rewards) >= 10
+    if absorbing:  # the success step's reward (4 to 4.5: attached, lifted, the tip near the target) for each step left
+        assert 4.0 * (181 - step) < float(reward[0]) <= 4.5 * (181 - step)
     assert rewards[-1] > rewards[0] + 3.0  # the lift term pays (up to 4)
     assert float(info["finished_length"][0]) == step and int(info["episode_length"][1]) == step
     # env 0 starts afresh: arm at its start, grasp open, tissue at rest; env 1 is untouched
@@ -130,7 +133,7 @@ def test_crtk_observation_is_what_a_client_knows():
 
 
 def test_arguments_are_checked():
-    for bad in ({"target_lift": float("nan")}, {"grasp_reach": 0}, {"observation": "pixels"}):
+    for bad in ({"target_lift": float("nan")}, {"grasp_reach": 0}, {"observation": "pixels"}, {"absorbing_success": 1}):
         with pytest.raises(ValueError, match=next(iter(bad))):
             cressim.envs.make("TissueRetract", num_envs=1, **bad)
     with pytest.raises(ValueError, match="num_envs"):

@@ -16,6 +16,7 @@ struct Params {
   float jaw_open;      // rad
   float jaw_closed;    // rad
   uint crtk;           // observations from what a CRTK client knows (tissue_retract.py)
+  uint absorbing_success;  // success pays for the steps it leaves (tissue_retract.py)
 };
 [[vk::push_constant]] ConstantBuffer<Params> pc;
 
@@ -101,7 +102,10 @@ void evaluate(uint3 id : SV_DispatchThreadID) {
   const float l = lift(env, attached);
   const float distance = length(tip_position(env) - particle_positions[target_particle(env)].xyz);
   const bool success = attached && l >= 1.0, failed = reset_mask[env] != 0;  // flagged unhealthy this frame
-  rewards[env] = pc.reset_all != 0 ? 0.0 : -distance / pc.length_scale + 0.5 * float(attached) + 4.0 * l;
+  const float reward = -distance / pc.length_scale + 0.5 * float(attached) + 4.0 * l;
+  // absorbing success: the success step's reward for each step left before the time limit too
+  const float left = success && pc.absorbing_success != 0 ? float(pc.max_steps - 1 - episode_length[env]) : 0.0;
+  rewards[env] = pc.reset_all != 0 ? 0.0 : reward * (1.0 + left);
   if (!end_step(env, success || failed)) return;
   reset_mask[env] = 1;  // the engine puts the tissue and the arm's bodies back and frees the attachments
   for (uint k = 0; k < 6; ++k) {

@@ -43,7 +43,10 @@ lift 1) or when the solver flags the env; truncated at 180 steps. The target is 
 particle of the flap's free edge (y = -20 mm), one of 13, drawn per episode from a hash of seed,
 env and episode. Note: as in the paper, success ends the episode while holding the tissue just
 below the target lift keeps paying about 4.5 a step, so `terminated` (not the return) tells how
-often it succeeds.
+often it succeeds, and a policy that maximises the paper's return learns to hover just below the
+target lift. `absorbing_success=True` makes success pay its step's reward once more for every
+step left before the time limit (as if the task stayed in its success state), so that finishing
+is never worth less than hovering; the paper's reward is the default.
 
 A step is one frame, all on the GPU: `apply_action` (the actions move the joint targets in the
 shared buffer `arm_joints` and the grasp commands, and write the arm's FK input), the arm's FK pass
@@ -81,10 +84,10 @@ class TissueRetract(VectorEnv):
     max_episode_steps = 180
 
     def __init__(self, num_envs: int, *, scene: str = SCENE, observation: str = "state", target_lift: float = 0.02,
-                 grasp_reach: float | None = None, **kwargs):
+                 grasp_reach: float | None = None, absorbing_success: bool = False, **kwargs):
         """`scene`: a twin scene file (its world, arm base and grasp reach); `observation`: "state"
-        or "crtk" (module docstring); the lift that counts as success (m) and the grasp's reach (m,
-        default the scene's); other keywords go to VectorEnv."""
+        or "crtk"; the lift that counts as success (m) and the grasp's reach (m, default the
+        scene's); `absorbing_success` (module docstring); other keywords go to VectorEnv."""
         from cressim.twin.scene import load_scene
 
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
@@ -94,7 +97,9 @@ class TissueRetract(VectorEnv):
         self.scene = load_scene(scene)
         if self.scene.robot != "psm_lnd" or not self.scene.world:
             raise ValueError(f"TissueRetract: {self.scene.path} must give a world and the needle driver (psm_lnd)")
-        self.observation = observation
+        if not isinstance(absorbing_success, bool):
+            raise ValueError(f"TissueRetract: absorbing_success must be True or False, got {absorbing_success!r}")
+        self.observation, self.absorbing_success = observation, absorbing_success
         self.target_lift = checked_number("TissueRetract", "target_lift", target_lift)
         self.grasp_reach = checked_number("TissueRetract", "grasp_reach",
                                           self.scene.grasp_reach if grasp_reach is None else grasp_reach)
@@ -176,7 +181,7 @@ class TissueRetract(VectorEnv):
         return {"envs": self.num_envs, "max_steps": self.max_episode_steps, "reset_all": int(reset_all),
                 "seed": self.seed, "candidates": len(self.target_particles), "target_lift": self.target_lift,
                 "length_scale": LENGTH_SCALE, "frame": FRAME, "jaw_open": JAW_OPEN, "jaw_closed": JAW_CLOSED,
-                "crtk": int(self.observation == "crtk")}
+                "crtk": int(self.observation == "crtk"), "absorbing_success": int(self.absorbing_success)}
 
     # --- a step ---------------------------------------------------------------------------------
     def act(self):
