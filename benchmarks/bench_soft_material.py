@@ -76,13 +76,14 @@ def main(argv=None) -> int:
     p.add_argument("--frames", type=int, default=120)
     p.add_argument("--device", default=None)
     p.add_argument("--json", default=None)
+    p.add_argument("--schedules-only", action="store_true", help="only the elastic 4 x 4 row in both schedules")
     args = p.parse_args(argv)
     rows = []
     for n in (int(x) for x in args.envs.split(",")):
         for model, substeps, iterations, solver in (
                 ("elastic", 4, 4, "auto"), ("elastic", 4, 4, "dispatch"), ("compliance", 4, 4, "auto"),
                 ("elastic", 4, 1, "auto"), ("elastic", 8, 2, "auto"), ("elastic", 4, 8, "auto"),
-                ("elastic", 16, 1, "auto")):
+                ("elastic", 16, 1, "auto"))[: 2 if args.schedules_only else None]:
             r = run(n, model, substeps, iterations, args.frames, args.device, solver)
             rows.append(r)
             print(f"{r['device']}: {n:5d} envs {model:10s} substeps {substeps:2d} iterations {iterations} "

@@ -15,8 +15,12 @@ import torch
 import cressim.envs
 
 
-def profile(task: str, envs: int, warmup: int, steps: int) -> dict:
+def profile(task: str, envs: int, warmup: int, steps: int, solver: str | None = None) -> dict:
     env = cressim.envs.make(task, num_envs=envs)
+    if solver:  # the particle solver's schedule (PhysicsSettings.particle_solver) instead of the task's
+        physics = env.engine.physics
+        physics.particle_solver = solver
+        env.engine.physics = physics
     env.reset()
     cuda = env.device.type == "cuda"
     for _ in range(warmup):
@@ -37,7 +41,7 @@ def profile(task: str, envs: int, warmup: int, steps: int) -> dict:
             ops[label] += ms / steps
     env.engine.profiling = False
     env.close()
-    return {"task": task, "envs": envs, "wall_ms_per_step": wall_ms, "env_steps_per_s": envs * 1e3 / wall_ms,
+    return {"task": task, "envs": envs, "particle_solver": solver or "task's", "wall_ms_per_step": wall_ms, "env_steps_per_s": envs * 1e3 / wall_ms,
             "gpu_ms": dict(ops), "gpu_ms_total": sum(ops.values())}
 
 
@@ -48,13 +52,16 @@ def main():
     parser.add_argument("--warmup", type=int, default=32)
     parser.add_argument("--steps", type=int, default=64)
     parser.add_argument("--json")
+    parser.add_argument("--particle-solvers", default="", help="comma-separated schedules to compare (auto, "
+                        "dispatch, workgroup); default the task's")
     args = parser.parse_args()
     rows = []
-    for n in (int(v) for v in args.envs.split(",")):
-        r = profile(args.task, n, args.warmup, args.steps)
+    solvers = args.particle_solvers.split(",") if args.particle_solvers else [None]
+    for n, solver in ((int(v), solver) for v in args.envs.split(",") for solver in solvers):
+        r = profile(args.task, n, args.warmup, args.steps, solver)
         rows.append(r)
-        print(f"{args.task} {n} envs: {r['wall_ms_per_step']:.3f} ms a step ({r['env_steps_per_s']:,.0f} env-steps/s), "
-              f"GPU {r['gpu_ms_total']:.3f} ms:")
+        print(f"{args.task} {n} envs, solver {r['particle_solver']}: {r['wall_ms_per_step']:.3f} ms a step "
+              f"({r['env_steps_per_s']:,.0f} env-steps/s), GPU {r['gpu_ms_total']:.3f} ms:")
         for label, ms in r["gpu_ms"].items():
             print(f"    {label:40s} {ms:8.3f} ms")
     if args.json:

@@ -282,8 +282,17 @@ void ParticleSystem::set_settings(const PhysicsSettings& s) {
   set_constants(s);
 }
 
-bool ParticleSystem::workgroup_solve() const {
-  return settings_.particle_solver != "dispatch" && largest_env_ <= shader::PARTICLE_BLOCK_CAPACITY;
+// The elastic vertex solve in one workgroup per env pays while a dispatch per colour would leave
+// the GPU mostly idle; once the envs' particles fill it, those dispatches are faster (an H200,
+// benchmarks/README.md: a 351-particle flap in 256 envs 4.6 against 7.4 ms a frame, in 1,024 envs
+// 14.1 against 11.7 ms). `auto` takes it up to this many particles in all envs.
+constexpr uint64_t kVertexBlockParticles = 131072;
+
+bool ParticleSystem::workgroup_solve(const Family& f) const {
+  if (settings_.particle_solver == "dispatch" || largest_env_ > shader::PARTICLE_BLOCK_CAPACITY) return false;
+  const bool vertices = !f.set->vertices.empty();
+  return !vertices || settings_.particle_solver == "workgroup" ||
+         uint64_t(model_.env_ranges.size()) * largest_env_ <= kVertexBlockParticles;
 }
 
 // every constraint family `passes` times over (Gauss-Seidel between colours and families)
@@ -293,7 +302,7 @@ void ParticleSystem::record_families(VkCommandBuffer cmd, uint32_t passes) const
     std::memcpy(p.constants.data() + offsetof(shader::ParticleConstants, item_count), &count, 4);
   };
   for (auto& f : families_) {
-    if (f.per_env && workgroup_solve()) {
+    if (f.per_env && workgroup_solve(f)) {
       const bool vertices = !f.set->vertices.empty();
       put(*f.per_env, passes, uint32_t(vertices ? f.set->vertex_colour_count.size() : f.set->colour_count.size()));
       f.per_env->record(cmd);

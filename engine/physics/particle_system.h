@@ -47,7 +47,6 @@ class ParticleSystem {
   std::shared_ptr<compute::ComputePass> pass(const std::string& shader, uint64_t threads);
   void set_constants(const PhysicsSettings& s);
   void record_families(VkCommandBuffer cmd, uint32_t passes) const;
-  bool workgroup_solve() const;
 
   std::shared_ptr<gpu::Context> ctx_;
   ParticleModel model_;
@@ -68,6 +67,7 @@ class ParticleSystem {
     std::shared_ptr<compute::ComputePass> per_colour, per_env;
     const ConstraintSet* set;
   };
+  bool workgroup_solve(const Family& f) const;  // this family's schedule under the settings
   std::vector<Family> families_;
   // passes that place moving bodies along the frame (their constants carry the substep's progress)
   std::vector<compute::ComputePass*> moving_;

@@ -107,50 +107,11 @@ void contact_one(inout float3 x, float3 xi, float3x3 H, inout float3 f, float3 x
 
 bool moves_freely(ColliderModel cm) { return cm.ids.x != CRESSIM_NONE && bodies[cm.ids.x].inv_inertia.w > 0; }
 
-// the radius about the shape's origin that holds it (planes: unbounded)
-float shape_reach(ColliderModel cm) {
-  const uint kind = cm.ids.y;
-  return kind == SHAPE_SPHERE ? cm.size.x : kind == SHAPE_CAPSULE ? cm.size.x + cm.size.y
-         : kind == SHAPE_BOX ? length(cm.size.xyz) : 3.0e38;
-}
-
-#ifdef CRESSIM_BLOCK
-// The env's colliders, posed for this substep, in group memory (loaded once a dispatch: every
-// particle of every colour tests them; from device memory that was a chain of dependent loads
-// per collider per particle). reach < 0 marks a dynamic body's (the gather handles those). An
-// env with more colliders than fit reads them from device memory.
-static const uint BLOCK_COLLIDERS = 64;
-groupshared ColliderModel block_cm[BLOCK_COLLIDERS];
-groupshared ColliderPose block_pose[BLOCK_COLLIDERS];
-groupshared float block_reach[BLOCK_COLLIDERS];
-
-void load_colliders(uint env, uint lane, uint threads) {
-  const EnvRigidRange er = env_rigid_ranges[env];
-  if (er.bodies.w > BLOCK_COLLIDERS) return;
-  for (uint k = lane; k < er.bodies.w; k += threads) {
-    const ColliderModel cm = colliders[er.bodies.z + k];
-    block_cm[k] = cm;
-    block_pose[k] = collider_pose(cm);
-    block_reach[k] = moves_freely(cm) ? -1.0 : shape_reach(cm);
-  }
-}
-#endif
-
 float4 contact_step(inout float3 x, float3 xi, float3x3 H, float3 f, float3 x0, uint4 ph, out float3 touch) {
   touch = x;
   float4 on_body = float4(0, 0, 0, 0);
   const EnvRigidRange er = env_rigid_ranges[ph.z];
   const float r = objects[ph.y].material.x, object_friction = objects[ph.y].material.y;
-#ifdef CRESSIM_BLOCK
-  if (er.bodies.w <= BLOCK_COLLIDERS) {
-    for (uint k = 0; k < er.bodies.w; ++k) {
-      const float reach = block_reach[k];
-      if (reach < 0 || length(x - block_pose[k].p) > reach + r) continue;
-      contact_one(x, xi, H, f, x0, r, object_friction, block_cm[k], block_pose[k], on_body, touch);
-    }
-    return on_body;
-  }
-#endif
   for (uint c = er.bodies.z; c < er.bodies.z + er.bodies.w; ++c) {
     const ColliderModel cm = colliders[c];
     if (moves_freely(cm)) continue;
@@ -235,7 +196,6 @@ void main(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
   block_first = env_ranges[env].range.x;
   const uint count = env_ranges[env].range.y;
   for (uint i = lane; i < count; i += BLOCK_THREADS) block_x[i] = positions[block_first + i];
-  if (pc.has_rigid != 0) load_colliders(env, lane, BLOCK_THREADS);
   GroupMemoryBarrierWithGroupSync();
   for (uint pass = 0; pass < pc.item_offset; ++pass) {
     for (uint k = 0; k < colours; ++k) {

@@ -93,8 +93,8 @@ def train(task: str = "CartPole", num_envs: int = 4096, iterations: int = 200, d
         bar.update(1)
         if it % save_every == 0 or it == iterations:
             checkpoint = save(it)
+            (out / "metrics.json").write_text(json.dumps({**meta, "history": history}, indent=1))  # so far
     bar.close()
-    (out / "metrics.json").write_text(json.dumps({**meta, "history": history}, indent=1))
     plot = plot_training(history, out / "training.png", f"PPO ({backend}) {task}, {num_envs} envs")
     env.close()
     return {**meta, "history": history, "checkpoint": str(checkpoint), "plot": str(plot),
