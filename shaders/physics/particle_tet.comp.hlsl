@@ -105,6 +105,8 @@ void contact_one(inout float3 x, float3 xi, float3x3 H, inout float3 f, float3 x
   }
 }
 
+static const uint BATCH = 4;  // tets or colliders whose loads are issued together
+
 bool moves_freely(ColliderModel cm) { return cm.ids.x != CRESSIM_NONE && bodies[cm.ids.x].inv_inertia.w > 0; }
 
 float4 contact_step(inout float3 x, float3 xi, float3x3 H, float3 f, float3 x0, uint4 ph, out float3 touch) {
@@ -112,12 +114,42 @@ float4 contact_step(inout float3 x, float3 xi, float3x3 H, float3 f, float3 x0, 
   float4 on_body = float4(0, 0, 0, 0);
   const EnvRigidRange er = env_rigid_ranges[ph.z];
   const float r = objects[ph.y].material.x, object_friction = objects[ph.y].material.y;
-  for (uint c = er.bodies.z; c < er.bodies.z + er.bodies.w; ++c) {
-    const ColliderModel cm = colliders[c];
-    if (moves_freely(cm)) continue;
-    contact_one(x, xi, H, f, x0, r, object_friction, cm, collider_pose(cm), on_body, touch);
+  const uint end = er.bodies.z + er.bodies.w;
+  for (uint c = er.bodies.z; c < end; c += BATCH) {  // loads in batches, as the tets' (solve)
+    ColliderModel cm[BATCH];
+    [unroll] for (uint u = 0; u < BATCH; ++u) cm[u] = colliders[min(c + u, end - 1)];
+    ColliderPose pose[BATCH];
+    bool skip[BATCH];
+    [unroll] for (uint u = 0; u < BATCH; ++u) {
+      skip[u] = c + u >= end || moves_freely(cm[u]);
+      pose[u] = collider_pose(cm[u]);
+    }
+    [unroll] for (uint u = 0; u < BATCH; ++u)
+      if (!skip[u]) contact_one(x, xi, H, f, x0, r, object_friction, cm[u], pose[u], on_body, touch);
   }
   return on_body;
+}
+
+// one tet's force and Hessian block on its corner k (header comment)
+void add_tet(inout float3 f, inout float3x3 H, ParticleConstraint rec, float3 r0, float3 r1, float3 r2, uint k) {
+  const float3 x0 = load_x(rec.particles.x).xyz;
+  const float3 d1 = load_x(rec.particles.y).xyz - x0, d2 = load_x(rec.particles.z).xyz - x0,
+               d3 = load_x(rec.particles.w).xyz - x0;
+  // columns of F = d1 r0^T + d2 r1^T + d3 r2^T
+  const float3 f0 = d1 * r0.x + d2 * r1.x + d3 * r2.x;
+  const float3 f1 = d1 * r0.y + d2 * r1.y + d3 * r2.y;
+  const float3 f2 = d1 * r0.z + d2 * r1.z + d3 * r2.z;
+  const float3 c0 = cross(f1, f2), c1 = cross(f2, f0), c2 = cross(f0, f1);  // columns of cof(F)
+  const float J = dot(f0, c0);
+  const float3 b = k == 0 ? -(r0 + r1 + r2) : (k == 1 ? r0 : (k == 2 ? r1 : r2));
+  const float V0 = rec.params.x, mu = rec.params.y, lambda = rec.params.z, alpha = rec.params.w;
+  const float3 Fb = f0 * b.x + f1 * b.y + f2 * b.z;
+  const float3 cb = c0 * b.x + c1 * b.y + c2 * b.z;
+  f -= V0 * (mu * Fb + lambda * (J - alpha) * cb);
+  const float s = V0 * mu * dot(b, b), l = V0 * lambda;
+  H += float3x3(s + l * cb.x * cb.x, l * cb.x * cb.y, l * cb.x * cb.z,
+                l * cb.y * cb.x, s + l * cb.y * cb.y, l * cb.y * cb.z,
+                l * cb.z * cb.x, l * cb.z * cb.y, s + l * cb.z * cb.z);
 }
 
 // one Newton step of the particle at `vertices[v]`
@@ -130,29 +162,22 @@ void solve(uint v) {
   float3 f = m_h2 * (y - xi.xyz);
   float3x3 H = float3x3(m_h2, 0, 0, 0, m_h2, 0, 0, 0, m_h2);
   const uint2 range = vertex_records[v];
-  for (uint n = 0; n < range.y; ++n) {
-    const uint rc = vertex_corners[range.x + n], t = rc >> 2, k = rc & 3;
-    if (cut[t] != 0) continue;
-    const ParticleConstraint rec = constraints[t];
-    const float3 x0 = load_x(rec.particles.x).xyz;
-    const float3 d1 = load_x(rec.particles.y).xyz - x0, d2 = load_x(rec.particles.z).xyz - x0,
-                 d3 = load_x(rec.particles.w).xyz - x0;
-    const float3 r0 = record_rows[3 * t].xyz, r1 = record_rows[3 * t + 1].xyz, r2 = record_rows[3 * t + 2].xyz;
-    // columns of F = d1 r0^T + d2 r1^T + d3 r2^T
-    const float3 f0 = d1 * r0.x + d2 * r1.x + d3 * r2.x;
-    const float3 f1 = d1 * r0.y + d2 * r1.y + d3 * r2.y;
-    const float3 f2 = d1 * r0.z + d2 * r1.z + d3 * r2.z;
-    const float3 c0 = cross(f1, f2), c1 = cross(f2, f0), c2 = cross(f0, f1);  // columns of cof(F)
-    const float J = dot(f0, c0);
-    const float3 b = k == 0 ? -(r0 + r1 + r2) : (k == 1 ? r0 : (k == 2 ? r1 : r2));
-    const float V0 = rec.params.x, mu = rec.params.y, lambda = rec.params.z, alpha = rec.params.w;
-    const float3 Fb = f0 * b.x + f1 * b.y + f2 * b.z;
-    const float3 cb = c0 * b.x + c1 * b.y + c2 * b.z;
-    f -= V0 * (mu * Fb + lambda * (J - alpha) * cb);
-    const float s = V0 * mu * dot(b, b), l = V0 * lambda;
-    H += float3x3(s + l * cb.x * cb.x, l * cb.x * cb.y, l * cb.x * cb.z,
-                  l * cb.y * cb.x, s + l * cb.y * cb.y, l * cb.y * cb.z,
-                  l * cb.z * cb.x, l * cb.z * cb.y, s + l * cb.z * cb.z);
+  // the tets in batches whose loads are all issued before any is used: one after the other, each
+  // tet's two dependent loads were a serial chain of memory round trips per particle
+  for (uint n = 0; n < range.y; n += BATCH) {
+    uint rc[BATCH];
+    [unroll] for (uint u = 0; u < BATCH; ++u) rc[u] = vertex_corners[range.x + min(n + u, range.y - 1)];
+    uint off[BATCH];
+    ParticleConstraint rec[BATCH];
+    float3 rows[BATCH][3];
+    [unroll] for (uint u = 0; u < BATCH; ++u) {
+      const uint t = rc[u] >> 2;
+      off[u] = cut[t];
+      rec[u] = constraints[t];
+      [unroll] for (uint j = 0; j < 3; ++j) rows[u][j] = record_rows[3 * t + j].xyz;
+    }
+    [unroll] for (uint u = 0; u < BATCH; ++u)
+      if (n + u < range.y && off[u] == 0) add_tet(f, H, rec[u], rows[u][0], rows[u][1], rows[u][2], rc[u] & 3);
   }
   // Held rigidly by an attachment slot (particle_attach places it on its body): not moved here; the
   // force left unbalanced is what the body bears (a tool reads the weight of tissue it lifts).
