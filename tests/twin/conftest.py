@@ -22,7 +22,7 @@ sys.path.insert(0, str(PKG))  # cressim_ros from the source tree
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # twin_fixtures
 
 from cressim_ros.twin_process import Twin  # noqa: E402
-from twin_fixtures import TEST_CAMERA  # noqa: E402
+from twin_fixtures import TEST_CAMERA, clients_folder  # noqa: E402
 
 # reuse tests/ros's environment checks and its ros_domain_id fixture (one implementation)
 _spec = importlib.util.spec_from_file_location("_cressim_tests_ros_conftest", REPO / "tests" / "ros" / "conftest.py")
@@ -120,3 +120,22 @@ def make_node(ros_domain_id):
         assert engine.validation_messages == [], "\n".join(engine.validation_messages)
         node.destroy_node()
     rclpy.try_shutdown(context=context)
+
+
+@pytest.fixture(scope="module")
+def clients() -> Path:
+    """The dVRK's Python clients' folder, checked: the tests that run them are skipped (with the
+    folder named) where it is missing, and fail where PyKDL or CRTK messages are."""
+    folder = clients_folder()
+    needed = [folder / "crtk_python_client" / "src" / "crtk", folder / "dvrk_python" / "src" / "dvrk"]
+    if not all(p.is_dir() for p in needed):
+        pytest.skip(f"the dVRK's Python clients are not in {folder} (crtk_python_client/, dvrk_python/): "
+                    "set CRESSIM_DVRK_CLIENTS to the folder that holds them")
+    if importlib.util.find_spec("PyKDL") is None:
+        pytest.fail("PyKDL is not importable in this Python: `make .make/pykdl` links Debian's "
+                    "python3-pykdl into .venv (apt-get install python3-pykdl first)", pytrace=False)
+    import crtk_msgs.msg
+    if not hasattr(crtk_msgs.msg, "CartesianImpedance"):
+        pytest.fail("crtk_msgs lacks CartesianImpedance (`import dvrk` needs every CRTK message): "
+                    "rebuild ros_ws (`bash ros_ws/build.sh .venv`)", pytrace=False)
+    return folder

@@ -45,9 +45,7 @@ carry the script's full output.
 """
 from __future__ import annotations
 
-import importlib.util
 import math
-import os
 import re
 import subprocess
 import sys
@@ -57,10 +55,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from twin_fixtures import script_env
 
 pytestmark = pytest.mark.ros
 
-REPO = Path(__file__).resolve().parents[2]
 ARM = "PSM1"
 SCRIPT_TIMEOUT = 300.0  # s, a safety limit only: the longest script takes about 40 s here
 WAIT_TIMEOUT = 120.0  # s, safety limit on waiting for the twin's topics
@@ -73,39 +71,6 @@ FAILURE = re.compile(r"^\s*!|\bfail|\berror|\bexception|\btraceback|\btimed out|
 # from it "(might be due to latency)": a twin on a loaded machine answers a few ticks later (the
 # script goes on; the servo_cp motion is checked from the twin's setpoint_cp instead)
 LATENCY_NOTE = re.compile(r"Inverse kinematic error in position \[\d+\]: [0-9.e-]+ \(might be due to latency\)$")
-
-
-def clients_folder() -> Path:
-    value = os.environ.get("CRESSIM_DVRK_CLIENTS")
-    return (REPO / value).resolve() if value else (REPO.parent / "shared" / "third_party").resolve()
-
-
-@pytest.fixture(scope="module")
-def clients() -> Path:
-    folder = clients_folder()
-    needed = [folder / "crtk_python_client" / "src" / "crtk", folder / "dvrk_python" / "src" / "dvrk"]
-    if not all(p.is_dir() for p in needed):
-        pytest.skip(f"the dVRK's Python clients are not in {folder} (crtk_python_client/, dvrk_python/): "
-                    "set CRESSIM_DVRK_CLIENTS to the folder that holds them")
-    if importlib.util.find_spec("PyKDL") is None:
-        pytest.fail("PyKDL is not importable in this Python: `make .make/pykdl` links Debian's "
-                    "python3-pykdl into .venv (apt-get install python3-pykdl first)", pytrace=False)
-    import crtk_msgs.msg
-    if not hasattr(crtk_msgs.msg, "CartesianImpedance"):
-        pytest.fail("crtk_msgs lacks CartesianImpedance (`import dvrk` needs every CRTK message): "
-                    "rebuild ros_ws (`bash ros_ws/build.sh .venv`)", pytrace=False)
-    return folder
-
-
-def script_env(clients: Path, domain: int) -> dict:
-    env = dict(os.environ)
-    paths = [str(clients / "crtk_python_client" / "src"), str(clients / "dvrk_python" / "src")]
-    env.update(PYTHONPATH=os.pathsep.join(paths + [p for p in [env.get("PYTHONPATH")] if p]),
-               ROS_VERSION="2", ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
-               PYTHONUNBUFFERED="1")
-    env.pop("ROS_LOCALHOST_ONLY", None)
-    env.pop("ROS_STATIC_PEERS", None)
-    return env
 
 
 def run_python(args: list[str], env: dict, cwd: Path) -> tuple[int | None, str]:

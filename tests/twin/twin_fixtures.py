@@ -1,5 +1,11 @@
-"""A twin shared by a test module (teardown registered with pytest's request)."""
+"""A twin shared by a test module (teardown registered with pytest's request); where the dVRK's
+own Python clients are and the environment a script of theirs runs in."""
+import os
+from pathlib import Path
+
 from cressim_ros.twin_process import Twin
+
+REPO = Path(__file__).resolve().parents[2]
 
 
 # Twins in tests render small images at 2 Hz (lavapipe renders on the test machine's CPU); a test's own
@@ -20,3 +26,23 @@ def module_twin(request, tmp_path_factory, domain, *params):
     request.addfinalizer(twin.stop)
     twin.startup_s = twin.wait_ready()
     return twin
+
+
+def clients_folder() -> Path:
+    """The dVRK's Python clients (shared/third_party/README.md): $CRESSIM_DVRK_CLIENTS (relative to
+    the repository root) or ../shared/third_party."""
+    value = os.environ.get("CRESSIM_DVRK_CLIENTS")
+    return (REPO / value).resolve() if value else (REPO.parent / "shared" / "third_party").resolve()
+
+
+def script_env(clients: Path, domain: int) -> dict:
+    """A client script's environment: crtk and dvrk on PYTHONPATH before ROS's, ROS 2, the twin's
+    domain on loopback."""
+    env = dict(os.environ)
+    paths = [str(clients / "crtk_python_client" / "src"), str(clients / "dvrk_python" / "src")]
+    env.update(PYTHONPATH=os.pathsep.join(paths + [p for p in [env.get("PYTHONPATH")] if p]),
+               ROS_VERSION="2", ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+               PYTHONUNBUFFERED="1", CRESSIM_DVRK_CLIENTS=str(clients))
+    env.pop("ROS_LOCALHOST_ONLY", None)
+    env.pop("ROS_STATIC_PEERS", None)
+    return env
