@@ -5,11 +5,11 @@ topics only, so that the same client can face a real dVRK (docs/twin.md, "Sim to
    observation: only what a client knows from the arm's Cartesian pose and its own commands;
    examples/policies/tissue_retract_crtk.pt was trained so on an H200, benchmarks/README.md):
 
-       python -m cressim train TissueRetract --envs 1024 --iterations 150 --backend torch \\
+       python -m cressim train TissueRetract --envs 1024 --iterations 140 --backend torch \\
            --task-option observation=crtk --task-option absorbing_success=true --out runs/sim_to_real
 
 2. Drive PSM1 with it. The client is the dVRK's own Python package (`dvrk.psm` on `crtk.ral`,
-   shared/third_party or $CRESSIM_DVRK_CLIENTS on PYTHONPATH): it enables and homes the arm,
+   taken from $CRESSIM_DVRK_CLIENTS or ../shared/third_party): it enables and homes the arm,
    opens the jaws, then every 1/60 s of the arm's clock (setpoint_cp's stamps: the twin's
    simulated time, a real arm's wall time), once the arm has taken the last command, reads
    setpoint_cp, computes the observation (cressim.envs.tissue_retract_client), runs the policy
@@ -18,7 +18,7 @@ topics only, so that the same client can face a real dVRK (docs/twin.md, "Sim to
    real dVRK and its console):
 
        source ros_ws/env.sh
-       python ros_ws/src/cressim_ros/examples/sim_to_real.py --policy runs/sim_to_real/model_150.pt --twin
+       python ros_ws/src/cressim_ros/examples/sim_to_real.py --policy runs/sim_to_real/model_140.pt --twin
 
 The target is one of the flap's free-edge particles at rest (`--target`, in the twin's world,
 default the middle one): what a registered camera would give. The client stops on success (the
