@@ -26,11 +26,13 @@ def _settle(arms):
 
 
 def _tips_at(arms, height, jaws=None, point=EDGE):
-    """Every env's tool tip over `point` (world) with the jaws' middle `height` above it (IK at the
-    current setpoint, jaws down as at home); `jaws` (one per env) commands the jaw angles."""
+    """Every env's tool tip over `point` (world) with the jaws' middle `height` (one for all envs or
+    one per env) above it (IK at the current setpoint, jaws down as at home); `jaws` (one per env)
+    commands the jaw angles."""
+    heights = np.broadcast_to(height, arms.num_envs)
     for env in range(arms.num_envs):
         T = arms.kin.forward(arms.setpoint[env:env + 1])[0].clone()
-        T[:3, 3] = torch.as_tensor(point + np.array([0, 0, height + JAW_MIDDLE])) - arms.bodies.base[:3, 3]
+        T[:3, 3] = torch.as_tensor(point + np.array([0, 0, heights[env] + JAW_MIDDLE])) - arms.bodies.base[:3, 3]
         q, ok = arms.kin.inverse(T[None], arms.setpoint[env:env + 1])
         assert bool(ok[0])
         assert not [e for e in arms.move_jp(env, JointCommand(position=q[0].tolist())) if e.topic == "error"]
@@ -78,6 +80,30 @@ def test_the_jaws_grasp_lift_and_release_the_flap(make_arms):
     assert arms.grasp.held()[0] == 0
     back = positions.read()[:, :3].reshape(2, -1, 3)
     np.testing.assert_allclose(back[0, free_edge, 2], flat[0, free_edge, 2], atol=1.5e-3)
+
+
+@pytest.mark.parametrize("dynamics", ["kinematic", "dynamic"])
+def test_the_arm_presses_the_flap_and_feels_it(make_arms, dynamics):
+    """Closed jaws pressed 3 mm into the middle of the flap dent it and the tool feels the tissue
+    (spatial/measured_cf), with the kinematic arm (links posed by FK) and with the dynamic one
+    (jointed bodies that the particles push back); env 1's jaws, 10 mm above, feel nothing."""
+    scene = load_scene("psm_retraction.yaml")
+    scene.dynamics = dynamics
+    arms = make_arms(scene=scene, num_envs=2)
+    for env in range(2):
+        arms.state_command(env, "enable")
+        arms.state_command(env, "home")
+    _settle(arms)
+    middle = np.array([0.0, 0.0, 0.1575])  # the flap's top at its centre
+    positions = arms.bodies.engine.buffer("particles.positions")
+    _tips_at(arms, 0.01, jaws=[0.0, 0.0], point=middle)
+    flat = positions.read()[:, :3].reshape(2, -1, 3).copy()
+    _tips_at(arms, [-0.003, 0.01], point=middle)
+    _run(arms, 20)
+    dent = (flat - positions.read()[:, :3].reshape(2, -1, 3))[:, :, 2].max(axis=1)
+    force = arms.snapshot().spatial_cf[:, :3]
+    assert dent[0] > 5e-5 and dent[1] < 1e-5, dent
+    assert np.linalg.norm(force[0]) > 0.005 and np.abs(force[1]).max() < 1e-6, force
 
 
 def test_a_missing_world_file_names_its_line(tmp_path):
