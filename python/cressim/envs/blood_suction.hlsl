@@ -49,6 +49,7 @@ RWStructuredBuffer<float> finished_length;
 StructuredBuffer<uint> rgb;                    // observe_image: camera{g}.rgb as RGBA8 words
 
 #include "episode.hlsli"
+#include "arm_action.hlsli"
 
 static const uint NUMBERS = 13;
 
@@ -61,24 +62,17 @@ uint blood_particle(uint env, uint k) { return particle_env_ranges[env].x + pc.f
 
 bool active(uint p) { return (particle_phases[p].w & PARTICLE_ACTIVE) != 0; }
 
-// NaN counts as 0; every action is clamped to [-1, 1]
-float action(uint env, uint k) {
-  const float a = actions[5 * env + k];
-  return isnan(a) ? 0.0 : clamp(a, -1.0, 1.0);
-}
-
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
 void apply_action(uint3 id : SV_DispatchThreadID) {
   const uint env = id.x;
   if (env >= pc.envs) return;
   for (uint k = 0; k < 4; ++k) {
-    const float target = clamp(arm_joints[4 * env + k] + action(env, k) * arm_limits[8 + k], arm_limits[k],
-                               arm_limits[4 + k]);
+    const float target = joint_target(arm_joints[4 * env + k], action(env, k, 5), k, 4);
     arm_joints[4 * env + k] = target;
     arm_joint_values[5 * env + k] = target;
   }
   arm_joint_values[5 * env + 4] = 0.0;
-  suctions[env].x = action(env, 4) >= 0 ? 1 : 0;
+  suctions[env].x = action(env, 4, 5) >= 0 ? 1 : 0;
 }
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]

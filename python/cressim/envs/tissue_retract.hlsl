@@ -46,6 +46,7 @@ RWStructuredBuffer<uint> episode_length;
 RWStructuredBuffer<float> finished_length;
 
 #include "episode.hlsli"
+#include "arm_action.hlsli"
 
 static const uint OBS = 29;
 
@@ -68,24 +69,18 @@ float lift(uint env, bool attached) {
   return attached ? saturate((particle_positions[p].z - initial_positions[p].z) / pc.target_lift) : 0.0;
 }
 
-// NaN counts as 0; every action is clamped to [-1, 1]
-float action(uint env, uint k) {
-  const float a = actions[7 * env + k];
-  return isnan(a) ? 0.0 : clamp(a, -1.0, 1.0);
-}
-
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
 void apply_action(uint3 id : SV_DispatchThreadID) {
   const uint env = id.x;
   if (env >= pc.envs) return;
   for (uint k = 0; k < 6; ++k) {
     const float q = arm_joints[12 * env + k];
-    const float target = clamp(q + action(env, k) * arm_limits[12 + k], arm_limits[k], arm_limits[6 + k]);
+    const float target = joint_target(q, action(env, k, 7), k, 6);
     arm_joints[12 * env + 6 + k] = (target - q) / pc.frame;
     arm_joints[12 * env + k] = target;
     arm_joint_values[7 * env + k] = target;
   }
-  const float grasp = action(env, 6);
+  const float grasp = action(env, 6, 7);
   int4 g = grasps[env];
   const int closed = grasp > 0 ? 1 : (grasp < 0 ? 0 : g.x);
   if (closed != 0 && g.x == 0) task_state[env].z = asuint(tip_position(env).z);  // where the lift counts from
