@@ -3,6 +3,7 @@
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh setup tests      # build, ctest, pytest
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-a           # CartPole, rendering
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-b bench-twin  # ultrasound; the twin
+#   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-twin-tissue  # the twin over tissue
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-soft bench-fluid  # SoftBodyPush, FluidPour
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-soft-material      # elastic tets' cost
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-surgical  # TissueRetract, BloodSuction
@@ -79,6 +80,12 @@ for stage in "$@"; do
       ;;
     bench-twin)  # the twin's 100 Hz tick with the default scene's 640x480 camera per env at 30 Hz
       run twin 600 python3 benchmarks/bench_twin.py --envs 1,64,1024 --seconds 10 --json "$OUT/twin.json"
+      ;;
+    bench-twin-tissue)  # the twin over the retraction scene's flap: kinematic at 200 Hz physics, dynamic at 800
+      run twin_tissue 300 python3 benchmarks/bench_twin.py --scene psm_retraction.yaml --envs 1,16 \
+        --dynamics kinematic --seconds 5 --json "$OUT/twin_tissue.json"
+      run twin_tissue_dynamic 300 python3 benchmarks/bench_twin.py --scene psm_retraction.yaml --envs 1,16 \
+        --dynamics dynamic --physics-rate 800 --seconds 5 --json "$OUT/twin_tissue_dynamic.json"
       ;;
     bench-soft)
       mkdir -p "$OUT/softbodypush" "$OUT/softbodypush_ppo"

@@ -378,41 +378,38 @@ void colour_vertices(ConstraintSet& s, size_t particles) {
   }
 }
 
-// each env's slice of each colour: records are built env by env and the colouring is stable
-void env_colours(ConstraintSet& s, const ParticleModel& m) {
-  const size_t envs = m.env_ranges.size(), colours = s.colour_count.size();
+// each env's slice (first, count) of each colour in `s.env_colours`: items are built env by env
+// and colouring keeps their order; `env_of(i)` is item i's env
+template <class EnvOf>
+void env_slices(ConstraintSet& s, const ParticleModel& m, const std::vector<uint32_t>& offset,
+                const std::vector<uint32_t>& count, EnvOf env_of, const char* what) {
+  const size_t envs = m.env_ranges.size(), colours = count.size();
   s.env_colours.assign(envs * colours * 2, 0);
   for (size_t k = 0; k < colours; ++k) {
     uint32_t last_env = 0;
-    for (uint32_t c = s.colour_offset[k]; c < s.colour_offset[k] + s.colour_count[k]; ++c) {
-      const uint32_t p = s.records[c].particles.x < m.size() ? s.records[c].particles.x
-                                                                 : m.edge_particles[s.records[c].particles.x - m.size()];
-      const uint32_t env = m.phases[p].z;
-      if (env < last_env) throw std::logic_error("particle constraints of " + s.name + " are not in env order");
+    for (uint32_t i = offset[k]; i < offset[k] + count[k]; ++i) {
+      const uint32_t env = env_of(i);
+      if (env < last_env) throw std::logic_error(std::string(what) + " of " + s.name + " are not in env order");
       last_env = env;
       uint32_t* r = &s.env_colours[(env * colours + k) * 2];
-      if (r[1] == 0) r[0] = c;
+      if (r[1] == 0) r[0] = i;
       ++r[1];
     }
   }
 }
 
-// vertex-solved families: each env's slice of each vertex colour in `vertices` (particles are
-// numbered env by env and each colour lists them in order)
+// records, by the env of their first particle (or of a strand frame's particle)
+void env_colours(ConstraintSet& s, const ParticleModel& m) {
+  env_slices(s, m, s.colour_offset, s.colour_count, [&](uint32_t c) {
+    const uint32_t p = s.records[c].particles.x;
+    return m.phases[p < m.size() ? p : m.edge_particles[p - m.size()]].z;
+  }, "particle constraints");
+}
+
+// vertex-solved families: the solved particles listed per vertex colour in `vertices`
 void env_vertex_colours(ConstraintSet& s, const ParticleModel& m) {
-  const size_t envs = m.env_ranges.size(), colours = s.vertex_colour_count.size();
-  s.env_colours.assign(envs * colours * 2, 0);
-  for (size_t k = 0; k < colours; ++k) {
-    uint32_t last_env = 0;
-    for (uint32_t v = s.vertex_colour_offset[k]; v < s.vertex_colour_offset[k] + s.vertex_colour_count[k]; ++v) {
-      const uint32_t env = m.phases[s.vertices[v]].z;
-      if (env < last_env) throw std::logic_error("solved particles of " + s.name + " are not in env order");
-      last_env = env;
-      uint32_t* r = &s.env_colours[(env * colours + k) * 2];
-      if (r[1] == 0) r[0] = v;
-      ++r[1];
-    }
-  }
+  env_slices(s, m, s.vertex_colour_offset, s.vertex_colour_count,
+             [&](uint32_t v) { return m.phases[s.vertices[v]].z; }, "solved particles");
 }
 
 // the fluid passes' density kernel (shaders/physics/particle_fluid.hlsli)

@@ -131,6 +131,11 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   bindings_["remove_flags"] = make(control, "control.particle_remove", keep.data(), keep.size() * 4, {n}, DType::UINT32,
                                    false, false);
 
+  // control: one fluid sink per env (particle_integrate.comp.hlsl), all off
+  const std::vector<float4> no_sinks(size_t(2 * ne), float4{0, 0, 0, 0});
+  bindings_["fluid_sinks"] = make(control, "control.fluid_sinks", no_sinks.data(), no_sinks.size() * sizeof(float4),
+                                  {ne, 2, 4}, DType::FLOAT32, false, false);
+
   // env flags, shared with the rigid solver; made here when there is none
   for (const char* k : {"env.reset_mask", "env.health", "env.health_events"})
     if (scene.count(k)) bindings_[k + 4] = scene.at(k);
@@ -249,6 +254,8 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   if (has_rigid_ && dynamic_bodies) rigid_push_ = pass("physics/particle_rigid_push", uint64_t(ne));
   for (auto* p : {gather_.get(), attach_.get(), fluid_lambda_.get(), neighbors_.get(), rigid_push_.get()})
     if (p) moving_.push_back(p);
+  // and the load of the tissue a dynamic body holds
+  if (has_rigid_ && dynamic_bodies && elastic && na > 0) rigid_hold_ = pass("physics/particle_rigid_hold", uint64_t(ne));
   if (has_rigid_) rigid_forces_ = pass("physics/particle_rigid_forces", uint64_t(ne));
   health_ = pass("physics/particle_health", uint64_t(ne));
   reset_ = pass("physics/particle_reset", uint64_t(std::max({n, na, no, ne_})));
@@ -402,6 +409,7 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
     run(vorticity_);
     run(fluid_velocity_);
   }
+  run(rigid_hold_);
   run(rigid_forces_);
   health_->record(cmd);
 }

@@ -1,5 +1,9 @@
 // Substep start: remember the positions, then move every active, finite-mass particle by its
 // velocity after gravity and its object's damping (an elastic body's solve starts nearer: below).
+// Fluid within reach of its env's sink (control.fluid_sinks: a suction tip) flows into it at
+// least as fast as a point sink of flow rate Q at a wall draws it: Q / (2 pi r^2) toward the
+// point (half of the sphere around it is the wall), r no less than the sink's core radius (the
+// tube's mouth, inside which the fluid is taken).
 #include "cressim/layout.h"
 #include "cressim/particle.h"
 
@@ -10,6 +14,7 @@ RWStructuredBuffer<float4> positions;
 RWStructuredBuffer<float4> velocities;
 RWStructuredBuffer<float4> prev_positions;
 StructuredBuffer<float> object_supports;
+StructuredBuffer<float4> fluid_sinks;  // per env: (point xyz, reach w; 0: off), (flow rate Q m^3/s, core radius, -, -)
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
 void main(uint3 id : SV_DispatchThreadID) {
@@ -20,7 +25,19 @@ void main(uint3 id : SV_DispatchThreadID) {
   const uint4 ph = phases[i];
   if ((ph.w & PARTICLE_ACTIVE) == 0 || x.w <= 0) return;
   const float h = pc.gravity.w, drag = 1 + h * objects[ph.y].material.z;
-  const float3 v = (velocities[i].xyz + h * pc.gravity.xyz) / drag;
+  float3 v = (velocities[i].xyz + h * pc.gravity.xyz) / drag;
+  if (ph.x == PARTICLE_FLUID) {
+    const float4 sink = fluid_sinks[2 * ph.z];
+    const float3 d = sink.xyz - x.xyz;
+    const float r = length(d);
+    if (r < sink.w && r > 0) {
+      const float3 n = d / r;
+      const float2 flow = fluid_sinks[2 * ph.z + 1].xy;
+      const float rc = max(r, flow.y);
+      const float inflow = flow.x / (2 * 3.14159265 * rc * rc);
+      v += max(inflow - dot(v, n), 0.0) * n;
+    }
+  }
   velocities[i].xyz = v;
   // An elastic body's solve (particle_tet.comp.hlsl) starts short of the inertial position by the
   // share of the substep's fall its last substep held back (particle_tet_support.comp.hlsl): a

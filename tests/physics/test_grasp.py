@@ -1,6 +1,6 @@
 """Grasping tissue with a tool (cressim.passes.Grasp): a closed grasp holds the particles within
-reach to the tool body, the tool lifts them by as much as it moves, opening lets go, and the
-tool reads the weight of what it carries."""
+reach to the tool body, the tool lifts them by as much as it moves, opening lets go, the tool
+reads the weight of what it carries, and a dynamic tool bears it."""
 import numpy as np
 import pytest
 
@@ -14,16 +14,24 @@ FLAP = (0.03, 0.02, 0.003)  # half extents (m): a 60 x 40 x 6 mm flap
 RADIUS = 0.002
 
 
-def _tool(world, env, position):
+TOOL_MASS = 0.2  # kg
+SLIDER_STIFFNESS = 100.0  # N/m: the dynamic tool's vertical position drive
+
+
+def _tool(world, env, position, dynamic=False):
     tool = world.create_entity(env=env, name="jaws")
     tool.add(cressim.Transform(position=position))
-    tool.add(cressim.RigidBody(kinematic=True, mass=0.1, inertia=(1e-4, 1e-4, 1e-4)))  # no collider
+    tool.add(cressim.RigidBody(kinematic=not dynamic, mass=TOOL_MASS, inertia=(1e-4, 1e-4, 1e-4)))  # no collider
+    if dynamic:  # on a vertical slider, critically damped
+        world.create_entity(env=env, name="slider").add(cressim.Joint(
+            "slider", body_b=tool, anchor=position, axis=(0, 0, 1), drive="position", target=0.0, stiffness=SLIDER_STIFFNESS,
+            damping=2 * (SLIDER_STIFFNESS * TOOL_MASS) ** 0.5))
     return tool
 
 
-def _flap_scene(make_engine, clamped=True, envs=2):
+def _flap_scene(make_engine, clamped=True, envs=2, dynamic=False):
     """A 10 kPa flap on a table, its x = -30 mm edge fixed to it (or free), and a tool over its
-    x = +30 mm edge in every env."""
+    x = +30 mm edge in every env (kinematic, or dynamic on a driven vertical slider)."""
     world = cressim.World(cressim.SceneLayout(envs))
     mesh = cressim.TetMesh.box(FLAP, (10, 6, 2))
     rest = np.asarray(mesh.positions)
@@ -35,7 +43,7 @@ def _flap_scene(make_engine, clamped=True, envs=2):
         flap.add(cressim.Transform(position=(0, 0, FLAP[2] + RADIUS)))
         flap.add(cressim.SoftBody(mesh, fixed=fixed, youngs_modulus=1e4, poisson_ratio=0.45, density=1000.0,
                                   radius=RADIUS, damping=5.0))
-        tools.append(_tool(world, env, (FLAP[0], 0, 2 * FLAP[2] + RADIUS)))
+        tools.append(_tool(world, env, (FLAP[0], 0, 2 * FLAP[2] + RADIUS), dynamic))
     engine = start(world, make_engine, max_particle_attachments_per_env=8)
     return engine, tools, rest
 
@@ -84,6 +92,33 @@ def test_the_tool_reads_the_weight_it_carries(make_engine):
     forces = step_mean_force(engine, 30)
     weight = 1000.0 * 8 * FLAP[0] * FLAP[1] * FLAP[2] * G
     np.testing.assert_allclose(forces, [0, 0, -weight], atol=0.05 * weight)
+
+
+def test_a_dynamic_tool_bears_the_flap_it_lifts(make_engine):
+    """A dynamic tool on a vertical slider drive (stiffness k) lifts a free flap off the table: at
+    rest the drive holds the tool and the flap, so it sags by (M + m) g / k (here 21 mm, of which
+    the flap is 1.4 mm); env 1's open tool carries nothing and sags by M g / k."""
+    engine, tools, rest = _flap_scene(make_engine, clamped=False, envs=2, dynamic=True)
+    grasp = Grasp(engine, tools, point=(0, 0, -FLAP[2]), radius=0.006)
+    targets = engine.buffer("control.joint_targets")
+    sag = TOOL_MASS * G / SLIDER_STIFFNESS
+    t = targets.read()
+    t[:, 0] = sag  # the tool's drive starts where it holds the tool at its authored height
+    targets.write(t)
+    step(engine, 30)
+    grasp.set([True, False])
+    grasp.execute()
+    for f in range(1, 61):
+        t[:, 0] = sag + 0.08 * f / 60
+        targets.write(t)
+        step(engine, 1)
+    step(engine, 240)  # the hanging flap settles (damping 5/s)
+    x = positions(engine).reshape(2, -1, 3)
+    assert x[0, :, 2].min() > 0.01  # off the table
+    q = np.mean([step(engine, 1) or engine.buffer("joint.positions").read().copy() for _ in range(60)], axis=0)
+    weight = 1000.0 * 8 * FLAP[0] * FLAP[1] * FLAP[2] * G
+    carried = (t[:, 0] - q) * SLIDER_STIFFNESS - TOOL_MASS * G  # what the drive holds beyond the tool
+    np.testing.assert_allclose(carried, [weight, 0], atol=0.05 * weight)
 
 
 def step_mean_force(engine, frames):

@@ -198,6 +198,52 @@ def test_a_task_pass_removes_fluid_inside_a_sphere(make_engine):
     assert _active(engine).all()
 
 
+def test_suction_draws_fluid_in_as_a_point_sink(make_engine):
+    """No gravity, lone fluid particles 50 mm from a suction tip in six directions and one 150 mm
+    out (beyond the 120 mm reach): while on, the near ones come in as a point sink of flow rate Q
+    at a wall draws them, dr/dt = -Q / (2 pi r^2), so r^3 = r0^3 - 3 Q t / (2 pi); they are removed
+    inside the 10 mm radius; the far one stays, and so does everything in env 1 (suction off)."""
+    tip, r0, q = np.array([0.0, 0.0, 1.0]), 0.05, 2e-4
+    directions = np.concatenate([np.eye(3), -np.eye(3)])
+    points = np.concatenate([tip + r0 * directions, [tip + [0.15, 0, 0]]]).astype(np.float32)
+    world = cressim.World(cressim.SceneLayout(2))
+    for env in range(2):
+        world.create_entity(env=env, name="blood").add(cressim.Fluid(points, radius=0.002))
+    engine = start(world, make_engine, substeps=4, gravity=(0, 0, 0))
+    suction = Suction(engine, None, tip, 0.01, flow_rate=q, reach=0.12)
+    suction.set([True, False])
+    dt, frames = engine.physics.dt, 30
+    for _ in range(frames):
+        suction.execute()
+        engine.step_physics()
+        engine.end_frame()
+    p = positions(engine).reshape(2, -1, 3)
+    r = np.linalg.norm(p[0, :6] - tip, axis=1)
+    expected = (r0 ** 3 - 3 * q * frames * dt / (2 * math.pi)) ** (1 / 3)  # 36.8 mm
+    np.testing.assert_allclose(r, expected, rtol=0.02)
+    np.testing.assert_allclose(p[0, 6], points[6], atol=1e-6)  # out of reach
+    np.testing.assert_allclose(p[1], points, atol=1e-6)  # env 1's suction is off
+    inside = (r0 ** 3 - 0.01 ** 3) * 2 * math.pi / (3 * q)  # s until they reach the mouth (at the latest)
+    for _ in range(int(inside / dt) + 5):
+        suction.execute()
+        engine.step_physics()
+        engine.end_frame()
+    assert list(suction.removed()) == [6, 0]
+    assert list(_active(engine)) == [False] * 6 + [True] * 8
+
+
+def test_suction_flow_rates_are_checked(make_engine):
+    world = cressim.World(cressim.SceneLayout(2))
+    for env in range(2):
+        world.create_entity(env=env, name="blood").add(cressim.Fluid(lattice((2, 2, 2), 0.01), radius=0.005))
+    engine = start(world, make_engine)
+    suction = Suction(engine, None, (0, 0, 0), 0.01)
+    with pytest.raises(ValueError, match="flow_rate of env 1 must be finite and >= 0, got nan"):
+        suction.set_flow([1e-5, float("nan")])
+    with pytest.raises(ValueError, match="reach must be at least the radius 0.01"):
+        Suction(engine, None, (0, 0, 0), 0.01, reach=0.005)
+
+
 # ---- cutting -----------------------------------------------------------------------------
 
 CUT_X = 0.025  # between the beam's vertex layers at x = 0 and 0.05

@@ -15,9 +15,10 @@ ratio 0.45, 1000 kg/m^3, velocity damping 2/s; its bottom layer is held to a tab
 box, top at z = 0). The block starts 5.5 mm clear of the pocket's floor (a blood and a tissue
 radius) and settles within about 20 frames into a pool about 6 mm deep (particle centres 12.5 to
 19 mm above the table); the 18 mm pocket (the scene file's is 12 mm) keeps the rim (its
-particles' centres at 28 mm) well above it when the tool displaces blood. Not
-modelled: the paper's pull toward the tip within 1.0 unit (the engine gives task passes no
-force on particles; cressim.passes.Suction only removes). 60 Hz frames, 4 substeps, 4 particle
+particles' centres at 28 mm) well above it when the tool displaces blood. The pull: while the
+valve is open the blood within 20 mm (1.0 unit, 4 removal radii) flows toward the tube's end as
+into a point sink at a wall of 1 L/min (`flow_rate`, cressim.passes.Suction): 0.11 m/s at the
+mouth and 6.6 mm/s at 20 mm. 60 Hz frames, 4 substeps, 4 particle
 iterations.
 
 The arm: the PSM with our suction/irrigator (robots/dvrk_psm/psm_suction.urdf: yaw, pitch,
@@ -68,7 +69,7 @@ import numpy as np
 import torch
 
 import cressim
-from cressim.passes.suction import Suction
+from cressim.passes.suction import FLOW_RATE, Suction
 from cressim.tet_mesh_file import boundary_triangles
 
 from .vector_env import Space, VectorEnv, checked_number, tensor_view
@@ -138,9 +139,11 @@ class BloodSuction(VectorEnv):
     removal_reward = 0.03
 
     def __init__(self, num_envs: int, *, image_size: int = 64, suction_radius: float = 0.005,
-                 youngs_modulus: float = 15e3, poisson_ratio: float = 0.45, density: float = 1000.0, **kwargs):
-        """The camera image's side (pixels), the suction's removal radius (m) and the basin's
-        material (Pa, -, kg/m^3); other keywords go to VectorEnv."""
+                 flow_rate: float = FLOW_RATE, youngs_modulus: float = 15e3, poisson_ratio: float = 0.45,
+                 density: float = 1000.0, **kwargs):
+        """The camera image's side (pixels), the suction's removal radius (m; it draws the blood
+        within 4 radii in) and flow rate (m^3/s), and the basin's material (Pa, -, kg/m^3); other
+        keywords go to VectorEnv."""
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"BloodSuction: num_envs must be a positive integer, got {num_envs!r}")
         # at least 32: the CNN's three strided convolutions leave a 2 x 2 map of it
@@ -148,6 +151,7 @@ class BloodSuction(VectorEnv):
             raise ValueError(f"BloodSuction: image_size must be an integer in [32, 512], got {image_size!r}")
         self.image_size = int(image_size)
         self.suction_radius = checked_number("BloodSuction", "suction_radius", suction_radius, 0.0, 0.05)
+        self.flow_rate = checked_number("BloodSuction", "flow_rate", flow_rate, 0.0, 1e-3)
         self.youngs_modulus = checked_number("BloodSuction", "youngs_modulus", youngs_modulus)
         self.poisson_ratio = checked_number("BloodSuction", "poisson_ratio", poisson_ratio, 0.0, 0.5)
         self.density = checked_number("BloodSuction", "density", density)
@@ -230,7 +234,7 @@ class BloodSuction(VectorEnv):
             raise RuntimeError("BloodSuction: the blood is not at the same place in every env's particles")
         self.fluid_offset = int(offsets[0])  # env-relative index of the first blood particle
         tubes, tip = self.arm.link_point(TUBE, TIP)
-        self.suction = Suction(e, tubes, tip, self.suction_radius)
+        self.suction = Suction(e, tubes, tip, self.suction_radius, flow_rate=self.flow_rate)
         tube_rows = self.arm.body_rows[:, self.arm.body_names.index(TUBE)].cpu().numpy().astype(np.uint32)
         extra = {"arm_joints": e.create_shared_buffer("arm_joints", (n, len(JOINTS)), "float32"),
                  "arm_start": e.create_shared_buffer("arm_start", len(JOINTS), "float32"),

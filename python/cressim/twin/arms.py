@@ -36,7 +36,8 @@ again. `tool_wrench` (N, 6: force N, torque N m about the tool tip, world axes) 
 contacts and held tissue exert on the tool (shaft, wrist and jaws) over the last tick; the
 snapshot gives it in the base frame (`spatial_cf`) and the tip frame (`body_cf`). The suction
 tool (psm_suction) removes the world's fluid within `arm.suction.radius` of its tube's end while
-its valve (`suction_servo_jp`, 0 shut .. 1 open) is open (cressim.passes.Suction).
+its valve (`suction_servo_jp`, 0 shut .. 1 open) is open, and draws the fluid within
+`arm.suction.reach` in at the valve's share of `arm.suction.flow_rate` (cressim.passes.Suction).
 """
 from __future__ import annotations
 
@@ -151,10 +152,12 @@ class TwinArms:
         tube = [n for n in names if n.endswith("suction_tube_link")]
         if self.simulated and tube and self.bodies.has_fluid:
             bodies, point = self.bodies.link_point(tube[0], SUCTION_TIP)
-            self.suction = Suction(self.bodies.engine, bodies, point, scene.suction_radius)
+            self.suction = Suction(self.bodies.engine, bodies, point, scene.suction_radius,
+                                   flow_rate=scene.suction_flow_rate, reach=scene.suction_reach)
         self.suction_valve = torch.zeros(self.num_envs, 1, dtype=torch.float64)
         self.suction_removed = torch.zeros(self.num_envs, 1, dtype=torch.float64)
         self._suction_on = np.zeros(self.num_envs, dtype=bool)
+        self._suction_share = np.zeros(self.num_envs)  # the valve as last given to the pass
         self.tool_wrench = torch.zeros(self.num_envs, 6, dtype=torch.float64)
         self.engine_lock = threading.Lock()
         # the arms' state is (N, 6) rows and a few (N, 4, 4): kernel launches and syncs would cost a
@@ -566,13 +569,16 @@ class TwinArms:
         self.grasp.execute()
 
     def _suck(self):
-        """The suction follows the valve (the GPU pass removes the fluid at the tip)."""
+        """The suction follows the valve: open, the GPU pass removes the fluid at the tip and draws
+        the fluid within reach at the valve's share of the flow rate."""
         if self.suction is None:
             return
-        on = (self.suction_valve[:, 0] > 0).numpy()
-        if (on != self._suction_on).any():
+        valve = self.suction_valve[:, 0].numpy()
+        on = valve > 0
+        if (on != self._suction_on).any() or (valve != self._suction_share).any():
             self.suction.set(on)
-            self._suction_on = on
+            self.suction.set_flow(valve * self.scene.suction_flow_rate)
+            self._suction_on, self._suction_share = on, valve.copy()
         self.suction.execute()
 
     def suction_servo_jp(self, env: int, cmd) -> list[Event]:

@@ -57,6 +57,8 @@ class Scene:
     grasp_reach: float = 0.004  # m: the jaws take the particles this near their middle
     grasp_closed_below: float = 0.25  # rad: the jaws grasp once the measured jaw angle is below this
     suction_radius: float = 0.005  # m: the suction tool removes the fluid this near its tip
+    suction_flow_rate: float = 1e-3 / 60  # m^3/s with the valve open (1 L/min): it draws the fluid in
+    suction_reach: float = 0.02  # m: the fluid this near the tip is drawn toward it
     lines: dict = field(default_factory=dict, repr=False)  # field -> "file:line:col" (for later checks)
 
 
@@ -134,9 +136,16 @@ def parse_scene(text: str, path: str = "<string>") -> Scene:
                 scene.grasp_closed_below = p.number(grasp["closed_below"], "arm.grasp.closed_below", low=-0.7,
                                                     high=1.4)
         if "suction" in arm:
-            suction = p.mapping(arm["suction"], "arm.suction", {"radius"})
+            suction = p.mapping(arm["suction"], "arm.suction", {"radius", "flow_rate", "reach"})
             if "radius" in suction:
                 scene.suction_radius = p.number(suction["radius"], "arm.suction.radius", low=1e-4, high=0.05)
+            if "flow_rate" in suction:
+                scene.suction_flow_rate = p.number(suction["flow_rate"], "arm.suction.flow_rate", low=0.0, high=1e-3)
+            if "reach" in suction:
+                scene.suction_reach = p.number(suction["reach"], "arm.suction.reach", low=1e-4, high=0.2)
+            if scene.suction_reach < scene.suction_radius:
+                p.fail(suction.get("reach", arm["suction"]), "arm.suction.reach",
+                       f"{scene.suction_reach:g} m is less than the radius {scene.suction_radius:g} m")
         if "trajectory" in arm:
             traj = p.mapping(arm["trajectory"], "arm.trajectory", {"velocity_ratio", "acceleration_ratio"})
             if "velocity_ratio" in traj:
