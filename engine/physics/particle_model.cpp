@@ -144,7 +144,7 @@ class Builder {
   void elastic_tets(const Adding& a, const scene::SoftBody& sb, uint32_t n) {
     const double E = sb.youngs_modulus, nu = sb.poisson_ratio;
     const double mu = E / (2 * (1 + nu)), lame = E * nu / ((1 + nu) * (1 - 2 * nu)), lambda = lame + mu;
-    std::vector<double> mass(n, 0.0);
+    std::vector<double> mass(n, 0.0), conductance(n, 0.0);
     auto& tets = set("tet");
     tets.rows_per_record = 3;
     for (size_t t = 0; t < sb.tets.size(); t += 4) {
@@ -171,6 +171,12 @@ class Builder {
       tets.records.back().params.w = float(1 + mu / lambda);
       for (int r = 0; r < 3; ++r) tets.record_rows.push_back({float(B[r][0]), float(B[r][1]), float(B[r][2]), 0});
       for (uint32_t k : q) mass[k - a.first] += sb.density * vol / 4;
+      if (sb.thermal.enabled)  // K_kk = k V0 |b_k|^2, b_0 = -(b_1 + b_2 + b_3)
+        for (int k = 0; k < 4; ++k) {
+          double g[3];
+          for (int c = 0; c < 3; ++c) g[c] = k == 0 ? -(B[0][c] + B[1][c] + B[2][c]) : B[k - 1][c];
+          conductance[q[k] - a.first] += sb.thermal.conductivity * vol * (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+        }
     }
     for (uint32_t i = 0; i < n; ++i) {
       if (!(mass[i] > 0))
@@ -178,7 +184,13 @@ class Builder {
                                 "mass comes from its tets)");
       m_.positions[a.first + i].w = float(1 / mass[i]);
       m_.phases[a.first + i].w |= shader::PARTICLE_ELASTIC;
+      if (sb.thermal.enabled) {
+        m_.heat_capacities.resize(m_.size(), 0.f);
+        m_.heat_capacities[a.first + i] = float(mass[i] * sb.thermal.specific_heat);
+        m_.heat_step_limit = std::min(m_.heat_step_limit, float(mass[i] * sb.thermal.specific_heat / conductance[i]));
+      }
     }
+    if (sb.thermal.enabled) m_.has_heat = true;
   }
 
   void soft_body(const Adding& a, const scene::SoftBody& sb) {
@@ -470,6 +482,11 @@ ParticleModel build_particle_model(const scene::World& world, const scene::Layou
         auto& o = m.objects.back();
         o.ids.y = sb.self_collision ? shader::PARTICLE_SELF_COLLIDE : 0u;
         o.material = {sb.radius, sb.friction, sb.damping, 0};
+        if (sb.thermal.enabled) {
+          const auto& t = sb.thermal;
+          o.heat = {t.conductivity, t.specific_heat, t.temperature, sb.density};
+          o.burn = {float(std::log(t.frequency_factor)), float(t.activation_energy / 8.314462618), t.damage_onset, 0};
+        }
         max_radius = std::max(max_radius, sb.radius);
         end();
       }
@@ -509,6 +526,7 @@ ParticleModel build_particle_model(const scene::World& world, const scene::Layou
     range.y = uint32_t(m.size()) - range.x;
     range.w = uint32_t(m.objects.size()) - range.z;
   }
+  if (m.has_heat) m.heat_capacities.resize(m.size(), 0.f);
   b.frame_constraints();
   // constraints per object: a record belongs to its first particle's object (or its first frame's strand)
   for (auto& s : m.sets) {

@@ -4,6 +4,7 @@
 // triangles kept for rendering.
 #pragma once
 #include <cstdint>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -59,6 +60,11 @@ struct ParticleModel {
   std::vector<uint32_t> surface_offset, surface_count;  // each object's triangles
   float cell_size = 0;                     // neighbour grid: max of fluid kernel support and contact reach
   bool has_fluid = false, has_contacts = false, has_emitters = false;
+  // heat (elastic bodies with a Thermal): the largest stable step of explicit conduction, min over
+  // particles of m c / K_ii (K the conductance matrix of the tets); infinite without heat
+  bool has_heat = false;
+  float heat_step_limit = INFINITY;
+  std::vector<float> heat_capacities;      // m c per particle (J/K; 0: no heat), as long as positions when has_heat
 
   size_t size() const { return positions.size(); }
   bool empty() const { return positions.empty(); }

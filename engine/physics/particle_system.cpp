@@ -1,6 +1,7 @@
 #include "physics/particle_system.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <cstring>
 
@@ -173,6 +174,25 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   const int64_t nb = has_rigid_ ? scene.at("rigid.bodies")->shape[0] : 1;
   scratch("body_contact_counts", "particles.body_contact_counts", {std::max<int64_t>(nb, 1)}, DType::UINT32);
 
+  // heat (elastic bodies with a Thermal; docs/particles.md, "Heat"), or one-element stand-ins
+  {
+    const int64_t nh = model_.has_heat ? n : 1;
+    std::vector<float> start(size_t(nh), 0.f);
+    for (int64_t i = 0; model_.has_heat && i < n; ++i) start[size_t(i)] = model_.objects[model_.phases[size_t(i)].y].heat.z;
+    const std::vector<float> capacities = model_.has_heat ? model_.heat_capacities : std::vector<float>(1, 0.f);
+    in("heat_capacities", "particles.heat_capacities", capacities, {nh}, DType::FLOAT32);
+    in("temperatures", "particles.temperatures", start, {nh}, DType::FLOAT32, exportable && model_.has_heat);
+    // what an env's reset sets them to (the Thermal's temperature; writable: a starting field)
+    bindings_["reset_temperatures"] = make(control, "control.particle_reset_temperatures", start.data(),
+                                           start.size() * 4, {nh}, DType::FLOAT32, false, false);
+    in("damage", "particles.damage", std::vector<float>(size_t(nh), 0.f), {nh}, DType::FLOAT32,
+       exportable && model_.has_heat);
+    scratch("heat_rates", "particles.heat_rates", {nh}, DType::FLOAT32);
+    const std::vector<float4> off(size_t(2 * ne), float4{0, 0, 0, 0});
+    bindings_["heat_sources"] = make(control, "control.heat_sources", off.data(), off.size() * sizeof(float4), {ne, 2, 4},
+                                     DType::FLOAT32, false, false);
+  }
+
   // passes
   integrate_ = pass("physics/particle_integrate", uint64_t(n));
   if (grid) {
@@ -224,6 +244,12 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
       b["chain_scratch"] = make(internal, "particles." + s.name + "_chain_scratch", nullptr, 0, {c, 2, 4},
                                 DType::FLOAT32, true, false);
     }
+    if (s.name == "tet" && model_.has_heat) {  // conduction runs over the tets' solved particles
+      heat_flow_ = compute::create_builtin_pass(ctx, "physics/particle_heat_flow", b);
+      heat_flow_->set_threads({uint64_t(s.vertices.size()), 1, 1});
+      heat_flow_items_ = uint32_t(s.vertices.size());
+      all_.push_back(heat_flow_);
+    }
     auto p = compute::create_builtin_pass(ctx, s.shader, b);
     all_.push_back(p);
     Family f{p, nullptr, &s};
@@ -263,6 +289,7 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
     orient_integrate_ = pass("physics/particle_orient_integrate", uint64_t(ne_));
     orient_velocity_ = pass("physics/particle_orient_velocity", uint64_t(ne_));
   }
+  if (model_.has_heat) heat_apply_ = pass("physics/particle_heat_apply", uint64_t(n));
   if (model_.has_emitters) emit_ = pass("physics/particle_emit", uint64_t(no));
   if (model_.has_fluid) remove_ = pass("physics/particle_remove", uint64_t(n));
   set_settings(settings);
@@ -347,6 +374,11 @@ void ParticleSystem::record_families(VkCommandBuffer cmd, uint32_t passes) const
   }
 }
 
+uint32_t ParticleSystem::heat_cycles(const PhysicsSettings& s) const {
+  // explicit conduction is stable below m c / K_ii; half of it keeps the modes well damped
+  return model_.has_heat ? std::max(1u, uint32_t(std::ceil(s.dt / (0.5 * model_.heat_step_limit)))) : 0u;
+}
+
 void ParticleSystem::set_constants(const PhysicsSettings& s) {
   for (auto& p : all_) {
     shader::ParticleConstants c{};
@@ -362,6 +394,8 @@ void ParticleSystem::set_constants(const PhysicsSettings& s) {
     c.item_count = p == scan_blocks_ ? blocks_ : (p == emit_ || p == reset_) ? uint32_t(model_.objects.size()) : 0;
     for (auto& [r, records] : cut_resets_)
       if (p == r) c.item_count = records;
+    if (p == heat_flow_) c.item_count = heat_flow_items_;
+    if (p == heat_apply_) c.item_count = heat_cycles(s);
     if (p->constants.size() != sizeof(c)) throw std::logic_error("ParticleConstants does not match " + p->name);
     std::memcpy(p->constants.data(), &c, sizeof(c));
   }
@@ -411,6 +445,10 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
   }
   run(rigid_hold_);
   run(rigid_forces_);
+  for (uint32_t c = 0; heat_apply_ && c < heat_cycles(settings_); ++c) {
+    run(heat_flow_);
+    run(heat_apply_);
+  }
   health_->record(cmd);
 }
 

@@ -87,11 +87,35 @@ void bind_particles(py::module_& m) {
         return "<TetMesh " + std::to_string(t.vertex_count()) + " vertices, " + std::to_string(t.tet_count()) + " tets>";
       });
 
+  py::class_<scene::Thermal>(m, "Thermal")
+      .def(py::init([](float conductivity, float specific_heat, float temperature, double frequency_factor,
+                       double activation_energy, float damage_onset) {
+             scene::Thermal t;
+             t.enabled = true;
+             t.conductivity = conductivity, t.specific_heat = specific_heat, t.temperature = temperature;
+             t.frequency_factor = frequency_factor, t.activation_energy = activation_energy;
+             t.damage_onset = damage_onset;
+             return t;
+           }),
+           py::kw_only(), py::arg("conductivity") = 0.52f, py::arg("specific_heat") = 3540.f,
+           py::arg("temperature") = 310.15f, py::arg("frequency_factor") = 7.39e39, py::arg("activation_energy") = 2.577e5,
+           py::arg("damage_onset") = 315.15f,
+           "Heat in an elastic SoftBody (docs/particles.md, \"Heat\"): conductivity (W/m/K), specific_heat "
+           "(J/kg/K), the starting temperature (K), and the Arrhenius pair of its thermal damage: frequency_factor "
+           "A (1/s) and activation_energy Ea (J/mol), the damage growing at A exp(-Ea / (R T)) per second above "
+           "damage_onset (K, default 42 C). Defaults: liver at 37 C.")
+      .def_readonly("conductivity", &scene::Thermal::conductivity)
+      .def_readonly("specific_heat", &scene::Thermal::specific_heat)
+      .def_readonly("temperature", &scene::Thermal::temperature)
+      .def_readonly("frequency_factor", &scene::Thermal::frequency_factor)
+      .def_readonly("activation_energy", &scene::Thermal::activation_energy)
+      .def_readonly("damage_onset", &scene::Thermal::damage_onset);
+
   py::class_<scene::SoftBody>(m, "SoftBody")
       .def(py::init([](py::object shape, py::object tets, py::object triangles, py::object fixed, py::object youngs_modulus,
                        float poisson_ratio, float density, py::object mass, py::object distance_compliance,
                        py::object volume_compliance, uint32_t neighbors, float damping, float radius, float friction,
-                       bool self_collision) {
+                       bool self_collision, py::object thermal) {
              scene::SoftBody s;
              if (py::isinstance<TetMesh>(shape)) {
                const auto& t = shape.cast<const TetMesh&>();
@@ -124,6 +148,7 @@ void bind_particles(py::module_& m) {
              s.poisson_ratio = poisson_ratio, s.density = density;
              s.neighbors = neighbors, s.damping = damping, s.radius = radius, s.friction = friction;
              s.self_collision = self_collision;
+             if (!thermal.is_none()) s.thermal = thermal.cast<scene::Thermal>();
              return s;
            }),
            py::arg("shape"), py::arg("tets") = py::none(), py::arg("triangles") = py::none(), py::kw_only(),
@@ -131,13 +156,14 @@ void bind_particles(py::module_& m) {
            py::arg("density") = 1000.f, py::arg("mass") = py::none(), py::arg("distance_compliance") = py::none(),
            py::arg("volume_compliance") = py::none(), py::arg("neighbors") = 8u, py::arg("damping") = 0.f,
            py::arg("radius") = 0.02f, py::arg("friction") = 0.5f, py::arg("self_collision") = false,
+           py::arg("thermal") = py::none(),
            "A soft body: shape is a TetMesh, or an (n, 3) array of particle positions (entity frame) with tets "
            "(m, 4) and surface triangles (k, 3), or without tets a meshfree body tied to its `neighbors` nearest "
            "particles. fixed: particle indices clamped in place. A tet mesh is an elastic material: stable "
            "Neo-Hookean with youngs_modulus (Pa, default 10 kPa), poisson_ratio (default 0.45) and density (kg/m^3, "
            "default 1000; the mass is density x volume). Expert model (meshfree bodies, or when a compliance is "
            "given): XPBD compliances of the strain constraints |d|/L - 1 and V/V0 - 1 (defaults 1e-4) and a mass per "
-           "particle (kg, default 0.01).")
+           "particle (kg, default 0.01). thermal: a Thermal, for heat in an elastic body (none by default).")
       .def_property_readonly("particle_count", [](const scene::SoftBody& s) { return s.positions.size() / 3; })
       .def_property_readonly("positions", [](const scene::SoftBody& s) { return points_of(s.positions); })
       .def_readonly("mass", &scene::SoftBody::mass)

@@ -208,6 +208,19 @@ struct UltrasoundTissue {
 // (Young's modulus, Poisson's ratio), mass from density, solved per vertex (docs/particles.md).
 // youngs_modulus = 0 selects the expert model instead: XPBD strain constraints with the given
 // compliances and a mass per particle (meshfree bodies always use it).
+// Heat in an elastic body (its tets): conduction, heat sources (control.heat_sources) and thermal
+// damage by the Arrhenius integral. Defaults: liver (conductivity and specific heat of perfused
+// liver; the Arrhenius pair commonly used for liver coagulation), at body temperature.
+struct Thermal {
+  bool enabled = false;
+  float conductivity = 0.52f;      // W/m/K
+  float specific_heat = 3540;      // J/kg/K
+  float temperature = 310.15f;     // K: where every particle starts (37 C)
+  double frequency_factor = 7.39e39;  // A, 1/s (beyond float range: kept as ln A on the GPU)
+  double activation_energy = 2.577e5;  // Ea, J/mol
+  float damage_onset = 315.15f;    // K: no damage below it (42 C; the fit holds for hyperthermia, not at rest)
+};
+
 struct SoftBody {
   std::vector<float> positions;     // x y z per particle
   std::vector<uint32_t> tets;       // 4 per tetrahedron
@@ -224,6 +237,7 @@ struct SoftBody {
   float radius = 0.02f;             // collision radius (m)
   float friction = 0.5f;
   bool self_collision = false;
+  Thermal thermal;                  // heat: elastic bodies only
 };
 
 // Position-based fluid (Macklin & Mueller 2013) with `budget` particle slots, of which the given

@@ -268,6 +268,15 @@ void soft_body(const Fields& c, const SoftBody& s) {
   c.non_negative("damping", s.damping);
   c.positive("radius", s.radius);
   c.non_negative("friction", s.friction);
+  if (s.thermal.enabled) {
+    if (s.youngs_modulus == 0) c.fail("thermal", "needs the elastic material (youngs_modulus and tets): heat flows through the tets");
+    c.positive("thermal.conductivity", s.thermal.conductivity);
+    c.positive("thermal.specific_heat", s.thermal.specific_heat);
+    c.positive("thermal.temperature", s.thermal.temperature);
+    c.positive("thermal.frequency_factor", s.thermal.frequency_factor);
+    c.positive("thermal.activation_energy", s.thermal.activation_energy);
+    c.positive("thermal.damage_onset", s.thermal.damage_onset);
+  }
 }
 
 void fluid(const Fields& c, const Fluid& f) {

@@ -42,6 +42,8 @@ struct ParticleObject {
   float4 fluid;     // x viscosity (XSPH), y cohesion, z surface tension, w vorticity confinement
   float4 emitter;   // fluid emitter: xyz nozzle centre (world), w particles per frame (0: none)
   float4 emit_velocity;  // xyz velocity of emitted particles, w nozzle width (particles a side)
+  float4 heat;      // elastic bodies with heat: x conductivity (W/m/K; 0: no heat), y specific heat (J/kg/K), z initial temperature (K), w density (kg/m^3)
+  float4 burn;      // x ln of the Arrhenius frequency factor (ln 1/s), y activation energy / gas constant (K), z damage onset (K)
 };
 
 struct ParticleEnvRange {

@@ -1,5 +1,6 @@
 // Particles of every env flagged in env.reset_mask go back to their authored state (positions,
-// velocities, which budget slots are active, emitter counts, strand frames); the env's
+// velocities, which budget slots are active, emitter counts, strand frames, temperatures and
+// thermal damage); the env's
 // attachments are released and its pending removals dropped.
 #include "cressim/layout.h"
 #include "cressim/particle.h"
@@ -22,6 +23,9 @@ StructuredBuffer<uint> edge_particles;
 StructuredBuffer<float4> initial_orientations;
 RWStructuredBuffer<float4> orientations;
 RWStructuredBuffer<float4> angular_velocities;
+RWStructuredBuffer<float> temperatures;  // heat: one-element stand-ins without it (heat.x 0)
+RWStructuredBuffer<float> damage;
+StructuredBuffer<float> reset_temperatures;
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
 void main(uint3 id : SV_DispatchThreadID) {
@@ -43,4 +47,9 @@ void main(uint3 id : SV_DispatchThreadID) {
   velocities[i] = initial_velocities[i];
   phases[i] = ph;
   remove_flags[i] = 0;
+  const float4 heat = objects[ph.y].heat;
+  if (heat.x > 0) {
+    temperatures[i] = reset_temperatures[i];
+    damage[i] = 0;
+  }
 }

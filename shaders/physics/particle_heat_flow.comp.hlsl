@@ -1,0 +1,62 @@
+// Heat, step 1 of 2 (once per heat cycle, a few per frame at most): each particle of an elastic
+// body with heat (ParticleObject.heat.x, its conductivity, > 0) gets its rate of temperature change
+//   C_i dT_i/dt = - sum over its tets, other corners j of  k V0 (b_i . b_j) (T_j - T_i)  +  q_i
+// (linear tets, lumped heat capacity C_i = m_i c: the conductance matrix K_ij = k V0 b_i . b_j has
+// rows that sum to 0, so only differences flow and heat is conserved), where q_i is the power the
+// env's heat source (control.heat_sources: a point, radius R, power P) puts into the particle's
+// volume V_i = m_i / rho when it lies within R: P / (4/3 pi R^3) V_i. A source in tissue thus
+// delivers P, one touching the surface the share of its sphere the tissue fills. The temperatures
+// are all read before any is written (particle_heat_apply), so the threads do not race.
+#include "cressim/layout.h"
+#include "cressim/particle.h"
+
+[[vk::push_constant]] ConstantBuffer<ParticleConstants> pc;
+StructuredBuffer<ParticleConstraint> constraints;  // tets: particles; params x V0
+StructuredBuffer<float4> record_rows;              // Dm^-1, 3 rows a tet
+StructuredBuffer<uint> cut;
+StructuredBuffer<uint> vertices;
+StructuredBuffer<uint2> vertex_records;
+StructuredBuffer<uint> vertex_corners;
+StructuredBuffer<uint4> phases;
+StructuredBuffer<float4> positions;
+StructuredBuffer<ParticleObject> objects;
+StructuredBuffer<float> heat_capacities;  // m c per particle (J/K; 0: no heat)
+StructuredBuffer<float> temperatures;
+StructuredBuffer<float4> heat_sources;    // per env: (point xyz, radius w), (power W, -, -, -)
+RWStructuredBuffer<float> heat_rates;     // K/s
+
+float3 gradient(uint t, uint k) {  // b_k of tet t: row k - 1 of Dm^-1, b_0 minus their sum
+  const float3 r0 = record_rows[3 * t].xyz, r1 = record_rows[3 * t + 1].xyz, r2 = record_rows[3 * t + 2].xyz;
+  return k == 0 ? -(r0 + r1 + r2) : (k == 1 ? r0 : (k == 2 ? r1 : r2));
+}
+
+uint corner(ParticleConstraint c, uint k) {
+  return k == 0 ? c.particles.x : (k == 1 ? c.particles.y : (k == 2 ? c.particles.z : c.particles.w));
+}
+
+[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
+void main(uint3 id : SV_DispatchThreadID) {
+  if (id.x >= pc.item_count) return;  // item_count: the tets' solved particles
+  const uint v = id.x, i = vertices[v];
+  const float capacity = heat_capacities[i];
+  if (capacity <= 0) return;
+  const uint4 ph = phases[i];
+  const ParticleObject o = objects[ph.y];
+  const float Ti = temperatures[i];
+  float power = 0;
+  const uint2 range = vertex_records[v];
+  for (uint n = 0; n < range.y; ++n) {
+    const uint rc = vertex_corners[range.x + n], t = rc >> 2, k = rc & 3;
+    if (cut[t] != 0) continue;
+    const ParticleConstraint c = constraints[t];
+    const float3 bi = gradient(t, k);
+    [unroll] for (uint j = 0; j < 4; ++j)
+      if (j != k) power -= o.heat.x * c.params.x * dot(bi, gradient(t, j)) * (temperatures[corner(c, j)] - Ti);
+  }
+  const float4 at = heat_sources[2 * ph.z];
+  if (at.w > 0 && length(positions[i].xyz - at.xyz) < at.w) {
+    const float volume = capacity / (o.heat.y * o.heat.w);
+    power += heat_sources[2 * ph.z + 1].x / (4.18879020 * at.w * at.w * at.w) * volume;
+  }
+  heat_rates[i] = power / capacity;
+}

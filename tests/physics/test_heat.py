@@ -1,0 +1,113 @@
+"""Heat in elastic bodies (cressim.Thermal): conduction through the tets against the heat
+equation's analytic solution, a heat source's energy, the Arrhenius damage integral, per-env
+sources and resets, and checked inputs."""
+import math
+
+import numpy as np
+import pytest
+
+import cressim
+
+from .particle_scenes import start, step
+
+RHO, C = 1000.0, 3540.0  # kg/m^3, J/kg/K
+GAS = 8.314462618
+
+
+def _bodies(make_engine, mesh, envs=2, dt=1 / 60, **thermal):
+    world = cressim.World(cressim.SceneLayout(envs))
+    for env in range(envs):
+        body = world.create_entity(env=env, name="tissue")
+        body.add(cressim.Transform(position=(0, 0, 1)))
+        body.add(cressim.SoftBody(mesh, youngs_modulus=1e4, density=RHO, radius=0.001,
+                                  thermal=cressim.Thermal(specific_heat=C, **thermal)))
+    return start(world, make_engine, dt=dt, substeps=1, gravity=(0, 0, 0))
+
+
+def _capacities(engine, envs):
+    return engine.buffer("particles.heat_capacities").read().reshape(envs, -1)
+
+
+def test_a_cosine_profile_decays_as_the_heat_equation_says(make_engine):
+    """A 40 mm bar, insulated (nothing leaves it), starts at 37 C + 10 K cos(pi x / L): the 1-D heat
+    equation keeps the profile and scales it by exp(-alpha (pi / L)^2 t), alpha = k / (rho c)."""
+    L, k = 0.04, 52.0  # a conductivity that lets the profile decay within seconds
+    mesh = cressim.TetMesh.box((L / 2, 0.001, 0.001), (20, 1, 1))
+    engine = _bodies(make_engine, mesh, envs=1, dt=0.1, conductivity=k)
+    x = np.asarray(mesh.positions)[:, 0] + L / 2
+    mode = np.cos(math.pi * x / L)
+    engine.buffer("control.particle_reset_temperatures").write((310.15 + 10 * mode).astype(np.float32))
+    engine.reset_envs([0])  # the starting field, from the next step on
+    step(engine, 1)
+    temperatures = engine.buffer("particles.temperatures")
+    m = _capacities(engine, 1)[0]
+
+    def amplitude():
+        t = temperatures.read()
+        return np.sum(m * (t - np.sum(m * t) / m.sum()) * mode) / np.sum(m * mode ** 2)
+
+    a0 = amplitude()
+    seconds = 9.9
+    step(engine, 99)
+    expected = math.exp(-k / (RHO * C) * (math.pi / L) ** 2 * seconds)  # 0.40
+    assert abs(amplitude() / a0 - expected) < 0.01 * expected, (amplitude() / a0, expected)  # 0.13 % off
+    mean = np.sum(m * temperatures.read()) / m.sum()
+    assert abs(mean - 310.15) < 1e-3  # insulated: the heat stays
+
+
+def test_a_source_puts_its_power_into_the_tissue_it_covers(make_engine):
+    """1 W for one second at the middle of a 10 mm cube (its 3 mm sphere wholly inside): the
+    body's heat rises by the power density times the covered particles' volume times the time,
+    every joule kept (conduction moves heat, it does not make or lose it); env 1, its source off,
+    stays at 37 C."""
+    mesh = cressim.TetMesh.box((0.005, 0.005, 0.005), (4, 4, 4))
+    engine = _bodies(make_engine, mesh)
+    sources = np.zeros((2, 2, 4), np.float32)
+    sources[0, 0] = (0, 0, 1, 0.003)
+    sources[0, 1, 0] = 1.0
+    engine.buffer("control.heat_sources").write(sources)
+    step(engine, 60)
+    t = engine.buffer("particles.temperatures").read().reshape(2, -1)
+    m = _capacities(engine, 2)
+    x = engine.buffer("particles.positions").read()[:, :3].reshape(2, -1, 3)
+    covered = np.linalg.norm(x[0] - [0, 0, 1], axis=1) < 0.003
+    deposited = 1.0 / (4 / 3 * math.pi * 0.003 ** 3) * np.sum(m[0, covered] / (C * RHO)) * 1.0
+    heat = np.sum(m[0] * (t[0] - 310.15))
+    assert covered.any() and abs(heat - deposited) < 1e-3 * deposited, (heat, deposited)
+    assert t[0].max() > 310.15 + 0.1 and np.abs(t[1] - 310.15).max() < 1e-4
+    assert np.abs(engine.buffer("particles.damage").read().reshape(2, -1)[1]).max() < 1e-6
+
+
+def test_damage_follows_the_arrhenius_integral_and_resets_with_its_env(make_engine):
+    """Tissue held at 70 C (uniform, no source: it stays there) is damaged at A exp(-Ea / (R T))
+    per second, 4.4 /s with the liver pair: coagulated (Omega > 1) within a quarter second; a reset
+    of env 0 brings its particles back to 70 C and no damage, env 1 keeps its own."""
+    mesh = cressim.TetMesh.box((0.005, 0.005, 0.005), (2, 2, 2))
+    T = 343.15
+    engine = _bodies(make_engine, mesh, temperature=T)
+    frames = 15
+    step(engine, frames)
+    rate = 7.39e39 * math.exp(-2.577e5 / (GAS * T))
+    damage = engine.buffer("particles.damage").read()
+    np.testing.assert_allclose(damage, rate * frames / 60, rtol=1e-3)
+    assert damage.min() > 1.0
+    engine.reset_envs([0])
+    step(engine, 1)
+    damage = engine.buffer("particles.damage").read().reshape(2, -1)
+    np.testing.assert_allclose(damage[0], rate / 60, rtol=1e-3)  # one frame since the reset
+    np.testing.assert_allclose(damage[1], rate * (frames + 1) / 60, rtol=1e-3)
+    np.testing.assert_allclose(engine.buffer("particles.temperatures").read(), T, atol=1e-3)
+
+
+def test_thermal_inputs_are_checked(make_engine):
+    mesh = cressim.TetMesh.box((0.005, 0.005, 0.005), (1, 1, 1))
+    world = cressim.World(cressim.SceneLayout(1))
+    world.create_entity(env=0, name="liver").add(cressim.SoftBody(
+        mesh, youngs_modulus=1e4, thermal=cressim.Thermal(conductivity=-1.0)))
+    with pytest.raises(cressim.AuthoringError, match=r"'liver' in env 0: SoftBody.thermal.conductivity must be positive, got -1"):
+        make_engine(world).prepare()
+    world = cressim.World(cressim.SceneLayout(1))
+    world.create_entity(env=0, name="sponge").add(cressim.SoftBody(
+        mesh, distance_compliance=1e-4, thermal=cressim.Thermal()))
+    with pytest.raises(cressim.AuthoringError, match=r"'sponge' in env 0: SoftBody.thermal needs the elastic material"):
+        make_engine(world).prepare()
