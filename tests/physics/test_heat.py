@@ -111,3 +111,45 @@ def test_thermal_inputs_are_checked(make_engine):
         mesh, distance_compliance=1e-4, thermal=cressim.Thermal()))
     with pytest.raises(cressim.AuthoringError, match=r"'sponge' in env 0: SoftBody.thermal needs the elastic material"):
         make_engine(world).prepare()
+
+
+def test_an_energized_tool_heats_the_tissue_it_touches(make_engine):
+    """cressim.passes.Cautery on a kinematic tool resting its tip on a 10 mm cube: 30 W into the
+    tissue within 2 mm of the tip for half a second coagulates it there (Omega > 1, above 60 C)
+    and leaves the far side near 37 C; env 1's tool, off, heats nothing; switched off, the heat
+    spreads and the peak falls."""
+    from cressim.passes.cautery import Cautery
+
+    mesh = cressim.TetMesh.box((0.005, 0.005, 0.005), (5, 5, 5))
+    world = cressim.World(cressim.SceneLayout(2))
+    tools = []
+    for env in range(2):
+        body = world.create_entity(env=env, name="tissue")
+        body.add(cressim.Transform(position=(0, 0, 1)))
+        body.add(cressim.SoftBody(mesh, youngs_modulus=1e4, radius=0.001, thermal=cressim.Thermal()))
+        tool = world.create_entity(env=env, name="hook")
+        tool.add(cressim.Transform(position=(0, 0, 1.005)))  # on the top face's middle
+        tool.add(cressim.RigidBody(kinematic=True, mass=0.01, inertia=(1e-6, 1e-6, 1e-6)))
+        tools.append(tool)
+    engine = start(world, make_engine, gravity=(0, 0, 0))
+    with pytest.raises(ValueError, match="power of env 1 must be finite and >= 0, got -1"):
+        Cautery(engine, tools, (0, 0, 0), 0.002, power=[30.0, -1.0])
+    cautery = Cautery(engine, tools, (0, 0, 0), 0.002, power=30.0)
+    cautery.set([True, False])
+    for _ in range(30):
+        cautery.execute()
+        step(engine, 1)
+    t = engine.buffer("particles.temperatures").read().reshape(2, -1)
+    damage = engine.buffer("particles.damage").read().reshape(2, -1)
+    x = engine.buffer("particles.positions").read()[:, :3].reshape(2, -1, 3)
+    near = np.linalg.norm(x[0] - [0, 0, 1.005], axis=1) < 0.002
+    far = x[0, :, 2] < 1 - 0.004
+    assert near.any() and t[0, near].min() > 333.15 and damage[0, near].min() > 1.0, (t[0, near], damage[0, near])
+    assert t[0, far].max() < 311.15 and damage[0, far].max() == 0
+    assert np.abs(t[1] - 310.15).max() < 1e-4 and damage[1].max() == 0
+    peak = t[0].max()
+    cautery.set([False, False])
+    for _ in range(30):
+        cautery.execute()
+        step(engine, 1)
+    assert engine.buffer("particles.temperatures").read().reshape(2, -1)[0].max() < peak

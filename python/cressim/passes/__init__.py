@@ -1,13 +1,13 @@
 """Ready-made custom compute passes (HLSL sources for Engine.create_compute_pass) and the tools
 built on them: `grasp.Grasp` (jaws that hold soft bodies and threads), `suction.Suction` (a tip
-that removes fluid)."""
+that removes fluid), `cautery.Cautery` (an energized tip that heats tissue)."""
 from pathlib import Path
 
 import numpy as np
 
 
 def source(name: str) -> str:
-    """The HLSL of pass `name` ("grasp", "suction")."""
+    """The HLSL of pass `name` ("grasp", "suction", "cautery")."""
     path = Path(__file__).with_name(f"{name}.hlsl")
     if not path.exists():
         known = sorted(p.stem for p in Path(__file__).parent.glob("*.hlsl"))
@@ -16,7 +16,7 @@ def source(name: str) -> str:
 
 
 class EnvTool:
-    """What a per-env tool pass shares (Grasp, Suction): `commands`, int32 (envs, 4) on the GPU,
+    """What a per-env tool pass shares (Grasp, Suction, Cautery): `commands`, int32 (envs, 4) on the GPU,
     x the command (1 on / closed, 0 off / open), y the rigid body (-1: none), z the pass's state,
     w its count; a task pass may write x itself, the host through `set`."""
 
