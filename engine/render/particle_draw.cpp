@@ -25,6 +25,7 @@ ParticleDraw::ParticleDraw(std::shared_ptr<gpu::Context> ctx, const RenderModel&
   bound_["particle_phases"] = scene.at("particles.phases");
   bound_["particle_objects"] = scene.at("particles.objects");
   bound_["particle_orientations"] = scene.at("particles.orientations");
+  bound_["particle_damage"] = scene.at("particles.damage");
   bound_["recipes"] = make("render.particle_vertices", model_.particle_vertices, 4, DType::UINT32);
   bound_["adjacency"] = make("render.particle_adjacency", model_.particle_adjacency, 1, DType::UINT32);
   bound_["triangles"] = make("render.particle_triangles", model_.particle_triangles, 4, DType::UINT32);

@@ -16,7 +16,8 @@
 [[vk::binding(5)]] StructuredBuffer<uint> adjacency;
 [[vk::binding(6)]] StructuredBuffer<uint4> triangles;
 [[vk::binding(7)]] RWStructuredBuffer<float4> vertex_positions;
-[[vk::binding(8)]] RWStructuredBuffer<float4> vertex_normals;
+[[vk::binding(8)]] RWStructuredBuffer<float4> vertex_normals;  // w: the share coagulated (shading.hlsli)
+[[vk::binding(9)]] StructuredBuffer<float> particle_damage;     // particles.damage (heat)
 
 struct Params {
   uint count;  // generated vertices
@@ -54,6 +55,9 @@ void main(uint3 id : SV_DispatchThreadID) {
   } else {
     return;  // fluid particles: drawn in screen space (fluid_*.comp.hlsl)
   }
+  // the share of proteins denatured, 1 - exp(-Omega), of a body with heat
+  const bool heat = particle_objects[particle_phases[particle].y].heat.x > 0;
+  const float burn = heat ? 1 - exp(-particle_damage[particle]) : 0;
   vertex_positions[pc.base + i] = float4(p, 1);
-  vertex_normals[pc.base + i] = float4(n, 0);
+  vertex_normals[pc.base + i] = float4(n, burn);
 }

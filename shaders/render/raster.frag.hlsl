@@ -21,6 +21,7 @@ PSOut main(Varyings i) {
   // meshes whose vertices come from a buffer have no normals: the triangle's, from derivatives
   p.normal = (r.maps.y & RENDER_FLAT_NORMALS) != 0 ? cross(p.dp_dy, p.dp_dx) : i.normal;
   p.uv = i.uv;
+  p.burn = i.burn;
   p.uv_grad = float4(ddx(i.uv), ddy(i.uv));
   PSOut o;
   o.color = encode_color(shade(r, p, positions[cameras[i.camera].ids.x].xyz));

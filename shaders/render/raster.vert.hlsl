@@ -22,6 +22,7 @@ Varyings main(uint mesh_vertex : SV_VertexID, uint instance : SV_InstanceID, out
   o.world = world;
   o.normal = world_normal(r, vertex);
   o.uv = vertex_uvs[vertex];
+  o.burn = world_burn(r, vertex);
   o.depth = local.z;
   o.renderable = pair.x;
   o.camera = pair.y;

@@ -236,6 +236,7 @@ void main(uint3 group : SV_GroupID, uint tid : SV_GroupIndex) {
                    ? quat_rotate(eye_q, cross(e1, e2))  // flat: the triangle's
                    : b0 * world_normal(r, vi[0]) + b1 * world_normal(r, vi[1]) + b2 * world_normal(r, vi[2]);
     p.uv = uv0 + b1 * uv1 + b2 * uv2;
+    p.burn = b0 * world_burn(r, vi[0]) + b1 * world_burn(r, vi[1]) + b2 * world_burn(r, vi[2]);
     // the change per pixel: the same plane hit by the rays one pixel over
     p.uv_grad = 0;
     p.dp_dx = p.dp_dy = 0;

@@ -25,6 +25,7 @@ struct Varyings {
   float3 world : POSITION1;
   float3 normal : NORMAL;
   float2 uv : TEXCOORD0;
+  float burn : BURN;    // share of the tissue coagulated (world_burn)
   float depth : DEPTH;  // along the optical axis
   nointerpolation uint renderable : RENDERABLE;
   nointerpolation uint camera : CAMERA;
@@ -35,6 +36,12 @@ float3 world_position(RenderableData r, uint vertex) {
   if (r.maps.w & RENDER_WORLD_VERTICES) return vertex_positions[vertex].xyz;
   const uint row = r.ids.x;
   return positions[row].xyz + quat_rotate(rotations[row], scales[row].xyz * vertex_positions[vertex].xyz);
+}
+
+// particle surfaces carry their particle's coagulated share in the normal's w
+// (particle_vertices.comp.hlsl); other meshes none
+float world_burn(RenderableData r, uint vertex) {
+  return (r.maps.w & RENDER_WORLD_VERTICES) ? vertex_normals[vertex].w : 0;
 }
 
 float3 world_normal(RenderableData r, uint vertex) {

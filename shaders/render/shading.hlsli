@@ -39,7 +39,11 @@ struct SurfacePoint {
   float2 uv;
   float4 uv_grad;  // (du/dx, dv/dx, du/dy, dv/dy)
   float3 dp_dx, dp_dy;  // world position
+  float burn;      // share of the tissue coagulated: its colour turns to COAGULATED
 };
+
+// coagulated soft tissue turns a pale grey-tan (linear RGB)
+static const float3 COAGULATED = float3(0.52, 0.42, 0.33);
 
 // trilinear, the stored values (sRGB-encoded for colours); uv_grad picks the level whose
 // texels are about a pixel wide (the larger of the two screen axes)
@@ -125,6 +129,7 @@ float4 shade(RenderableData r, SurfacePoint p, float3 eye) {
   if ((r.maps.y >> RENDER_NORMAL_MAP_SHIFT) != 0) n = apply_normal_map(r, p, n);
   float4 base = r.color;
   if (r.maps.x != 0) base *= sample_texture(r.maps.x - 1, p.uv, p.uv_grad);
+  base.rgb = lerp(base.rgb, COAGULATED, saturate(p.burn));
   const float metallic = saturate(r.material.x), roughness = clamp(r.material.y, 0.05, 1.0);
   float3 rgb = env.map.x != 0 ? image_lighting(env, n, v, base.rgb, metallic, roughness)
                               : lerp(env.ground.rgb, env.sky.rgb, 0.5 + 0.5 * n.z) * base.rgb;
