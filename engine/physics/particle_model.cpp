@@ -486,6 +486,7 @@ ParticleModel build_particle_model(const scene::World& world, const scene::Layou
           const auto& t = sb.thermal;
           o.heat = {t.conductivity, t.specific_heat, t.temperature, sb.density};
           o.burn = {float(std::log(t.frequency_factor)), float(t.activation_energy / 8.314462618), t.damage_onset, 0};
+          o.coagulation = {t.coagulated_stiffening, t.coagulated_shrinkage, 0, 0};
         }
         max_radius = std::max(max_radius, sb.radius);
         end();

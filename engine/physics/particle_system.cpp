@@ -249,6 +249,15 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
       heat_flow_->set_threads({uint64_t(s.vertices.size()), 1, 1});
       heat_flow_items_ = uint32_t(s.vertices.size());
       all_.push_back(heat_flow_);
+      // coagulation sets the tets' material from the authored records
+      auto bc = b;
+      bc["initial_constraints"] = in("", "particles.tet_initial_constraints", words(s.records),
+                                     {c, int64_t(sizeof(shader::ParticleConstraint) / 4)}, DType::UINT32);
+      bc["initial_rows"] = in("", "particles.tet_initial_rows", s.record_rows, {c, 3, 4}, DType::FLOAT32);
+      coagulate_ = compute::create_builtin_pass(ctx, "physics/particle_tet_coagulate", bc);
+      coagulate_->set_threads({uint64_t(c), 1, 1});
+      coagulate_items_ = uint32_t(c);
+      all_.push_back(coagulate_);
     }
     auto p = compute::create_builtin_pass(ctx, s.shader, b);
     all_.push_back(p);
@@ -395,6 +404,7 @@ void ParticleSystem::set_constants(const PhysicsSettings& s) {
     for (auto& [r, records] : cut_resets_)
       if (p == r) c.item_count = records;
     if (p == heat_flow_) c.item_count = heat_flow_items_;
+    if (p == coagulate_) c.item_count = coagulate_items_;
     if (p == heat_apply_) c.item_count = heat_cycles(s);
     if (p->constants.size() != sizeof(c)) throw std::logic_error("ParticleConstants does not match " + p->name);
     std::memcpy(p->constants.data(), &c, sizeof(c));
@@ -449,12 +459,17 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
     run(heat_flow_);
     run(heat_apply_);
   }
+  run(coagulate_);
   health_->record(cmd);
 }
 
 void ParticleSystem::record_reset(VkCommandBuffer cmd) const {
   reset_->record(cmd);
   for (auto& [p, records] : cut_resets_) p->record(cmd);
+  if (coagulate_) {  // a reset env's tets as authored (its damage is 0 again)
+    gpu::compute_barrier(cmd);
+    coagulate_->record(cmd);
+  }
 }
 
 uint64_t ParticleSystem::health_events(const BufferMap& internal) const {

@@ -59,7 +59,7 @@ class ParticleSystem {
   VkBuffer frame_clear_ = VK_NULL_HANDLE;     // zeroed at each frame start (particle forces on bodies)
   std::vector<std::shared_ptr<compute::ComputePass>> all_;
   std::shared_ptr<compute::ComputePass> emit_, integrate_, orient_integrate_, orient_velocity_, grid_count_, scan_local_, scan_blocks_, scan_add_, scatter_, sort_, neighbor_list_,
-      fluid_lambda_, neighbors_, gather_, rigid_push_, rigid_hold_, rigid_forces_, heat_flow_, heat_apply_, attach_, support_, velocity_, vorticity_,
+      fluid_lambda_, neighbors_, gather_, rigid_push_, rigid_hold_, rigid_forces_, heat_flow_, heat_apply_, coagulate_, attach_, support_, velocity_, vorticity_,
       fluid_velocity_,
       health_, reset_, remove_;
   // a non-empty constraint set: its pass dispatched once per colour, and for positional
@@ -74,6 +74,7 @@ class ParticleSystem {
   std::vector<compute::ComputePass*> moving_;
   uint32_t largest_env_ = 0, largest_env_index_ = 0;  // particles of the biggest env
   uint32_t heat_flow_items_ = 0;                       // the tets' solved particles (particle_heat_flow)
+  uint32_t coagulate_items_ = 0;                       // tets (particle_tet_coagulate)
   // per family: the env reset of its cut flags, and its record count
   std::vector<std::pair<std::shared_ptr<compute::ComputePass>, uint32_t>> cut_resets_;
 };

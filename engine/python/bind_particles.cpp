@@ -89,27 +89,34 @@ void bind_particles(py::module_& m) {
 
   py::class_<scene::Thermal>(m, "Thermal")
       .def(py::init([](float conductivity, float specific_heat, float temperature, double frequency_factor,
-                       double activation_energy, float damage_onset) {
+                       double activation_energy, float damage_onset, float coagulated_stiffening,
+                       float coagulated_shrinkage) {
              scene::Thermal t;
              t.enabled = true;
              t.conductivity = conductivity, t.specific_heat = specific_heat, t.temperature = temperature;
              t.frequency_factor = frequency_factor, t.activation_energy = activation_energy;
              t.damage_onset = damage_onset;
+             t.coagulated_stiffening = coagulated_stiffening, t.coagulated_shrinkage = coagulated_shrinkage;
              return t;
            }),
            py::kw_only(), py::arg("conductivity") = 0.52f, py::arg("specific_heat") = 3540.f,
            py::arg("temperature") = 310.15f, py::arg("frequency_factor") = 7.39e39, py::arg("activation_energy") = 2.577e5,
-           py::arg("damage_onset") = 315.15f,
+           py::arg("damage_onset") = 315.15f, py::arg("coagulated_stiffening") = 4.0f,
+           py::arg("coagulated_shrinkage") = 0.1f,
            "Heat in an elastic SoftBody (docs/particles.md, \"Heat\"): conductivity (W/m/K), specific_heat "
            "(J/kg/K), the starting temperature (K), and the Arrhenius pair of its thermal damage: frequency_factor "
            "A (1/s) and activation_energy Ea (J/mol), the damage growing at A exp(-Ea / (R T)) per second above "
-           "damage_onset (K, default 42 C). Defaults: liver at 37 C.")
+           "damage_onset (K, default 42 C). Coagulated tissue (its share 1 - exp(-Omega)) is coagulated_stiffening "
+           "times stiffer and shrinks by coagulated_shrinkage (linear strain), and an energized tool cuts it. "
+           "Defaults: liver at 37 C.")
       .def_readonly("conductivity", &scene::Thermal::conductivity)
       .def_readonly("specific_heat", &scene::Thermal::specific_heat)
       .def_readonly("temperature", &scene::Thermal::temperature)
       .def_readonly("frequency_factor", &scene::Thermal::frequency_factor)
       .def_readonly("activation_energy", &scene::Thermal::activation_energy)
-      .def_readonly("damage_onset", &scene::Thermal::damage_onset);
+      .def_readonly("damage_onset", &scene::Thermal::damage_onset)
+      .def_readonly("coagulated_stiffening", &scene::Thermal::coagulated_stiffening)
+      .def_readonly("coagulated_shrinkage", &scene::Thermal::coagulated_shrinkage);
 
   py::class_<scene::SoftBody>(m, "SoftBody")
       .def(py::init([](py::object shape, py::object tets, py::object triangles, py::object fixed, py::object youngs_modulus,

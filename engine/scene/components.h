@@ -219,6 +219,9 @@ struct Thermal {
   double frequency_factor = 7.39e39;  // A, 1/s (beyond float range: kept as ln A on the GPU)
   double activation_energy = 2.577e5;  // Ea, J/mol
   float damage_onset = 315.15f;    // K: no damage below it (42 C; the fit holds for hyperthermia, not at rest)
+  // coagulated tissue (its share 1 - exp(-Omega)): stiffer by this ratio and shrunk by this linear strain
+  float coagulated_stiffening = 4.0f;
+  float coagulated_shrinkage = 0.1f;
 };
 
 struct SoftBody {

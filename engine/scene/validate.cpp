@@ -276,6 +276,8 @@ void soft_body(const Fields& c, const SoftBody& s) {
     c.positive("thermal.frequency_factor", s.thermal.frequency_factor);
     c.positive("thermal.activation_energy", s.thermal.activation_energy);
     c.positive("thermal.damage_onset", s.thermal.damage_onset);
+    c.positive("thermal.coagulated_stiffening", s.thermal.coagulated_stiffening);
+    c.within("thermal.coagulated_shrinkage", s.thermal.coagulated_shrinkage, 0.0, 0.5);
   }
 }
 

@@ -44,6 +44,7 @@ struct ParticleObject {
   float4 emit_velocity;  // xyz velocity of emitted particles, w nozzle width (particles a side)
   float4 heat;      // elastic bodies with heat: x conductivity (W/m/K; 0: no heat), y specific heat (J/kg/K), z initial temperature (K), w density (kg/m^3)
   float4 burn;      // x ln of the Arrhenius frequency factor (ln 1/s), y activation energy / gas constant (K), z damage onset (K)
+  float4 coagulation;  // fully coagulated tissue: x stiffness ratio, y linear shrinkage
 };
 
 struct ParticleEnvRange {

@@ -153,3 +153,71 @@ def test_an_energized_tool_heats_the_tissue_it_touches(make_engine):
         cautery.execute()
         step(engine, 1)
     assert engine.buffer("particles.temperatures").read().reshape(2, -1)[0].max() < peak
+
+
+def _blocks(make_engine, hot, floor, envs=2, **thermal):
+    """A 40 mm cube of 20 kPa tissue with heat in each env (on a frictionless floor, or floating
+    without gravity), env 0's starting at `hot` K everywhere (coagulated within a frame), env 1's
+    at 37 C."""
+    mesh = cressim.TetMesh.box((0.02, 0.02, 0.02), (3, 3, 3))
+    world = cressim.World(cressim.SceneLayout(envs))
+    for env in range(envs):
+        if floor:
+            world.create_entity(env=env, name="floor").add(cressim.Collider(cressim.Shape.plane()))
+        block = world.create_entity(env=env, name="tissue")
+        block.add(cressim.Transform(position=(0, 0, 0.022)))
+        block.add(cressim.SoftBody(mesh, youngs_modulus=2e4, density=RHO, radius=0.002, friction=0.0, damping=5.0,
+                                   thermal=cressim.Thermal(**thermal)))
+    engine = start(world, make_engine, **({} if floor else {"gravity": (0, 0, 0)}))
+    t = engine.buffer("control.particle_reset_temperatures").read().reshape(envs, -1)
+    t[0] = hot
+    engine.buffer("control.particle_reset_temperatures").write(t.reshape(-1))
+    engine.reset_envs([0])
+    return engine, np.asarray(mesh.positions), np.asarray(mesh.tets)
+
+
+def test_coagulated_tissue_shrinks(make_engine):
+    """Coagulated through (Omega >> 1), a floating block shrinks by the linear strain 0.1 in every
+    direction: its volume falls to 0.9^3 = 0.729 of the raw block's."""
+    engine, rest, tets = _blocks(make_engine, 373.15, floor=False)
+    step(engine, 90)
+    x = engine.buffer("particles.positions").read()[:, :3].reshape(2, -1, 3)
+    assert engine.buffer("particles.damage").read().reshape(2, -1)[0].min() > 10
+
+    def volume(p):
+        a, b, c, d = (p[tets[:, k]] for k in range(4))
+        return np.einsum("ij,ij->i", b - a, np.cross(c - a, d - a)).sum() / 6
+
+    ratio = volume(x[0]) / volume(x[1])
+    assert abs(ratio - 0.729) < 0.01, ratio
+
+
+def test_coagulated_tissue_stiffens(make_engine):
+    """A block resting on a floor sinks under its weight by rho g H^2 / 2E: coagulated, 4 times
+    stiffer (shrinkage off here), it sinks a quarter as far as the raw block beside it."""
+    engine, rest, _ = _blocks(make_engine, 373.15, floor=True, coagulated_shrinkage=0.0)
+    step(engine, 240)
+    top = rest[:, 2] > 0.02 - 1e-6
+    z = engine.buffer("particles.positions").read()[:, 2].reshape(2, -1)
+    drop = 0.04 + 0.002 - z[:, top].mean(axis=1)
+    assert 3e-4 < drop[1] < 5e-4, drop  # the raw block, as tests/physics/test_elastic_tets.py's
+    assert abs(drop[0] / drop[1] - 0.25) < 0.03, drop
+
+
+def test_an_energized_tool_cuts_coagulated_tissue(make_engine):
+    """With the heat source on at the coagulated block's top middle, the coagulated tets whose
+    centres lie within its 8 mm radius are cut, the rest stay; the raw block in env 1, under the
+    same source, is only heated, not cut (its tissue is not coagulated yet)."""
+    engine, rest, tets = _blocks(make_engine, 373.15, floor=False)
+    step(engine, 2)
+    sources = np.zeros((2, 2, 4), np.float32)
+    sources[:, 0] = (0, 0, 0.042, 0.008)
+    sources[:, 1, 0] = 1.0
+    engine.buffer("control.heat_sources").write(sources)
+    step(engine, 1)
+    cut = engine.buffer("control.particle_tet_cut").read().reshape(2, -1)
+    x = engine.buffer("particles.positions").read()[:, :3].reshape(2, -1, 3)
+    centres = x[0][tets].mean(axis=1)
+    inside = np.linalg.norm(centres - [0, 0, 0.042], axis=1) < 0.008
+    assert inside.any() and np.array_equal(cut[0] != 0, inside)
+    assert not cut[1].any()

@@ -1,0 +1,47 @@
+// Frame end, after the heat cycles, and after an env's reset: a thread per tet of a body with heat
+// sets the tet's material from its coagulated share f = 1 - exp(-Omega), Omega the mean damage of
+// its corners: stiffness (mu, lambda) times 1 + (s - 1) f, and the rest shape shrunk by the linear
+// strain e f (Dm^-1 over 1 - e f, the rest volume times its cube), from the authored records; so
+// coagulated tissue stiffens and draws together, and a reset env's tets are as authored again.
+// Where the env's heat source is on, a coagulated tet (f above 0.9) whose centre lies within the
+// source's radius is cut (control.particle_tet_cut): the energized tool parts coagulated tissue.
+#include "cressim/layout.h"
+#include "cressim/particle.h"
+
+[[vk::push_constant]] ConstantBuffer<ParticleConstants> pc;
+RWStructuredBuffer<ParticleConstraint> constraints;
+RWStructuredBuffer<float4> record_rows;
+StructuredBuffer<ParticleConstraint> initial_constraints;  // as authored
+StructuredBuffer<float4> initial_rows;
+RWStructuredBuffer<uint> cut;
+StructuredBuffer<uint4> phases;
+StructuredBuffer<float4> positions;
+StructuredBuffer<ParticleObject> objects;
+StructuredBuffer<float> damage;
+StructuredBuffer<float4> heat_sources;
+
+static const float CUT_COAGULATED = 0.9;
+
+[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
+void main(uint3 id : SV_DispatchThreadID) {
+  const uint t = id.x;
+  if (t >= pc.item_count) return;
+  const ParticleConstraint c0 = initial_constraints[t];
+  const uint4 q = c0.particles;
+  const ParticleObject o = objects[phases[q.x].y];
+  if (o.heat.x <= 0) return;
+  const float f = 1 - exp(-0.25 * (damage[q.x] + damage[q.y] + damage[q.z] + damage[q.w]));
+  const float stiff = 1 + (o.coagulation.x - 1) * f, shrink = 1 - o.coagulation.y * f;
+  ParticleConstraint c = c0;
+  c.params.x = c0.params.x * shrink * shrink * shrink;
+  c.params.y = c0.params.y * stiff;
+  c.params.z = c0.params.z * stiff;
+  constraints[t] = c;
+  [unroll] for (uint r = 0; r < 3; ++r) record_rows[3 * t + r] = initial_rows[3 * t + r] / shrink;
+  const uint env = phases[q.x].z;
+  const float4 source = heat_sources[2 * env];
+  if (f > CUT_COAGULATED && source.w > 0 && heat_sources[2 * env + 1].x > 0) {
+    const float3 centre = 0.25 * (positions[q.x].xyz + positions[q.y].xyz + positions[q.z].xyz + positions[q.w].xyz);
+    if (length(centre - source.xyz) < source.w) cut[t] = 1;
+  }
+}
