@@ -3,8 +3,10 @@
 // its corners: stiffness (mu, lambda) times 1 + (s - 1) f, and the rest shape shrunk by the linear
 // strain e f (Dm^-1 over 1 - e f, the rest volume times its cube), from the authored records; so
 // coagulated tissue stiffens and draws together, and a reset env's tets are as authored again.
-// Where the env's heat source is on, a coagulated tet (f above 0.9) whose centre lies within the
-// source's radius is cut (control.particle_tet_cut): the energized tool parts coagulated tissue.
+// Where the env's heat source is on in cut mode (heat_sources row 1: y 1), a coagulated tet (f above
+// 0.9) whose centre lies within the source's radius is cut (control.particle_tet_cut): the
+// energized tool parts the tissue it has coagulated, as an electrosurgical cut leaves coagulated
+// edges; in coagulation mode (y 0) it only heats.
 #include "cressim/layout.h"
 #include "cressim/particle.h"
 
@@ -40,7 +42,8 @@ void main(uint3 id : SV_DispatchThreadID) {
   [unroll] for (uint r = 0; r < 3; ++r) record_rows[3 * t + r] = initial_rows[3 * t + r] / shrink;
   const uint env = phases[q.x].z;
   const float4 source = heat_sources[2 * env];
-  if (f > CUT_COAGULATED && source.w > 0 && heat_sources[2 * env + 1].x > 0) {
+  const float2 mode = heat_sources[2 * env + 1].xy;  // power, cut
+  if (f > CUT_COAGULATED && source.w > 0 && mode.x > 0 && mode.y != 0) {
     const float3 centre = 0.25 * (positions[q.x].xyz + positions[q.y].xyz + positions[q.z].xyz + positions[q.w].xyz);
     if (length(centre - source.xyz) < source.w) cut[t] = 1;
   }

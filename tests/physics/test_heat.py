@@ -205,14 +205,19 @@ def test_coagulated_tissue_stiffens(make_engine):
 
 
 def test_an_energized_tool_cuts_coagulated_tissue(make_engine):
-    """With the heat source on at the coagulated block's top middle, the coagulated tets whose
-    centres lie within its 8 mm radius are cut, the rest stay; the raw block in env 1, under the
-    same source, is only heated, not cut (its tissue is not coagulated yet)."""
+    """With the heat source on in cut mode at the coagulated block's top middle, the coagulated
+    tets whose centres lie within its 8 mm radius are cut, the rest stay; the raw block in env 1,
+    under the same source, is only heated, not cut (its tissue is not coagulated yet); in
+    coagulation mode nothing is cut."""
     engine, rest, tets = _blocks(make_engine, 373.15, floor=False)
     step(engine, 2)
     sources = np.zeros((2, 2, 4), np.float32)
     sources[:, 0] = (0, 0, 0.042, 0.008)
     sources[:, 1, 0] = 1.0
+    engine.buffer("control.heat_sources").write(sources)  # coagulation mode
+    step(engine, 1)
+    assert not engine.buffer("control.particle_tet_cut").read().any()
+    sources[:, 1, 1] = 1.0  # cut mode
     engine.buffer("control.heat_sources").write(sources)
     step(engine, 1)
     cut = engine.buffer("control.particle_tet_cut").read().reshape(2, -1)

@@ -1,9 +1,11 @@
 """An energized tool tip (cautery.hlsl): per env, a tip (a point in one rigid body, the tool's
-electrode, or a fixed point in the world), a radius and a power. While an env's cautery is on, the
-engine's heat source of that env sits at the tip and puts the power into the tissue within the
-radius (bodies with a cressim.Thermal; docs/particles.md, "Heat"); off, it puts none.
+electrode, or a fixed point in the world), a radius, a power and a mode. While an env's cautery is
+on, the engine's heat source of that env sits at the tip and puts the power into the tissue within
+the radius (bodies with a cressim.Thermal; docs/particles.md, "Heat"); off, it puts none. In cut
+mode it also parts the tissue it has coagulated there (coagulation mode only heats).
 
-Commands live on the GPU (`commands`, int32 (envs, 4): x 1 on / 0 off, y the body (-1: none);
+Commands live on the GPU (`commands`, int32 (envs, 4): x 1 on / 0 off, y the body (-1: none), z 1
+cut mode / 0 coagulation;
 `powers`, float32 (envs,): W while on), so a task pass can switch the cautery and set its power
 itself (bind `commands` as `RWStructuredBuffer<int4> cauteries`); the host writes them only when it
 drives the cautery (`set`, `set_power`). Run `execute()` before `step_physics()`: the source acts in
@@ -50,6 +52,12 @@ class Cautery(EnvTool):
                       "body_rotations": "rigid.rotations" if rigid else self.tips,
                       "cautery_tips": self.tips, "cautery_powers": self.powers, "cauteries": self.commands,
                       "sources": "control.heat_sources"})
+
+    def set_mode(self, cut) -> None:
+        """Each env's mode (bools, one per env, or one for all): cut (True) or coagulation."""
+        state = self.commands.read()
+        state[:, 2] = np.broadcast_to(np.asarray(cut, dtype=bool), (self.envs,))
+        self.commands.write(state)
 
     def set_power(self, power) -> None:
         """Each env's power while on (W, finite, >= 0; one for all envs or one per env)."""
