@@ -30,10 +30,14 @@ def _demo(args: argparse.Namespace) -> int:
     if args.scene in ("soft", "fluid", "thread"):
         from cressim.demos.particles import run
 
-        return run(args.scene, frames=args.frames, out_dir=args.out)
+        return run(args.scene, frames=args.frames or 120, out_dir=args.out)
+    if args.scene == "cautery":
+        from cressim.demos.cautery import run
+
+        return run(frames=args.frames or 480, out_dir=args.out, num_envs=args.envs or 1)
     from cressim.demos.batched_scene import run
 
-    return run(num_envs=args.envs, frames=args.frames, out_dir=args.out)
+    return run(num_envs=args.envs or 16, frames=args.frames or 120, out_dir=args.out)
 
 
 def _render(args: argparse.Namespace) -> int:
@@ -94,12 +98,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--json", action="store_true", help="print the chosen device as JSON")
     p.set_defaults(run=_info)
     p = sub.add_parser("demo", help="the main job on the default scene")
-    p.add_argument("scene", nargs="?", default="batched", choices=("batched", "soft", "fluid", "thread"),
+    p.add_argument("scene", nargs="?", default="batched", choices=("batched", "soft", "fluid", "thread", "cautery"),
                    help="batched: a batched scene and a custom compute pass (default); soft, fluid, thread: "
                         "particle scenes saved as particle-state sequences (.npz) and a few rendered frames (PNG "
-                        "colour, segmentation). The twin's demo is ROS's: `python -m cressim_ros.demo`")
-    p.add_argument("--envs", type=int, default=16, help="batched: envs")
-    p.add_argument("--frames", type=int, default=120, help="batched and particle scenes: frames")
+                        "colour, segmentation); cautery: an energized hook coagulates and cuts a track in liver. "
+                        "The twin's demo is ROS's: `python -m cressim_ros.demo`")
+    p.add_argument("--envs", type=int, help="batched: envs (default 16); cautery: envs (default 1)")
+    p.add_argument("--frames", type=int, help="frames (default 120; cautery 480)")
     p.add_argument("--out", default="out/demo", help="folder for the demo's outputs")
     p.set_defaults(run=_demo)
     p = sub.add_parser("render", help="PNG images of a scene file's cameras (RGB, depth, segmentation)")

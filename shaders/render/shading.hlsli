@@ -43,7 +43,7 @@ struct SurfacePoint {
 };
 
 // coagulated soft tissue turns a pale grey-tan (linear RGB)
-static const float3 COAGULATED = float3(0.52, 0.42, 0.33);
+static const float3 COAGULATED = float3(0.36, 0.28, 0.2);
 
 // trilinear, the stored values (sRGB-encoded for colours); uv_grad picks the level whose
 // texels are about a pixel wide (the larger of the two screen axes)

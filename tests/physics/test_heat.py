@@ -226,3 +226,18 @@ def test_an_energized_tool_cuts_coagulated_tissue(make_engine):
     inside = np.linalg.norm(centres - [0, 0, 0.042], axis=1) < 0.008
     assert inside.any() and np.array_equal(cut[0] != 0, inside)
     assert not cut[1].any()
+
+
+def test_the_cautery_demo_coagulates_and_cuts_a_track(tmp_path):
+    """`cressim demo cautery`, shortened (1 s out in coagulation mode, 1 s back in cut mode): a
+    coagulated track, cut on the way back, its images saved."""
+    import json
+
+    from cressim import io
+    from cressim.demos.cautery import run
+
+    assert run(frames=120, out_dir=str(tmp_path), images=2, width=64, height=48) == 0
+    summary = json.loads((tmp_path / "cautery_summary.json").read_text())
+    assert summary["coagulated_mm3_per_env"] > 20 and summary["cut_tets_per_env"] > 0, summary
+    assert 60 < summary["peak_c"] < 300 and summary["health_events"] == 0
+    assert io.read_png(tmp_path / "cautery_119_rgb.png").shape[:2] == (48, 64)

@@ -40,4 +40,4 @@ def test_a_coagulated_patch_turns_pale(make_engine, raster, monkeypatch):
     corner = rgb[0, int(cv), int(cu), :3].astype(float)
     other = rgb[1, int(v) - 1:int(v) + 2, int(u) - 1:int(u) + 2, :3].reshape(-1, 3).mean(0).astype(float)
     assert corner[0] > 2 * corner[1] and other[0] > 2 * other[1]  # still red
-    assert patch[1] > 1.5 * other[1] and patch[0] / patch[1] < 0.7 * other[0] / other[1], (patch, other)
+    assert patch[1] > 1.2 * other[1] and patch[0] / patch[1] < 0.7 * other[0] / other[1], (patch, other)  # grey-tan
