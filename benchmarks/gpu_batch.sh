@@ -4,6 +4,7 @@
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-a           # CartPole, rendering
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-b bench-twin  # ultrasound; the twin
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-twin-tissue  # the twin over tissue
+#   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-heat  # the cautery scene; the twin's tick
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-soft bench-fluid  # SoftBodyPush, FluidPour
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-soft-material      # elastic tets' cost
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-surgical  # TissueRetract, BloodSuction
@@ -86,6 +87,11 @@ for stage in "$@"; do
         --dynamics kinematic --seconds 5 --json "$OUT/twin_tissue.json"
       run twin_tissue_dynamic 300 python3 benchmarks/bench_twin.py --scene psm_retraction.yaml --envs 1,16 \
         --dynamics dynamic --physics-rate 800 --seconds 5 --json "$OUT/twin_tissue_dynamic.json"
+      ;;
+    bench-heat)  # cressim demo cautery's scene with and without heat; where a twin tick over tissue goes
+      run cautery 300 python3 benchmarks/bench_cautery.py --envs 1,64,1024 --json "$OUT/cautery.json"
+      run profile_twin 300 python3 benchmarks/profile_twin.py --physics-rates 200,800 --iterations 4/4,2/1 \
+        --json "$OUT/profile_twin.json"
       ;;
     bench-soft)
       mkdir -p "$OUT/softbodypush" "$OUT/softbodypush_ppo"

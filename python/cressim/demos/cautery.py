@@ -24,7 +24,7 @@ TOP = 2 * HALF[2]
 SPEED, TRACK, RADIUS, POWER = 0.01, 0.04, 0.0025, 30.0  # m/s, m, m, W
 
 
-def _env(world, env, table_mesh, width, height):
+def _env(world, env, table_mesh, width, height, heat=True):
     table = world.create_entity(env=env, name="table")
     table.add(cressim.Transform())
     table.add(cressim.Collider(cressim.Shape.plane()))
@@ -34,7 +34,7 @@ def _env(world, env, table_mesh, width, height):
     liver = world.create_entity(env=env, name="liver")
     liver.add(cressim.Transform(position=(0, 0, HALF[2])))
     liver.add(cressim.SoftBody(mesh, fixed=np.nonzero(rest[:, 2] < -HALF[2] + 1e-6)[0], youngs_modulus=5e3,
-                               radius=0.001, damping=5.0, thermal=cressim.Thermal()))
+                               radius=0.001, damping=5.0, thermal=cressim.Thermal() if heat else None))
     liver.add(cressim.Material(color=(0.28, 0.04, 0.03, 1), roughness=0.45))
     hook = world.create_entity(env=env, name="hook")
     hook.add(cressim.Transform(position=(-TRACK / 2, 0, TOP)))
