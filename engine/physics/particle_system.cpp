@@ -256,8 +256,11 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
       bc["initial_rows"] = in("", "particles.tet_initial_rows", s.record_rows, {c, 3, 4}, DType::FLOAT32);
       coagulate_ = compute::create_builtin_pass(ctx, "physics/particle_tet_coagulate", bc);
       coagulate_->set_threads({uint64_t(c), 1, 1});
+      coagulate_reset_ = compute::create_builtin_pass(ctx, "physics/particle_tet_coagulate", bc);
+      coagulate_reset_->set_threads({uint64_t(c), 1, 1});
       coagulate_items_ = uint32_t(c);
       all_.push_back(coagulate_);
+      all_.push_back(coagulate_reset_);
     }
     auto p = compute::create_builtin_pass(ctx, s.shader, b);
     all_.push_back(p);
@@ -404,7 +407,8 @@ void ParticleSystem::set_constants(const PhysicsSettings& s) {
     for (auto& [r, records] : cut_resets_)
       if (p == r) c.item_count = records;
     if (p == heat_flow_) c.item_count = heat_flow_items_;
-    if (p == coagulate_) c.item_count = coagulate_items_;
+    if (p == coagulate_ || p == coagulate_reset_) c.item_count = coagulate_items_;
+    if (p == coagulate_reset_) c.item_offset = 1;  // write every tet
     if (p == heat_apply_) c.item_count = heat_cycles(s);
     if (p->constants.size() != sizeof(c)) throw std::logic_error("ParticleConstants does not match " + p->name);
     std::memcpy(p->constants.data(), &c, sizeof(c));
@@ -466,9 +470,9 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
 void ParticleSystem::record_reset(VkCommandBuffer cmd) const {
   reset_->record(cmd);
   for (auto& [p, records] : cut_resets_) p->record(cmd);
-  if (coagulate_) {  // a reset env's tets as authored (its damage is 0 again)
+  if (coagulate_) {  // a reset env's tets as authored (its damage is 0 again): every tet written
     gpu::compute_barrier(cmd);
-    coagulate_->record(cmd);
+    coagulate_reset_->record(cmd);
   }
 }
 

@@ -3,6 +3,8 @@
 // its corners: stiffness (mu, lambda) times 1 + (s - 1) f, and the rest shape shrunk by the linear
 // strain e f (Dm^-1 over 1 - e f, the rest volume times its cube), from the authored records; so
 // coagulated tissue stiffens and draws together, and a reset env's tets are as authored again.
+// At the frame's end a tet without damage is skipped (damage only grows between resets, and the
+// run after a reset, item_offset 1, writes every tet): most tets are never heated.
 // Where the env's heat source is on in cut mode (heat_sources row 1: y 1), a coagulated tet (f above
 // 0.9) whose centre lies within the source's radius is cut (control.particle_tet_cut): the
 // energized tool parts the tissue it has coagulated, as an electrosurgical cut leaves coagulated
@@ -32,7 +34,9 @@ void main(uint3 id : SV_DispatchThreadID) {
   const uint4 q = c0.particles;
   const ParticleObject o = objects[phases[q.x].y];
   if (o.heat.x <= 0) return;
-  const float f = 1 - exp(-0.25 * (damage[q.x] + damage[q.y] + damage[q.z] + damage[q.w]));
+  const float omega = 0.25 * (damage[q.x] + damage[q.y] + damage[q.z] + damage[q.w]);
+  if (omega == 0 && pc.item_offset == 0) return;
+  const float f = 1 - exp(-omega);
   const float stiff = 1 + (o.coagulation.x - 1) * f, shrink = 1 - o.coagulation.y * f;
   ParticleConstraint c = c0;
   c.params.x = c0.params.x * shrink * shrink * shrink;
