@@ -188,6 +188,7 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
     in("damage", "particles.damage", std::vector<float>(size_t(nh), 0.f), {nh}, DType::FLOAT32,
        exportable && model_.has_heat);
     scratch("heat_rates", "particles.heat_rates", {nh}, DType::FLOAT32);
+    scratch("heat_cover", "particles.heat_cover", {model_.has_heat ? ne : 1}, DType::FLOAT32);
     const std::vector<float4> off(size_t(2 * ne), float4{0, 0, 0, 0});
     bindings_["heat_sources"] = make(control, "control.heat_sources", off.data(), off.size() * sizeof(float4), {ne, 2, 4},
                                      DType::FLOAT32, false, false);
@@ -301,7 +302,10 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
     orient_integrate_ = pass("physics/particle_orient_integrate", uint64_t(ne_));
     orient_velocity_ = pass("physics/particle_orient_velocity", uint64_t(ne_));
   }
-  if (model_.has_heat) heat_apply_ = pass("physics/particle_heat_apply", uint64_t(n));
+  if (model_.has_heat) {
+    heat_cover_ = pass("physics/particle_heat_cover", uint64_t(ne));
+    heat_apply_ = pass("physics/particle_heat_apply", uint64_t(n));
+  }
   if (model_.has_emitters) emit_ = pass("physics/particle_emit", uint64_t(no));
   if (model_.has_fluid) remove_ = pass("physics/particle_remove", uint64_t(n));
   set_settings(settings);
@@ -459,6 +463,7 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
   }
   run(rigid_hold_);
   run(rigid_forces_);
+  run(heat_cover_);
   for (uint32_t c = 0; heat_apply_ && c < heat_cycles(settings_); ++c) {
     run(heat_flow_);
     run(heat_apply_);

@@ -39,6 +39,9 @@ key optional unless said)::
                                          # or mesh: meshes/liver.vtk (tets of a legacy VTK .vtk or a Gmsh .msh
                                          # file; cressim/tet_mesh_file.py) and scale: 0.001 (file unit in m);
                                          # expert model: mass (per particle), distance_compliance, volume_compliance
+                                         # thermal: {} (liver) or {conductivity, specific_heat, temperature,
+                                         # frequency_factor, activation_energy, damage_onset, coagulated_stiffening,
+                                         # coagulated_shrinkage}: heat (docs/particles.md)
                                          # fixed (clamped; strands too): [0, 5, ...], or the particles in a
                                          # region of the entity frame: {box: {center, half_extents}},
                                          # {below: {axis: x|y|z, value}} or {above: {axis, value}}
@@ -500,7 +503,7 @@ class _Loader:
 
     def soft_body(self, f: Field) -> cressim.SoftBody:
         c = f.keys(("box", "cylinder", "mesh", "scale", "radius", "youngs_modulus", "poisson_ratio", "density", "mass",
-                    "distance_compliance", "volume_compliance", "damping", "friction", "fixed"))
+                    "distance_compliance", "volume_compliance", "damping", "friction", "fixed", "thermal"))
         shapes = [k for k in ("box", "cylinder", "mesh") if k in c]
         if len(shapes) != 1:
             raise f.fail("a soft_body needs one of: box, cylinder, mesh")
@@ -524,7 +527,11 @@ class _Loader:
             mesh = cressim.TetMesh.cylinder(b["radius"].float(), b["half_height"].float(), b["cells_across"].int(1),
                                             b["cells_along"].int(1))
         fixed = self.selection(c["fixed"], mesh.positions) if "fixed" in c else None
-        opts = self._options({k: v for k, v in c.items() if k not in (shape, "scale", "fixed")})
+        opts = self._options({k: v for k, v in c.items() if k not in (shape, "scale", "fixed", "thermal")})
+        if "thermal" in c:  # {} for liver's defaults; values checked by the engine (file:line there too)
+            keys = ("conductivity", "specific_heat", "temperature", "frequency_factor", "activation_energy",
+                    "damage_onset", "coagulated_stiffening", "coagulated_shrinkage")
+            opts["thermal"] = cressim.Thermal(**self._options(c["thermal"].keys(keys)))
         try:  # the material-or-compliance choice is checked by the constructor
             return cressim.SoftBody(mesh.positions, mesh.tets, mesh.triangles, fixed=fixed, **opts)
         except ValueError as exc:

@@ -2,11 +2,12 @@
 // body with heat (ParticleObject.heat.x, its conductivity, > 0) gets its rate of temperature change
 //   C_i dT_i/dt = - sum over its tets, other corners j of  k V0 (b_i . b_j) (T_j - T_i)  +  q_i
 // (linear tets, lumped heat capacity C_i = m_i c: the conductance matrix K_ij = k V0 b_i . b_j has
-// rows that sum to 0, so only differences flow and heat is conserved), where q_i is the power the
-// env's heat source (control.heat_sources: a point, radius R, power P) puts into the particle's
-// volume V_i = m_i / rho when it lies within R: P / (4/3 pi R^3) V_i. A source in tissue thus
-// delivers P, one touching the surface the share of its sphere the tissue fills. The temperatures
-// are all read before any is written (particle_heat_apply), so the threads do not race.
+// rows that sum to 0, so only differences flow and heat is conserved), where q_i is the share of
+// the env's heat source's power P (control.heat_sources: a point, radius R, power P) that the
+// particle's volume V_i = m_i / rho takes of all the tissue within R (particle_heat_cover):
+// P V_i / V_covered. The source delivers P wherever it touches tissue, none in air. The
+// temperatures are all read before any is written (particle_heat_apply), so the threads do not
+// race.
 #include "cressim/layout.h"
 #include "cressim/particle.h"
 
@@ -22,7 +23,8 @@ StructuredBuffer<float4> positions;
 StructuredBuffer<ParticleObject> objects;
 StructuredBuffer<float> heat_capacities;  // m c per particle (J/K; 0: no heat)
 StructuredBuffer<float> temperatures;
-StructuredBuffer<float4> heat_sources;    // per env: (point xyz, radius w), (power W, -, -, -)
+StructuredBuffer<float4> heat_sources;    // per env: (point xyz, radius w), (power W, cut mode, -, -)
+StructuredBuffer<float> heat_cover;       // per env: the tissue volume within the source's radius
 RWStructuredBuffer<float> heat_rates;     // K/s
 
 float3 gradient(uint t, uint k) {  // b_k of tet t: row k - 1 of Dm^-1, b_0 minus their sum
@@ -54,9 +56,8 @@ void main(uint3 id : SV_DispatchThreadID) {
       if (j != k) power -= o.heat.x * c.params.x * dot(bi, gradient(t, j)) * (temperatures[corner(c, j)] - Ti);
   }
   const float4 at = heat_sources[2 * ph.z];
-  if (at.w > 0 && length(positions[i].xyz - at.xyz) < at.w) {
-    const float volume = capacity / (o.heat.y * o.heat.w);
-    power += heat_sources[2 * ph.z + 1].x / (4.18879020 * at.w * at.w * at.w) * volume;
-  }
+  const float covered = heat_cover[ph.z];
+  if (at.w > 0 && covered > 0 && length(positions[i].xyz - at.xyz) < at.w)
+    power += heat_sources[2 * ph.z + 1].x * capacity / (o.heat.y * o.heat.w) / covered;
   heat_rates[i] = power / capacity;
 }

@@ -9,36 +9,9 @@ import torch
 from cressim.twin import JointCommand
 from cressim.twin.scene import SceneError, load_scene, parse_scene
 
-EDGE = np.array([0.0, -0.0175, 0.1545])  # world: the flap's free edge, mid-thickness
-JAW_MIDDLE = 0.006  # m from the tool tip (the jaws' pivot) along the jaws
+from arm_moves import EDGE, jaws_at, run_ticks, settle
+
 LIFT = 0.02
-
-
-def _run(arms, ticks):
-    for _ in range(ticks):
-        arms.tick()
-
-
-def _settle(arms):
-    _run(arms, 5)
-    while any(s.is_busy for s in arms.states):
-        _run(arms, 5)
-
-
-def _tips_at(arms, height, jaws=None, point=EDGE):
-    """Every env's tool tip over `point` (world) with the jaws' middle `height` (one for all envs or
-    one per env) above it (IK at the current setpoint, jaws down as at home); `jaws` (one per env)
-    commands the jaw angles."""
-    heights = np.broadcast_to(height, arms.num_envs)
-    for env in range(arms.num_envs):
-        T = arms.kin.forward(arms.setpoint[env:env + 1])[0].clone()
-        T[:3, 3] = torch.as_tensor(point + np.array([0, 0, heights[env] + JAW_MIDDLE])) - arms.bodies.base[:3, 3]
-        q, ok = arms.kin.inverse(T[None], arms.setpoint[env:env + 1])
-        assert bool(ok[0])
-        assert not [e for e in arms.move_jp(env, JointCommand(position=q[0].tolist())) if e.topic == "error"]
-        if jaws is not None:
-            arms.jaw_move_jp(env, JointCommand(position=[jaws[env]]))
-    _settle(arms)
 
 
 @pytest.mark.parametrize("dynamics", ["kinematic", "dynamic"])
@@ -54,18 +27,18 @@ def test_the_jaws_grasp_lift_and_release_the_flap(make_arms, dynamics):
     for env in range(2):
         arms.state_command(env, "enable")
         arms.state_command(env, "home")
-    _settle(arms)
+    settle(arms)
     positions = arms.bodies.engine.buffer("particles.positions")
     flat = positions.read()[:, :3].reshape(2, -1, 3).copy()
-    _tips_at(arms, 0.02, jaws=[0.8, 0.8])
-    _tips_at(arms, 0.0)
+    jaws_at(arms, 0.02, jaws=[0.8, 0.8])
+    jaws_at(arms, 0.0)
     before = positions.read()[:, :3].reshape(2, -1, 3).copy()
     arms.jaw_move_jp(0, JointCommand(position=[-0.2]))  # env 0 closes; env 1's jaws stay open
-    _settle(arms)
+    settle(arms)
     held = arms.grasp.held()
     assert held[0] > 0 and held[1] == 0
-    _tips_at(arms, LIFT)
-    _run(arms, 100)  # one second held up
+    jaws_at(arms, LIFT)
+    run_ticks(arms, 100)  # one second held up
     x = positions.read()[:, :3].reshape(2, -1, 3)
     slots = arms.bodies.engine.buffer("control.particle_attachments").read()
     taken = slots[:held[0], 0].astype(np.int64)  # env 0: its slots come first, its particles too
@@ -82,14 +55,14 @@ def test_the_jaws_grasp_lift_and_release_the_flap(make_arms, dynamics):
     assert abs(np.linalg.norm(snap.body_cf[0, :3]) - np.linalg.norm(force)) < 1e-9  # the same force, tip axes
     assert np.abs(snap.spatial_cf[1]).max() < 1e-6  # nothing on env 1's tool
     if dynamics == "dynamic":  # the insertion drive bears the flap: its integral term takes the load
-        _run(arms, 100)
+        run_ticks(arms, 100)
         J, _ = arms.kin.jacobian(arms.measured[:1])
         load = (J[0].T @ torch.as_tensor(arms.snapshot().spatial_cf[0]))[2].item()  # N along the shaft
         bias = arms.bodies._bias[:, 2] * arms.bodies.stiffness[2]  # what env 1's idle arm also has
         assert abs(load) > 0.1 and abs((bias[1] - bias[0]).item() - load) < 0.15 * abs(load), (load, bias)
     arms.jaw_move_jp(0, JointCommand(position=[0.8]))
-    _settle(arms)
-    _run(arms, 100)
+    settle(arms)
+    run_ticks(arms, 100)
     assert arms.grasp.held()[0] == 0
     back = positions.read()[:, :3].reshape(2, -1, 3)
     np.testing.assert_allclose(back[0, free_edge, 2], flat[0, free_edge, 2], atol=1.5e-3)
@@ -106,13 +79,13 @@ def test_the_arm_presses_the_flap_and_feels_it(make_arms, dynamics):
     for env in range(2):
         arms.state_command(env, "enable")
         arms.state_command(env, "home")
-    _settle(arms)
+    settle(arms)
     middle = np.array([0.0, 0.0, 0.1575])  # the flap's top at its centre
     positions = arms.bodies.engine.buffer("particles.positions")
-    _tips_at(arms, 0.01, jaws=[0.0, 0.0], point=middle)
+    jaws_at(arms, 0.01, jaws=[0.0, 0.0], point=middle)
     flat = positions.read()[:, :3].reshape(2, -1, 3).copy()
-    _tips_at(arms, [-0.003, 0.01], point=middle)
-    _run(arms, 20)
+    jaws_at(arms, [-0.003, 0.01], point=middle)
+    run_ticks(arms, 20)
     dent = (flat - positions.read()[:, :3].reshape(2, -1, 3))[:, :, 2].max(axis=1)
     force = arms.snapshot().spatial_cf[:, :3]
     assert dent[0] > 5e-5 and dent[1] < 1e-5, dent
@@ -146,10 +119,10 @@ def test_the_suction_tool_removes_blood_at_its_tip(make_arms):
     assert [e.value for e in arms.suction_servo_jp(0, JointCommand(position=[1.0])) if e.topic == "error"]  # disabled
     arms.state_command(0, "enable")
     arms.state_command(0, "home")
-    _settle(arms)
+    settle(arms)
     arms.move_jp(0, JointCommand(position=[0.0, 0.0, 0.1385, 0.0, 0.0, 0.0]))  # the tube's end in the pool
-    _settle(arms)
-    _run(arms, 30)
+    settle(arms)
+    run_ticks(arms, 30)
     engine = arms.bodies.engine
     tip = (arms.bodies.base @ arms.kin.forward(arms.measured))[0, :3, 3].numpy()
     before = _active_fluid(engine)
@@ -159,7 +132,7 @@ def test_the_suction_tool_removes_blood_at_its_tip(make_arms):
     refused = arms.suction_servo_jp(0, JointCommand(position=[2.0]))
     assert [e.value for e in refused if e.topic == "error"], "a valve opening past 1 is refused"
     assert not arms.suction_servo_jp(0, JointCommand(position=[1.0], name=["suction"]))
-    _run(arms, 1)  # flagged and removed in the tick's step (its freed slots may bleed in again at the vessel)
+    run_ticks(arms, 1)  # flagged and removed in the tick's step (its freed slots may bleed in again at the vessel)
     after = _active_fluid(engine)
     y = engine.buffer("particles.positions").read()[:, :3]
     r = arms.scene.suction_radius
@@ -169,9 +142,9 @@ def test_the_suction_tool_removes_blood_at_its_tip(make_arms):
     assert after[outer].all()  # the rest of the pool stays
     assert arms.snapshot().suction_removed[0, 0] >= inner.sum()
     arms.suction_servo_jp(0, JointCommand(position=[0.0]))
-    _run(arms, 1)
+    run_ticks(arms, 1)
     count = arms.suction.removed()[0]
-    _run(arms, 10)
+    run_ticks(arms, 10)
     assert arms.suction.removed()[0] == count  # shut: nothing more goes
 
 
@@ -190,7 +163,7 @@ def test_the_twin_images_the_phantom_with_the_world_probe(make_arms):
     position, rotation = scenery.probe_pose()
     np.testing.assert_allclose(position, (0.0, 0.0, 0.182), atol=1e-6)  # ultrasound_phantom.yaml's probe
     assert "phantom" in scenery.labels.values()
-    _run(arms, 5)
+    run_ticks(arms, 5)
     with arms.engine_lock:
         arms.step_engine(sense=True)
     image = arms.bodies.engine.buffer("ultrasound0.image").read()[0]
@@ -203,20 +176,20 @@ def test_the_jaws_pick_up_the_suture(make_arms):
     arms = make_arms(scene=load_scene("psm_retraction.yaml"))
     arms.state_command(0, "enable")
     arms.state_command(0, "home")
-    _settle(arms)
+    settle(arms)
     first = int(arms.bodies.engine.particle_mapping["object_count"][0])  # the flap's particles come first
     x0 = arms.bodies.engine.buffer("particles.positions").read()[:, :3].copy()
     thread = slice(first, len(x0))
     middle = x0[thread][len(x0[thread]) // 2].astype(np.float64)
-    _tips_at(arms, 0.02, jaws=[0.8], point=middle)
-    _tips_at(arms, 0.0, point=middle)
+    jaws_at(arms, 0.02, jaws=[0.8], point=middle)
+    jaws_at(arms, 0.0, point=middle)
     arms.jaw_move_jp(0, JointCommand(position=[-0.2]))
-    _settle(arms)
+    settle(arms)
     held = arms.grasp.held()[0]
     taken = arms.bodies.engine.buffer("control.particle_attachments").read()[:held, 0].astype(np.int64)
     assert held > 0 and (taken >= first).all()  # thread particles only
-    _tips_at(arms, LIFT, point=middle)
-    _run(arms, 60)
+    jaws_at(arms, LIFT, point=middle)
+    run_ticks(arms, 60)
     x = arms.bodies.engine.buffer("particles.positions").read()[:, :3]
     np.testing.assert_allclose(x[taken, 2] - x0[taken, 2], LIFT, atol=2e-3)
     assert x[thread][[0, -1], 2].max() < x[taken, 2].min()  # the ends hang lower than where it is held

@@ -1,6 +1,6 @@
 """`cressim demo cautery`: an energized hook coagulates a track across a slab of liver and then
 cuts along it. The slab (60 x 40 x 10 mm, 2.5 mm tets, 5 kPa, liver's heat: cressim.Thermal) lies
-on a table, its bottom held; a kinematic electrode (cressim.passes.Cautery, 2.5 mm radius, 30 W)
+on a table, its bottom held; a kinematic electrode (cressim.passes.Cautery, 2.5 mm radius, 10 W)
 rests on its top and slides 40 mm along x at 10 mm/s in coagulation mode, then back in cut mode.
 Each env's camera looks on from above; the saved frames show the track turning pale and then
 parting. Prints the peak temperature, the coagulated volume and the cut tets (also in
@@ -21,7 +21,7 @@ from cressim.scene_file import _quat_look_at
 HALF = (0.03, 0.02, 0.005)  # m
 CELLS = (24, 16, 4)
 TOP = 2 * HALF[2]
-SPEED, TRACK, RADIUS, POWER = 0.01, 0.04, 0.0025, 30.0  # m/s, m, m, W
+SPEED, TRACK, RADIUS, POWER = 0.01, 0.04, 0.0025, 10.0  # m/s, m, m, W
 
 
 def _env(world, env, table_mesh, width, height, heat=True):

@@ -245,6 +245,7 @@ class ArmBodies:
 
         self.simulated = plan is not None and plan.simulated()  # a world that moves by itself (particles)
         self.has_fluid = plan is not None and plan.has_fluid()
+        self.has_heat = plan is not None and plan.has_heat()
         self.dt = 1.0 / publish_rate
         self._authored = (bodies, joint_specs, initial_q, initial_jaw)
         self.engine = None

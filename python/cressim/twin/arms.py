@@ -60,6 +60,7 @@ from .scenery import CameraSpec, SceneryPlan, UltrasoundSpec
 from .sensor_loop import process_threads
 from .trajectory import BatchedTrajectory
 from cressim.passes.grasp import Grasp
+from cressim.passes.cautery import Cautery
 from cressim.passes.suction import Suction
 
 TOOL_LINKS = ("shaft_link", "wrist_pitch_link", "wrist_yaw_link", "jaw_1_link", "jaw_2_link")  # name endings
@@ -154,6 +155,13 @@ class TwinArms:
             bodies, point = self.bodies.link_point(tube[0], SUCTION_TIP)
             self.suction = Suction(self.bodies.engine, bodies, point, scene.suction_radius,
                                    flow_rate=scene.suction_flow_rate, reach=scene.suction_reach)
+        self.cautery = None  # the needle driver's jaws, energized by the coag pedal, over a world with heat
+        if self.simulated and self.psm.has_jaw and wrist and self.bodies.has_heat:
+            bodies, point = self.bodies.link_point(wrist[0], JAW_GRASP_POINT)
+            self.cautery = Cautery(self.bodies.engine, bodies, point, scene.cautery_radius, power=scene.cautery_power)
+            self.cautery.set_mode([scene.cautery_mode == "cut"] * self.num_envs)
+        self.coag_pedal = np.zeros(self.num_envs, dtype=bool)
+        self._cautery_on = np.zeros(self.num_envs, dtype=bool)
         self.suction_valve = torch.zeros(self.num_envs, 1, dtype=torch.float64)
         self.suction_removed = torch.zeros(self.num_envs, 1, dtype=torch.float64)
         self._suction_on = np.zeros(self.num_envs, dtype=bool)
@@ -514,6 +522,7 @@ class TwinArms:
                 self.bodies.write(self.measured, self.jaw_meas)
                 self._grasp()
                 self._suck()
+                self._energize()
                 self.bodies.step()
                 self._sense_tool()
                 q_m, qd_m, jaw_m, jawd_m = (t.cpu() for t in self.bodies.read_joints())
@@ -534,6 +543,7 @@ class TwinArms:
                     self.bodies.write(self.measured, self.jaw_meas)
                     self._grasp()
                     self._suck()
+                    self._energize()
                     self.bodies.step()
                     self._sense_tool()
                     self._collect_faults()
@@ -580,6 +590,28 @@ class TwinArms:
             self.suction.set_flow(valve * self.scene.suction_flow_rate)
             self._suction_on, self._suction_share = on, valve.copy()
         self.suction.execute()
+
+    def _energize(self):
+        """The instrument follows the coag pedal while the arm is enabled (the GPU pass heats at its
+        jaws)."""
+        if self.cautery is None:
+            return
+        on = self.coag_pedal & np.array([s.state == "ENABLED" for s in self.states])
+        if (on != self._cautery_on).any():
+            self.cautery.set(on)
+            self._cautery_on = on
+        self.cautery.execute()
+
+    def press_coag(self, env: int, pressed: bool) -> list[Event]:
+        """The coagulation foot pedal (the dVRK console's footpedals/coag): pressed, the needle
+        driver's jaws deliver `arm.cautery.power` into the tissue within `arm.cautery.radius` of
+        their middle (in `arm.cautery.mode`: coag heats, cut also parts coagulated tissue)."""
+        if self.cautery is None:
+            why = (f"the {self.robot} instrument has no jaws to energize" if not self.psm.has_jaw
+                   else "the world has no tissue that takes heat (a soft_body with thermal)")
+            return self._refusal(env, f"footpedals/coag refused: {why}") if pressed else []
+        self.coag_pedal[env] = bool(pressed)
+        return []
 
     def suction_servo_jp(self, env: int, cmd) -> list[Event]:
         """The suction valve: 0 shut .. 1 open (CRTK style: suction/servo_jp, one value)."""

@@ -59,6 +59,9 @@ class Scene:
     suction_radius: float = 0.005  # m: the suction tool removes the fluid this near its tip
     suction_flow_rate: float = 1e-3 / 60  # m^3/s with the valve open (1 L/min): it draws the fluid in
     suction_reach: float = 0.02  # m: the fluid this near the tip is drawn toward it
+    cautery_radius: float = 0.005  # m: an energized needle driver heats the tissue this near its jaws' middle
+    cautery_power: float = 30.0  # W while the coag pedal is pressed
+    cautery_mode: str = "coag"  # coag: heats; cut: also parts the tissue it has coagulated
     lines: dict = field(default_factory=dict, repr=False)  # field -> "file:line:col" (for later checks)
 
 
@@ -101,7 +104,7 @@ def parse_scene(text: str, path: str = "<string>") -> Scene:
     if "arm" in top:
         arm = p.mapping(top["arm"], "arm", {"name", "robot", "dynamics", "base", "initial_jp", "initial_jaw",
                                             "home_jp", "measured_lag", "trajectory", "stale_command_after",
-                                            "grasp", "suction"})
+                                            "grasp", "suction", "cautery"})
         if "name" in arm:
             scene.arm = p.name(arm["name"], "arm.name")
         if "robot" in arm:
@@ -146,6 +149,14 @@ def parse_scene(text: str, path: str = "<string>") -> Scene:
             if scene.suction_reach < scene.suction_radius:
                 p.fail(suction.get("reach", arm["suction"]), "arm.suction.reach",
                        f"{scene.suction_reach:g} m is less than the radius {scene.suction_radius:g} m")
+        if "cautery" in arm:
+            cautery = p.mapping(arm["cautery"], "arm.cautery", {"radius", "power", "mode"})
+            if "radius" in cautery:
+                scene.cautery_radius = p.number(cautery["radius"], "arm.cautery.radius", low=1e-4, high=0.02)
+            if "power" in cautery:
+                scene.cautery_power = p.number(cautery["power"], "arm.cautery.power", low=0.0, high=300.0)
+            if "mode" in cautery:
+                scene.cautery_mode = p.choice(cautery["mode"], "arm.cautery.mode", ("coag", "cut"))
         if "trajectory" in arm:
             traj = p.mapping(arm["trajectory"], "arm.trajectory", {"velocity_ratio", "acceleration_ratio"})
             if "velocity_ratio" in traj:

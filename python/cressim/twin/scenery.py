@@ -136,6 +136,10 @@ class SceneryPlan:
     def has_fluid(self) -> bool:
         return any("fluid" in e for e in self._entities())
 
+    def has_heat(self) -> bool:
+        """Whether a soft body of the world carries heat (`thermal`), so an instrument can burn it."""
+        return any(isinstance(e.get("soft_body"), dict) and "thermal" in e["soft_body"] for e in self._entities())
+
     def physics_settings(self) -> dict:
         return dict(PARTICLE_SETTINGS) if self.simulated() else {}
 
