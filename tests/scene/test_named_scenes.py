@@ -2,8 +2,8 @@
 uploads and steps 30 frames with no NaN and no health event; the segmentation ids its header
 lists are distinct and exactly the ones its camera sees, and its particle count is the header's.
 Then what each is for: the flap lies on the table under the tool with its far edge held, the
-blood stays in the basin while the bleeding source adds to it, and the probe images the
-phantom's cyst dark and its lesion bright."""
+blood stays in the basin while the bleeding source adds to it, the probe images the phantom's
+cyst dark and its lesion bright, and the liver for cautery carries heat at body temperature."""
 import re
 from pathlib import Path
 
@@ -51,7 +51,7 @@ def objects(engine, world):
             for e, o, c in zip(m["object_entity"], m["object_offset"], m["object_count"])}
 
 
-@pytest.mark.parametrize("name", ["tissue_retraction", "blood_suction", "ultrasound_phantom"])
+@pytest.mark.parametrize("name", ["tissue_retraction", "blood_suction", "ultrasound_phantom", "cautery"])
 def test_scene_steps_and_shows_its_documented_ids(make_engine, name):
     labels, count = header(name)
     engine, _, _ = run(make_engine, name)
@@ -105,3 +105,11 @@ def test_the_probe_images_the_cyst_dark_and_the_lesion_bright(make_engine):
     assert background > 0.1
     assert at(0.006, 0.014) < 0.1 * background  # the anechoic cyst (5 mm)
     assert at(-0.009, 0.019, half=3) > 1.3 * background  # the hyperechoic lesion (3 mm)
+
+
+def test_the_liver_for_cautery_carries_heat_at_body_temperature(make_engine):
+    engine, world, _ = run(make_engine, "cautery")
+    first, count = objects(engine, world)["liver"]
+    assert (engine.buffer("particles.heat_capacities").read()[first:first + count] > 0).all()
+    np.testing.assert_allclose(engine.buffer("particles.temperatures").read(), 310.15, atol=1e-4)  # nothing heats it
+    assert not engine.buffer("particles.damage").read().any()

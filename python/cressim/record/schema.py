@@ -182,6 +182,9 @@ PSM_TOPICS: tuple[TopicSpec, ...] = (
     TopicSpec("/console/teleop/set_scale", _F64, "command", "as sent", "", "-", "kept, echoed on teleop/scale"),
     TopicSpec("/console/teleop/select", _STR, "command", "as sent", "", "-", "echoed on teleop/selected"),
     TopicSpec("/console/teleop/unselect", _STR, "command", "as sent", "", "-", "echoed on teleop/unselected"),
+    TopicSpec("/footpedals/coag", "sensor_msgs/msg/Joy", "command", "as sent", "", "buttons[0]: 1 pressed, 0 released",
+              "the coagulation pedal (the dVRK console's): energizes the needle driver over tissue with heat "
+              "(arm.cautery; batched: /envN/footpedals/coag)"),
 )
 
 TOPICS_BY_NAME = {t.name: t for t in PSM_TOPICS}

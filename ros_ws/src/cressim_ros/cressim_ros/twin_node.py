@@ -59,7 +59,7 @@ from .recorder import RecordingUnavailable, open_recorder
 from .robot_state import RobotStateTopics
 from .topics import (CLOCK_QOS, CLOCK_TOPIC, CONSOLE_NAMESPACES, CRTK_VERSION, DIAGNOSTICS_TOPIC, LATCHED_QOS,
                      SENSOR_TOPICS, TF_STATIC_TOPIC, TF_TOPIC, TOPICS_BY_NAME, arm_topics, env_frame_prefix,
-                     env_namespaces, msg_class, qos)
+                     env_namespaces, env_topic, msg_class, qos)
 from .ultrasound_topics import UltrasoundTopics, ultrasound_frame
 
 ERROR_INTERVAL_S = 0.05  # the same refusal (env, kind) goes to `error` at most this often
@@ -316,6 +316,11 @@ class TwinNode(Node):
                                ("unselect", functools.partial(self._on_teleop_select, "unselected"))):
             spec = TOPICS_BY_NAME[f"/console/teleop/{topic}"]
             self._command_subs.append(self.create_subscription(msg_class(spec), spec.name, handler, qos(spec)))
+        spec = TOPICS_BY_NAME["/footpedals/coag"]
+        for env in range(self.num_envs):
+            topic = env_topic(spec.name, env, self.num_envs)
+            self._command_subs.append(self.create_subscription(
+                msg_class(spec), topic, functools.partial(self._on_coag_pedal, env, topic), qos(spec)))
 
     def _create_services(self):
         self._service_handles = []
@@ -455,6 +460,16 @@ class TwinNode(Node):
     def _unsupported(self, kind, env, msg):
         arm = "joint-driven (position drives)" if self.arms.dynamic else "kinematic"
         return [(env, "warning", f"{kind} refused: {UNSUPPORTED[kind]} is not simulated; the twin's arm is {arm}")]
+
+    def _on_coag_pedal(self, env, topic, msg):
+        """The dVRK console's coagulation pedal (sensor_msgs/Joy): buttons[0] 1 pressed, anything
+        else (0 released, 2 a quick tap that is over) not."""
+        try:
+            if self.recorder is not None:
+                self._record(topic, msg)
+            self._emit(self.arms.press_coag(env, len(msg.buttons) > 0 and msg.buttons[0] == 1))
+        except Exception:  # noqa: BLE001 - the node must survive any message
+            self.get_logger().error(traceback.format_exc(), throttle_duration_sec=LOG_THROTTLE_S)
 
     def _on_console(self, command, msg):
         try:
