@@ -27,14 +27,6 @@ StructuredBuffer<float4> heat_sources;    // per env: (point xyz, radius w), (po
 StructuredBuffer<float> heat_cover;       // per env: the tissue volume within the source's radius
 RWStructuredBuffer<float> heat_rates;     // K/s
 
-float3 gradient(uint t, uint k) {  // b_k of tet t: row k - 1 of Dm^-1, b_0 minus their sum
-  const float3 r0 = record_rows[3 * t].xyz, r1 = record_rows[3 * t + 1].xyz, r2 = record_rows[3 * t + 2].xyz;
-  return k == 0 ? -(r0 + r1 + r2) : (k == 1 ? r0 : (k == 2 ? r1 : r2));
-}
-
-uint corner(ParticleConstraint c, uint k) {
-  return k == 0 ? c.particles.x : (k == 1 ? c.particles.y : (k == 2 ? c.particles.z : c.particles.w));
-}
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
 void main(uint3 id : SV_DispatchThreadID) {
@@ -51,9 +43,13 @@ void main(uint3 id : SV_DispatchThreadID) {
     const uint rc = vertex_corners[range.x + n], t = rc >> 2, k = rc & 3;
     if (cut[t] != 0) continue;
     const ParticleConstraint c = constraints[t];
-    const float3 bi = gradient(t, k);
+    // b_k: row k - 1 of Dm^-1, b_0 minus their sum (each tet's rows loaded once)
+    const float3 r0 = record_rows[3 * t].xyz, r1 = record_rows[3 * t + 1].xyz, r2 = record_rows[3 * t + 2].xyz;
+    const float3 b[4] = {-(r0 + r1 + r2), r0, r1, r2};
+    const uint q[4] = {c.particles.x, c.particles.y, c.particles.z, c.particles.w};
+    const float kv = o.heat.x * c.params.x;
     [unroll] for (uint j = 0; j < 4; ++j)
-      if (j != k) power -= o.heat.x * c.params.x * dot(bi, gradient(t, j)) * (temperatures[corner(c, j)] - Ti);
+      if (j != k) power -= kv * dot(b[k], b[j]) * (temperatures[q[j]] - Ti);
   }
   const float4 at = heat_sources[2 * ph.z];
   const float covered = heat_cover[ph.z];

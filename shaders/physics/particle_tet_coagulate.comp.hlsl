@@ -30,12 +30,12 @@ static const float CUT_COAGULATED = 0.9;
 void main(uint3 id : SV_DispatchThreadID) {
   const uint t = id.x;
   if (t >= pc.item_count) return;
-  const ParticleConstraint c0 = initial_constraints[t];
-  const uint4 q = c0.particles;
+  const uint4 q = initial_constraints[t].particles;
+  const float omega = 0.25 * (damage[q.x] + damage[q.y] + damage[q.z] + damage[q.w]);
+  if (omega == 0 && pc.item_offset == 0) return;  // (a body without heat has no damage either)
   const ParticleObject o = objects[phases[q.x].y];
   if (o.heat.x <= 0) return;
-  const float omega = 0.25 * (damage[q.x] + damage[q.y] + damage[q.z] + damage[q.w]);
-  if (omega == 0 && pc.item_offset == 0) return;
+  const ParticleConstraint c0 = initial_constraints[t];
   const float f = 1 - exp(-omega);
   const float stiff = 1 + (o.coagulation.x - 1) * f, shrink = 1 - o.coagulation.y * f;
   ParticleConstraint c = c0;
