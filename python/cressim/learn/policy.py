@@ -3,6 +3,7 @@ built-in learner) as a function from observations to the mean action, for runnin
 learner is (a ROS client, an evaluation loop)."""
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import torch
@@ -27,19 +28,23 @@ class Policy:
 
 
 def load_policy(path, device="cpu") -> Policy:
-    """The actor of checkpoint `path`. Only the built-in learner's MLP checkpoints (`--backend
-    torch`) are read: rsl-rl's actor has a layout of its own."""
+    """The actor of checkpoint `path`: the built-in learner's MLP and hybrid (image and numbers)
+    checkpoints (`--backend torch`); rsl-rl's actor has a layout of its own."""
     path = Path(path)
     saved = torch.load(path, map_location=device, weights_only=False)
     if "log_std" not in saved or "ppo" not in saved:
         raise ValueError(f"{path}: not a checkpoint of cressim's built-in learner (train with --backend torch)")
     cfg = PPOConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in saved["ppo"].items()})
-    if cfg.network != "mlp":
-        raise ValueError(f"{path}: a {cfg.network!r} policy; load_policy reads MLP policies")
     weights = saved["actor_state_dict"]
-    layers = sorted(k for k in weights if k.endswith(".weight"))
-    num_obs = weights[layers[0]].shape[1]
-    num_actions = weights[max(layers, key=lambda k: int(k.split(".")[0]))].shape[0]
+    if cfg.network == "mlp":
+        layers = sorted(k for k in weights if k.endswith(".weight"))
+        num_obs = weights[layers[0]].shape[1]
+        num_actions = weights[max(layers, key=lambda k: int(k.split(".")[0]))].shape[0]
+    elif cfg.network == "hybrid":  # the numbers, then the image (H x W x C), one row
+        num_obs = weights["vector_features.0.weight"].shape[1] + math.prod(cfg.image)
+        num_actions = weights["head.weight"].shape[0]
+    else:
+        raise ValueError(f"{path}: a {cfg.network!r} policy; load_policy reads MLP and hybrid policies")
     actor = network(cfg, num_obs, None, num_actions).to(device)
     actor.load_state_dict(weights)
     return Policy(actor, saved.get("task", "?"), saved.get("task_options", {}), num_obs, num_actions)
