@@ -19,7 +19,7 @@ from cressim.passes.cautery import Cautery
 def measure(envs: int, heat: bool, frames: int) -> dict:
     world = cressim.World(cressim.SceneLayout(envs))
     table_mesh = world.add_mesh(cressim.Mesh.plane(0.1))
-    hooks = [demo._env(world, env, table_mesh, 64, 48, heat=heat) for env in range(envs)]
+    hooks = [demo.author_env(world, env, table_mesh, 64, 48, heat=heat) for env in range(envs)]
     engine = cressim.Engine(world)
     engine.physics = cressim.PhysicsSettings(substeps=2, particle_iterations=2)
     engine.prepare()

@@ -24,7 +24,8 @@ TOP = 2 * HALF[2]
 SPEED, TRACK, RADIUS, POWER = 0.01, 0.04, 0.0025, 10.0  # m/s, m, m, W
 
 
-def _env(world, env, table_mesh, width, height, heat=True):
+def author_env(world, env, table_mesh, width, height, heat=True):
+    """One env of the scene: table, liver, hook (returned), camera and sun."""
     table = world.create_entity(env=env, name="table")
     table.add(cressim.Transform())
     table.add(cressim.Collider(cressim.Shape.plane()))
@@ -55,7 +56,7 @@ def run(frames: int = 480, out_dir: str = "out/demo", num_envs: int = 1, images:
         height: int = 240) -> int:
     world = cressim.World(cressim.SceneLayout(num_envs))
     table_mesh = world.add_mesh(cressim.Mesh.plane(0.1))
-    hooks = [_env(world, env, table_mesh, width, height) for env in range(num_envs)]
+    hooks = [author_env(world, env, table_mesh, width, height) for env in range(num_envs)]
     engine = cressim.Engine(world)
     engine.physics = cressim.PhysicsSettings(substeps=2, particle_iterations=2)
     engine.prepare()

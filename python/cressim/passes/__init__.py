@@ -42,6 +42,41 @@ class EnvTool:
         return self.commands.read()[:, 3].copy()
 
 
+class TipTool(EnvTool):
+    """A tool acting around a tip (Suction, Cautery): each env's tip is a point in one rigid body
+    (`body_entities`, one per env in env order) or in the world (None), with a radius; `tips`,
+    float32 (envs, 4) on the GPU: xyz the point in the body's frame, w the radius.
+    `tip_bindings` binds the body poses a pass reads (the tips stand in without rigid bodies)."""
+
+    def __init__(self, engine, name: str, body_entities, tip, radius: float, what: str):
+        envs = engine.buffer("particles.env_ranges").shape[0]
+        if not (np.isfinite(radius) and radius > 0):
+            raise ValueError(f"{what}: radius must be positive, got {radius}")
+        bodies = np.full(envs, -1, dtype=np.int32)
+        if body_entities is not None:
+            bodies[:] = body_rows(engine, body_entities, what)
+        tips = np.broadcast_to(np.asarray(tip, dtype=np.float32), (envs, 3))
+        if not np.isfinite(tips).all():
+            raise ValueError(f"{what}: tip must be finite, got {tip}")
+        super().__init__(engine, name, bodies)
+        self.tips = engine.create_shared_buffer(f"{name}_tips", (envs, 4), "float32")
+        self.tips.write(np.concatenate([tips, np.full((envs, 1), radius, np.float32)], axis=1))
+        rigid = "rigid.positions" in engine.internal_keys
+        self.tip_bindings = {"body_positions": "rigid.positions" if rigid else self.tips,
+                             "body_rotations": "rigid.rotations" if rigid else self.tips}
+
+
+def per_env(values, envs: int, what: str) -> np.ndarray:
+    """`values` (one for all envs, or one per env) as float32 (envs,), each finite and >= 0;
+    raises naming `what` and the first bad env."""
+    v = np.broadcast_to(np.asarray(values, dtype=np.float64), (envs,))
+    bad = ~(np.isfinite(v) & (v >= 0))
+    if bad.any():
+        env = int(np.nonzero(bad)[0][0])
+        raise ValueError(f"{what} of env {env} must be finite and >= 0, got {v[env]:g}")
+    return v.astype(np.float32)
+
+
 def body_rows(engine, body_entities, what: str):
     """The rigid-body row of each env's body (entities or ids, one per env, in env order), checked:
     each must be a rigid body of its own env."""

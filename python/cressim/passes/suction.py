@@ -18,55 +18,38 @@ import numpy as np
 
 import cressim
 
-from . import EnvTool, body_rows, source
+from . import TipTool, per_env, source
 
 
 FLOW_RATE = 1e-3 / 60  # m^3/s: 1 L/min, a surgical suction clearing blood
 REACH_RADII = 4.0  # the reach, in removal radii (the paper's pull within 1.0 unit, removal within 0.25)
 
 
-class Suction(EnvTool):
+class Suction(TipTool):
     def __init__(self, engine: cressim.Engine, body_entities, tip, radius: float, *, flow_rate: float = FLOW_RATE,
                  reach: float | None = None, name: str = "suction"):
         """`body_entities`: each env's body (entity or id) carrying the tip, in env order, or None
         (the tip in the world); `tip`: the point in that body's frame (m; one for all envs, or one
         per env); `radius` (m): fluid this near the tip is removed; `flow_rate` (m^3/s, >= 0): the
         sink's draw; `reach` (m, >= radius; default 4 radii): fluid this near is drawn in."""
-        envs = engine.buffer("particles.env_ranges").shape[0]
-        if not (np.isfinite(radius) and radius > 0):
-            raise ValueError(f"Suction: radius must be positive, got {radius}")
         reach = REACH_RADII * radius if reach is None else reach
         if not (np.isfinite(reach) and reach >= radius):
             raise ValueError(f"Suction: reach must be at least the radius {radius}, got {reach}")
-        bodies = np.full(envs, -1, dtype=np.int32)
-        if body_entities is not None:
-            bodies[:] = body_rows(engine, body_entities, "Suction")
-        tips = np.broadcast_to(np.asarray(tip, dtype=np.float32), (envs, 3))
-        if not np.isfinite(tips).all():
-            raise ValueError(f"Suction: tip must be finite, got {tip}")
-        super().__init__(engine, name, bodies)
+        super().__init__(engine, name, body_entities, tip, radius, "Suction")
         self.reach = float(reach)
-        self.tips = engine.create_shared_buffer(f"{name}_tips", (envs, 4), "float32")
-        self.tips.write(np.concatenate([tips, np.full((envs, 1), radius, np.float32)], axis=1))
-        self.flows = engine.create_shared_buffer(f"{name}_flows", (envs, 4), "float32")
-        self.set_flow(np.full(envs, flow_rate))
+        self.flows = engine.create_shared_buffer(f"{name}_flows", (self.envs, 4), "float32")
+        self.set_flow(flow_rate)
         count = engine.buffer("particles.positions").shape[0]
-        rigid = "rigid.positions" in engine.internal_keys  # a world without rigid bodies: the tips stand in
         self.compute_pass = engine.create_compute_pass(
-            source("suction"), name="passes/suction.hlsl", threads=max(count, envs),
-            constants={"count": count, "envs": envs},
-            bindings={"positions": "particles.positions", "phases": "particles.phases",
-                      "body_positions": "rigid.positions" if rigid else self.tips,
-                      "body_rotations": "rigid.rotations" if rigid else self.tips,
+            source("suction"), name="passes/suction.hlsl", threads=max(count, self.envs),
+            constants={"count": count, "envs": self.envs},
+            bindings={"positions": "particles.positions", "phases": "particles.phases", **self.tip_bindings,
                       "suction_tips": self.tips, "suction_flows": self.flows, "suctions": self.commands,
                       "remove": "control.particle_remove", "sinks": "control.fluid_sinks"})
 
     def set_flow(self, rates) -> None:
         """Each env's flow rate (m^3/s, finite, >= 0; one for all envs or one per env)."""
-        rates = np.broadcast_to(np.asarray(rates, dtype=np.float64), (self.envs,))
-        if not (np.isfinite(rates).all() and (rates >= 0).all()):
-            bad = int(np.nonzero(~(np.isfinite(rates) & (rates >= 0)))[0][0])
-            raise ValueError(f"Suction: flow_rate of env {bad} must be finite and >= 0, got {rates[bad]}")
+        rates = per_env(rates, self.envs, "Suction: flow_rate")
         flows = np.zeros((self.envs, 4), np.float32)
         flows[:, 0], flows[:, 1] = rates, self.reach
         self.flows.write(flows)

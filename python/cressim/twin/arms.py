@@ -596,7 +596,9 @@ class TwinArms:
         jaws)."""
         if self.cautery is None:
             return
-        on = self.coag_pedal & np.array([s.state == "ENABLED" for s in self.states])
+        on = self.coag_pedal.copy()
+        for env in np.flatnonzero(on):  # the pressed pedals only: no per-env work while none is
+            on[env] = self.states[env].state == "ENABLED"
         if (on != self._cautery_on).any():
             self.cautery.set(on)
             self._cautery_on = on
