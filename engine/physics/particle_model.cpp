@@ -255,14 +255,28 @@ class Builder {
     if (!(s.radius > 0)) fail(a.world, a.entity, "Strand.radius must be positive");
     add_particles(a, s.points, n, 1 / s.mass, shader::PARTICLE_STRAND, s.self_collision ? shader::PARTICLE_SELF_COLLIDE : 0u,
                   "Strand.points");
+    // a rod of a material: density x volume lumped to the particles (half of each segment to each
+    // end), bending EI and twist GJ of a solid round section, E I = E pi r^4 / 4, G J = G pi r^4 / 2
+    const bool rod = s.youngs_modulus > 0;
+    const double area = std::numbers::pi * double(s.radius) * s.radius, I = area * s.radius * s.radius / 4;
+    const double EI = s.youngs_modulus * I, GJ = s.youngs_modulus / (2 * (1 + s.poisson_ratio)) * 2 * I;
+    std::vector<double> seg_mass(n, 0.0);
+    if (rod) {
+      for (uint32_t i = 0; i + 1 < n; ++i) {
+        const double half = 0.5 * s.density * area * dist(m_.positions[a.first + i], m_.positions[a.first + i + 1]);
+        seg_mass[i] += half, seg_mass[i + 1] += half;
+      }
+      for (uint32_t i = 0; i < n; ++i) m_.positions[a.first + i].w = float(1 / seg_mass[i]);
+    }
     fix(a, s.fixed, n, "Strand.fixed");
     // segment lengths: one chain per strand, solved directly along it (particle_stretch.comp.hlsl)
     auto& stretch = set("stretch");
     stretch.chains.insert(stretch.chains.end(), {uint32_t(stretch.records.size()), n - 1});
     for (uint32_t p = a.first; p + 1 < a.first + n; ++p)
       constraint(stretch, {p, p + 1}, dist(m_.positions[p], m_.positions[p + 1]), s.stretch_compliance);
-    // bending toward straight (threads and cables rest straight, whatever their authored path)
-    for (uint32_t i = 0; i + 2 < n; ++i) {
+    // bending toward straight (threads and cables rest straight, whatever their authored path);
+    // a rod of a material bends by its frames alone (bend_twist below carries E I)
+    for (uint32_t i = 0; i + 2 < n && !rod; ++i) {
       const uint32_t p = a.first + i;
       const float seg = 0.5f * (dist(m_.positions[p], m_.positions[p + 1]) + dist(m_.positions[p + 1], m_.positions[p + 2]));
       constraint(set("bend"), {p, p + 1, p + 2}, 0, s.bend_compliance, seg);
@@ -277,18 +291,74 @@ class Builder {
       const Vec3 d{(x1.x - x0.x) / l, (x1.y - x0.y) / l, (x1.z - x0.z) / l};
       const float twist = n > 2 ? s.initial_twist * float(i) / float(n - 2) : 0;
       m_.orientations.push_back(mul(axis_angle(d, twist), from_z_to(d)));
-      // a thin rod's inertia about its axis, m r^2 / 2
-      m_.orientation_weights.push_back(2 / (s.mass * s.radius * s.radius));
+      // a thread's frame turns with the inertia of a thin rod about its axis, m r^2 / 2; a rod of
+      // a material's with its segment's about a cross axis, m (3 r^2 + l^2) / 12, raised to what one
+      // substep resolves (ParticleSystem::frame_weights); a segment between two fixed particles is
+      // clamped, its frame too (the base of a cantilever)
+      const double seg = s.density * area * l;
+      const bool clamped = x0.w == 0 && x1.w == 0;
+      m_.orientation_weights.push_back(clamped ? 0.f
+                                       : rod   ? float(12 / (seg * (3.0 * s.radius * s.radius + double(l) * l)))
+                                               : 2 / (s.mass * s.radius * s.radius));
+      m_.frame_bend_compliances.push_back(rod ? float(l / (4 * EI)) : 0.f);
       m_.edge_particles.push_back(p);
       frames_.push_back({p, p + 1, first_edge + i, l});
     }
-    for (uint32_t i = 0; i + 2 < n; ++i) pairs_.push_back({first_edge + i, first_edge + i + 1, s.bend_compliance, s.twist_compliance});
+    for (uint32_t i = 0; i + 2 < n; ++i) {
+      float bend = s.bend_compliance, twist = s.twist_compliance;
+      if (rod) {
+        // C = Im(q_i* q_i+1) is sin(theta / 2) for a turn theta between the frames, so C^2 / 2 alpha
+        // is the rod's E I theta^2 / 2 l over the length l the turn is spread on when alpha = l / 4 E I
+        const float4 &x0 = m_.positions[a.first + i], &x1 = m_.positions[a.first + i + 1], &x2 = m_.positions[a.first + i + 2];
+        const double l = 0.5 * (dist(x0, x1) + dist(x1, x2));
+        bend = float(l / (4 * EI)), twist = float(l / (4 * GJ));
+      }
+      pairs_.push_back({first_edge + i, first_edge + i + 1, bend, twist});
+    }
+  }
+
+  // A Tendons component on a strand just added (its particles from `first`, frames from
+  // `first_edge`): each disk turns with the frame of the segment that starts at its particle (the
+  // last particle's, with the last segment); a tendon's rest length is its route through the
+  // holes as authored.
+  void tendons(const Adding& a, const scene::Tendons& t, uint32_t first, uint32_t count, uint32_t first_edge) {
+    shader::TendonRobot robot{};
+    robot.range = {uint32_t(m_.tendon_disks.size() / 2), uint32_t(t.disks.size()), uint32_t(m_.tendons.size()),
+                   uint32_t(t.holes.size() / 2)};
+    for (uint32_t k : t.disks) {
+      if (k >= count) fail(a.world, a.entity, "Tendons.disks names particle " + std::to_string(k) + " of the Strand's " + std::to_string(count));
+      m_.tendon_disks.insert(m_.tendon_disks.end(), {first + k, first_edge + std::min(k, count - 2)});
+    }
+    for (size_t j = 0; j < t.holes.size(); j += 2) {
+      double length = 0;
+      Vec3 prev{};
+      for (size_t d = 0; d < t.disks.size(); ++d) {
+        const float4& x = m_.positions[first + t.disks[d]];
+        const float4& q = m_.orientations[first_edge + std::min(t.disks[d], count - 2)];
+        const Vec3 o = rotate({q.x, q.y, q.z, q.w}, {t.holes[j], t.holes[j + 1], 0});
+        const Vec3 h{x.x + o[0], x.y + o[1], x.z + o[2]};
+        if (d) length += std::sqrt((h[0] - prev[0]) * (h[0] - prev[0]) + (h[1] - prev[1]) * (h[1] - prev[1]) + (h[2] - prev[2]) * (h[2] - prev[2]));
+        prev = h;
+      }
+      shader::Tendon td{};
+      td.route = {t.holes[j], t.holes[j + 1], float(length), t.stiffness > 0 ? float(length / t.stiffness) : 0.f};
+      td.ids = {uint32_t(m_.tendon_robots.size()), a.env, 0, 0};
+      m_.tendons.push_back(td);
+    }
+    m_.tendon_robots.push_back(robot);
   }
 
   // records that name frames can be made once the particle count is known
   void frame_constraints() {
     const uint32_t np = uint32_t(m_.size());
-    for (auto& f : frames_) constraint(set("stretch_shear"), {f.p0, f.p1, np + f.edge}, f.length, 0);
+    // stretch-shear: one chain per strand, solved directly along it (particle_stretch_shear.comp.hlsl)
+    auto& ss = set("stretch_shear");
+    for (size_t i = 0; i < frames_.size(); ++i) {
+      const auto& f = frames_[i];
+      if (i == 0 || frames_[i - 1].p1 != f.p0) ss.chains.insert(ss.chains.end(), {uint32_t(ss.records.size()), 0u});
+      constraint(ss, {f.p0, f.p1, np + f.edge}, f.length, 0);
+      ++ss.chains.back();
+    }
     // bend-twist: one chain per strand, solved directly along it (three multipliers a record: x, y
     // bending, z twist); Gauss-Seidel by colours leaves an over-constrained chain (a cable turned
     // at both held ends) twisted in alternate pairs instead of evenly
@@ -516,7 +586,12 @@ ParticleModel build_particle_model(const scene::World& world, const scene::Layou
       }
       if (world.has<scene::Strand>(e)) {
         const auto& s = world.get<scene::Strand>(e);
-        b.strand(begin(shader::PARTICLE_STRAND), s);
+        const Adding& added = begin(shader::PARTICLE_STRAND);
+        b.strand(added, s);
+        if (world.has<scene::Tendons>(e)) {
+          const uint32_t count = uint32_t(s.points.size() / 3);
+          b.tendons(added, world.get<scene::Tendons>(e), added.first, count, uint32_t(m.orientations.size()) - (count - 1));
+        }
         auto& o = m.objects.back();
         o.ids.y = s.self_collision ? shader::PARTICLE_SELF_COLLIDE : 0u;
         o.material = {s.radius, s.friction, s.damping, 0};

@@ -51,6 +51,8 @@ struct ParticleModel {
   // strand segments: material frame (quaternion whose z is the segment), inverse inertia, first particle
   std::vector<shader::float4> orientations;
   std::vector<float> orientation_weights;
+  // rods of a material: the bending compliance at each frame (alpha = l / 4 E I, 1/N m; 0: a thread)
+  std::vector<float> frame_bend_compliances;
   std::vector<uint32_t> edge_particles;
   std::vector<shader::ParticleObject> objects;
   std::vector<uint32_t> object_entity;
@@ -65,6 +67,10 @@ struct ParticleModel {
   bool has_heat = false;
   float heat_step_limit = INFINITY;
   std::vector<float> heat_capacities;      // m c per particle (J/K; 0: no heat), as long as positions when has_heat
+  // tendon-driven strands (scene::Tendons): per Tendons component, its disks and tendons
+  std::vector<shader::TendonRobot> tendon_robots;
+  std::vector<uint32_t> tendon_disks;      // (particle, frame) per disk
+  std::vector<shader::Tendon> tendons;
 
   size_t size() const { return positions.size(); }
   bool empty() const { return positions.empty(); }

@@ -45,6 +45,7 @@ class ParticleSystem {
 
  private:
   std::shared_ptr<compute::ComputePass> pass(const std::string& shader, uint64_t threads);
+  void frame_weights(const PhysicsSettings& s);
   void set_constants(const PhysicsSettings& s);
   uint32_t heat_cycles(const PhysicsSettings& s) const;  // explicit heat steps a frame (0: no heat)
   void record_families(VkCommandBuffer cmd, uint32_t passes) const;
@@ -60,7 +61,7 @@ class ParticleSystem {
   std::vector<std::shared_ptr<compute::ComputePass>> all_;
   std::shared_ptr<compute::ComputePass> emit_, integrate_, orient_integrate_, orient_velocity_, grid_count_, scan_local_, scan_blocks_, scan_add_, scatter_, sort_, neighbor_list_,
       fluid_lambda_, neighbors_, gather_, rigid_push_, rigid_hold_, rigid_forces_, heat_cover_, heat_flow_, heat_apply_, coagulate_, coagulate_reset_, attach_, support_, velocity_, vorticity_,
-      fluid_velocity_,
+      fluid_velocity_, tendon_, tendon_force_,
       health_, reset_, remove_;
   // a non-empty constraint set: its pass dispatched once per colour, and for positional
   // families whose envs fit in group memory the one-workgroup-per-env pass

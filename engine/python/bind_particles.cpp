@@ -39,6 +39,13 @@ std::vector<float> points(py::handle o, const char* what) {
   return {a.data(), a.data() + a.size()};
 }
 
+// an (n, 2) array of offsets as a flat list
+std::vector<float> points2(py::handle o, const char* what) {
+  auto a = FloatArray::ensure(o);
+  if (!a || a.ndim() != 2 || a.shape(1) != 2) throw py::value_error(std::string(what) + ": give an (n, 2) array of x y offsets");
+  return {a.data(), a.data() + a.size()};
+}
+
 // an (n, k) array of indices as a flat list
 std::vector<uint32_t> indices(py::handle o, size_t k, const char* what) {
   if (o.is_none()) return {};
@@ -206,24 +213,59 @@ void bind_particles(py::module_& m) {
       .def_readonly("budget", &scene::Fluid::budget);
 
   py::class_<scene::Strand>(m, "Strand")
-      .def(py::init([](py::object pts, py::object fixed, float mass, float radius, float stretch, float bend,
-                       float twist, float initial_twist, float damping, float friction, bool self_collision) {
+      .def(py::init([](py::object pts, py::object fixed, py::object mass, float radius, float stretch, py::object bend,
+                       py::object twist, float initial_twist, float damping, float friction, bool self_collision,
+                       py::object youngs_modulus, float poisson_ratio, float density) {
              scene::Strand s;
              s.points = points(pts, "Strand points");
              s.fixed = indices(fixed, 1, "Strand fixed");
-             s.mass = mass, s.radius = radius, s.stretch_compliance = stretch, s.bend_compliance = bend;
-             s.twist_compliance = twist, s.initial_twist = initial_twist;
+             if (!youngs_modulus.is_none()) {
+               if (!mass.is_none() || !bend.is_none() || !twist.is_none())
+                 throw py::value_error("Strand: give either youngs_modulus (a rod of a material: its density gives "
+                                       "the mass, E and poisson_ratio the bending and twist) or mass and "
+                                       "compliances, not both");
+               s.youngs_modulus = youngs_modulus.cast<float>();
+               if (!(s.youngs_modulus > 0)) throw py::value_error("Strand.youngs_modulus must be positive");
+             }
+             if (!mass.is_none()) s.mass = mass.cast<float>();
+             if (!bend.is_none()) s.bend_compliance = bend.cast<float>();
+             if (!twist.is_none()) s.twist_compliance = twist.cast<float>();
+             s.radius = radius, s.stretch_compliance = stretch, s.initial_twist = initial_twist;
              s.damping = damping, s.friction = friction, s.self_collision = self_collision;
+             s.poisson_ratio = poisson_ratio, s.density = density;
              return s;
            }),
-           py::arg("points"), py::kw_only(), py::arg("fixed") = py::none(), py::arg("mass") = 0.001f,
-           py::arg("radius") = 0.005f, py::arg("stretch_compliance") = 0.f, py::arg("bend_compliance") = 1e-3f,
-           py::arg("twist_compliance") = 1e-3f, py::arg("initial_twist") = 0.f, py::arg("damping") = 0.f,
-           py::arg("friction") = 0.3f, py::arg("self_collision") = false,
+           py::arg("points"), py::kw_only(), py::arg("fixed") = py::none(), py::arg("mass") = py::none(),
+           py::arg("radius") = 0.005f, py::arg("stretch_compliance") = 0.f, py::arg("bend_compliance") = py::none(),
+           py::arg("twist_compliance") = py::none(), py::arg("initial_twist") = 0.f, py::arg("damping") = 0.f,
+           py::arg("friction") = 0.3f, py::arg("self_collision") = false, py::arg("youngs_modulus") = py::none(),
+           py::arg("poisson_ratio") = 0.3f, py::arg("density") = 1000.f,
            "A thread or cable through `points` (n, 3), a Cosserat rod: segment distance, stretch-shear, bend "
            "and twist constraints (rest straight and untwisted; initial_twist radians spread along it); "
-           "self-collision off unless asked.")
-      .def_readonly("mass", &scene::Strand::mass);
+           "self-collision off unless asked. Either a thread of given mass per particle (default 1 g) and XPBD "
+           "compliances (bend and twist default 1e-3), or a rod of a material: youngs_modulus (Pa), "
+           "poisson_ratio and density (kg/m^3) with a solid round section of `radius`.")
+      .def_readonly("mass", &scene::Strand::mass)
+      .def_readonly("youngs_modulus", &scene::Strand::youngs_modulus);
+
+  py::class_<scene::Tendons>(m, "Tendons")
+      .def(py::init([](py::object disks, py::object holes, float disk_radius, float stiffness) {
+             scene::Tendons t;
+             t.disks = indices(disks, 1, "Tendons disks");
+             t.holes = points2(holes, "Tendons holes");
+             t.disk_radius = disk_radius, t.stiffness = stiffness;
+             return t;
+           }),
+           py::arg("disks"), py::arg("holes"), py::kw_only(), py::arg("disk_radius") = 0.f, py::arg("stiffness") = 0.f,
+           "Tendons routed along the Strand on the same entity (a cable-driven continuum robot): spacer disks "
+           "at the strand particles `disks` (base first, tip last), each turning with the segment frame that "
+           "starts there, and one tendon per row of `holes` (k, 2): its hole in every disk (x, y in the "
+           "disk's frame, m; z runs along the strand). A tendon ends at the last disk and slides through "
+           "the others; control.tendon_commands drives it (mode, value): 0 slack, 1 pulled in by a "
+           "displacement (m; the default, 0, holds it at its rest length), 2 pulled with a tension (N). "
+           "stiffness: each tendon's axial EA (N; 0 inextensible).")
+      .def_readonly("disks", &scene::Tendons::disks)
+      .def_readonly("holes", &scene::Tendons::holes);
 
   auto entity = py::reinterpret_borrow<py::class_<Entity>>(m.attr("Entity"));
   py::class_<scene::Material>(m, "Material")
@@ -243,7 +285,8 @@ void bind_particles(py::module_& m) {
   entity.def("add", &add<scene::Material>, py::arg("component"))
       .def("add", &add<scene::SoftBody>, py::arg("component"))
       .def("add", &add<scene::Fluid>, py::arg("component"))
-      .def("add", &add<scene::Strand>, py::arg("component"));
+      .def("add", &add<scene::Strand>, py::arg("component"))
+      .def("add", &add<scene::Tendons>, py::arg("component"));
 
   auto engine = py::reinterpret_borrow<py::class_<runtime::Engine>>(m.attr("Engine"));
   engine

@@ -282,10 +282,27 @@ struct Strand {
   float damping = 0;
   float friction = 0.3f;
   bool self_collision = false;
+  // a rod's material (0: the compliances and mass above): bending EI and twist GJ of a solid
+  // round section of `radius`, mass density x volume lumped to the particles
+  float youngs_modulus = 0;         // Pa
+  float poisson_ratio = 0.3f;       // in [0, 0.5)
+  float density = 1000;             // kg/m^3
+};
+
+// Tendons routed along a Strand (a cable-driven continuum robot), on the Strand's entity: spacer
+// disks at some of its particles, each turning with that particle's segment frame, and tendons
+// that pass through a hole in every disk (their offset from the backbone, the same in each disk)
+// and end at the last. A tendon slides freely through its holes; its length from the first
+// disk's hole to the last's is driven per tendon (control.tendon_commands).
+struct Tendons {
+  std::vector<uint32_t> disks;  // strand particles carrying a disk, increasing; the first is the base
+  std::vector<float> holes;     // x y per tendon: its hole in each disk's frame (m)
+  float disk_radius = 0;        // drawn (m; 0: the largest hole offset plus the strand radius)
+  float stiffness = 0;          // axial stiffness EA of a tendon (N; 0: inextensible)
 };
 
 using ComponentTypes = std::tuple<Transform, RigidBody, Collider, Joint, Renderable, Material, Camera, Light, EnvironmentLight,
-                                  UltrasoundProbe, UltrasoundTissue, SoftBody, Fluid, Strand>;
+                                  UltrasoundProbe, UltrasoundTissue, SoftBody, Fluid, Strand, Tendons>;
 
 // The name errors use for a component kind ("Collider"), as the binding spells it.
 template <class C>
@@ -304,6 +321,7 @@ template <> constexpr const char* component_name<UltrasoundTissue>() { return "U
 template <> constexpr const char* component_name<SoftBody>() { return "SoftBody"; }
 template <> constexpr const char* component_name<Fluid>() { return "Fluid"; }
 template <> constexpr const char* component_name<Strand>() { return "Strand"; }
+template <> constexpr const char* component_name<Tendons>() { return "Tendons"; }
 
 // Triangle meshes shared by all envs; vertex normals per vertex.
 struct Mesh {

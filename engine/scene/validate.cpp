@@ -307,6 +307,24 @@ void strand(const Fields& c, const Strand& s) {
   c.finite("initial_twist", s.initial_twist);
   c.non_negative("damping", s.damping);
   c.non_negative("friction", s.friction);
+  c.non_negative("youngs_modulus", s.youngs_modulus);
+  c.within("poisson_ratio", s.poisson_ratio, 0, 0.4999);
+  c.positive("density", s.density);
+}
+
+void tendons(const Fields& c, const Tendons& t) {
+  if (!c.world().has<Strand>(c.entity())) c.fail("", "needs a Strand on the same entity (the backbone)");
+  const size_t n = c.world().get<Strand>(c.entity()).points.size() / 3;
+  if (t.disks.size() < 2) c.fail("disks", "needs at least 2 disks (the base and the tip), got " + std::to_string(t.disks.size()));
+  for (size_t i = 0; i < t.disks.size(); ++i) {
+    const std::string f = "disks[" + std::to_string(i) + "]";
+    if (t.disks[i] >= n) c.fail(f, "names particle " + std::to_string(t.disks[i]) + " of the Strand's " + std::to_string(n));
+    if (i > 0 && t.disks[i] <= t.disks[i - 1]) c.fail(f, "must be above the disk before it (disks go from base to tip)");
+  }
+  if (t.holes.empty() || t.holes.size() % 2) c.fail("holes", "needs x y per tendon, got " + std::to_string(t.holes.size()) + " numbers");
+  for (size_t i = 0; i < t.holes.size(); ++i) c.finite("holes[" + std::to_string(i / 2) + "]", t.holes[i]);
+  c.non_negative("disk_radius", t.disk_radius);
+  c.non_negative("stiffness", t.stiffness);
 }
 
 template <class C>
@@ -350,6 +368,7 @@ void validate_world(const World& w) {
     check(w, e, soft_body);
     check(w, e, fluid);
     check(w, e, strand);
+    check(w, e, tendons);
   }
 }
 

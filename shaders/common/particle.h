@@ -68,6 +68,21 @@ struct ParticleAttachment {
   float4 frame;  // the segment's frame in the body frame (xyzw): frame = body rotation * this
 };
 
+// Tendon-driven strands (a Tendons component on a Strand; particle_tendon.comp.hlsl). A robot's
+// disks sit at some of its particles and turn with the frame of the segment starting there; each
+// tendon runs from the first disk's hole through every disk's to the last's and slides freely.
+// control.tendon_commands (float32 (tendons, 2)) drives each: x mode, y value.
+static const uint TENDON_SLACK = 0;         // no force
+static const uint TENDON_DISPLACEMENT = 1;  // pulled in by y metres from its rest length (a taut, unilateral length)
+static const uint TENDON_TENSION = 2;       // pulled with y newtons
+struct TendonRobot {
+  uint4 range;  // x first disk (particles.tendon_disks: particle, frame), y disks, z first tendon, w tendons
+};
+struct Tendon {
+  float4 route;  // xy the hole in each disk's frame (m), z rest length (m), w compliance (m/N; 0: inextensible)
+  uint4 ids;     // x robot, y env
+};
+
 // push constants of every particle pass
 struct ParticleConstants {
   float4 gravity;     // xyz; w substep h

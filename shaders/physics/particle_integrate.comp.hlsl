@@ -1,5 +1,5 @@
 // Substep start: remember the positions, then move every active, finite-mass particle by its
-// velocity after gravity and its object's damping (an elastic body's solve starts nearer: below).
+// velocity after gravity, its external force (control.particle_forces) and its object's damping (an elastic body's solve starts nearer: below).
 // Fluid within reach of its env's sink (control.fluid_sinks: a suction tip) flows into it at
 // least as fast as a point sink of flow rate Q at a wall draws it: Q / (2 pi r^2) toward the
 // point (half of the sphere around it is the wall), r no less than the sink's core radius (the
@@ -15,6 +15,7 @@ RWStructuredBuffer<float4> velocities;
 RWStructuredBuffer<float4> prev_positions;
 StructuredBuffer<float> object_supports;
 StructuredBuffer<float4> fluid_sinks;  // per env: (point xyz, reach w; 0: off), (flow rate Q m^3/s, core radius, -, -)
+StructuredBuffer<float4> particle_forces;  // control.particle_forces: an external force (N, world) per particle
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
 void main(uint3 id : SV_DispatchThreadID) {
@@ -25,7 +26,7 @@ void main(uint3 id : SV_DispatchThreadID) {
   const uint4 ph = phases[i];
   if ((ph.w & PARTICLE_ACTIVE) == 0 || x.w <= 0) return;
   const float h = pc.gravity.w, drag = 1 + h * objects[ph.y].material.z;
-  float3 v = (velocities[i].xyz + h * pc.gravity.xyz) / drag;
+  float3 v = (velocities[i].xyz + h * (pc.gravity.xyz + x.w * particle_forces[i].xyz)) / drag;
   if (ph.x == PARTICLE_FLUID) {
     const float4 sink = fluid_sinks[2 * ph.z];
     const float3 d = sink.xyz - x.xyz;
