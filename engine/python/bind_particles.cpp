@@ -249,14 +249,14 @@ void bind_particles(py::module_& m) {
       .def_readonly("youngs_modulus", &scene::Strand::youngs_modulus);
 
   py::class_<scene::Tendons>(m, "Tendons")
-      .def(py::init([](py::object disks, py::object holes, float disk_radius, float stiffness) {
+      .def(py::init([](py::object disks, py::object holes, float stiffness) {
              scene::Tendons t;
              t.disks = indices(disks, 1, "Tendons disks");
              t.holes = points2(holes, "Tendons holes");
-             t.disk_radius = disk_radius, t.stiffness = stiffness;
+             t.stiffness = stiffness;
              return t;
            }),
-           py::arg("disks"), py::arg("holes"), py::kw_only(), py::arg("disk_radius") = 0.f, py::arg("stiffness") = 0.f,
+           py::arg("disks"), py::arg("holes"), py::kw_only(), py::arg("stiffness") = 0.f,
            "Tendons routed along the Strand on the same entity (a cable-driven continuum robot): spacer disks "
            "at the strand particles `disks` (base first, tip last), each turning with the segment frame that "
            "starts there, and one tendon per row of `holes` (k, 2): its hole in every disk (x, y in the "

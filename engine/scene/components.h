@@ -297,7 +297,6 @@ struct Strand {
 struct Tendons {
   std::vector<uint32_t> disks;  // strand particles carrying a disk, increasing; the first is the base
   std::vector<float> holes;     // x y per tendon: its hole in each disk's frame (m)
-  float disk_radius = 0;        // drawn (m; 0: the largest hole offset plus the strand radius)
   float stiffness = 0;          // axial stiffness EA of a tendon (N; 0: inextensible)
 };
 

@@ -323,7 +323,6 @@ void tendons(const Fields& c, const Tendons& t) {
   }
   if (t.holes.empty() || t.holes.size() % 2) c.fail("holes", "needs x y per tendon, got " + std::to_string(t.holes.size()) + " numbers");
   for (size_t i = 0; i < t.holes.size(); ++i) c.finite("holes[" + std::to_string(i / 2) + "]", t.holes[i]);
-  c.non_negative("disk_radius", t.disk_radius);
   c.non_negative("stiffness", t.stiffness);
 }
 

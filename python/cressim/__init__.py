@@ -49,6 +49,7 @@ from cressim._core import (
 from cressim.compute import load_compute_pass
 from cressim import sensors  # noqa: F401  (PNG export of sensor images)
 from cressim import passes  # noqa: F401  (ready-made custom passes: grasp, suction)
+from cressim.tendons import TendonDrive
 
 __all__ = [
     "AuthoringError",
@@ -76,6 +77,7 @@ __all__ = [
     "SoftBody",
     "Thermal",
     "Strand",
+    "TendonDrive",
     "Tendons",
     "TetMesh",
     "TopologyError",

@@ -83,8 +83,8 @@ MATERIAL_KEYS = ("color", "metallic", "roughness", "texture", "normal_map", "nor
 # an entity's keys and the components they make
 COMPONENTS = {"transform": "Transform", "renderable": "Renderable", "camera": "Camera", "light": "Light",
               "rigid_body": "RigidBody", "collider": "Collider", "soft_body": "SoftBody", "fluid": "Fluid",
-              "strand": "Strand", "material": "Material", "ultrasound_probe": "UltrasoundProbe",
-              "ultrasound_tissue": "UltrasoundTissue"}
+              "strand": "Strand", "tendons": "Tendons", "material": "Material",
+              "ultrasound_probe": "UltrasoundProbe", "ultrasound_tissue": "UltrasoundTissue"}
 # keys that author component fields of another name (the rest author the field of their name)
 AUTHORS = {("Transform", "look_at"): ("rotation",), ("Transform", "rpy_deg"): ("rotation",),
            ("SoftBody", "box"): ("positions", "tets", "triangles"),
@@ -378,7 +378,7 @@ class _Loader:
     # --- entities --------------------------------------------------------------------------
     def entity(self, env: int, f: Field) -> None:
         e = f.keys(("name", "transform", "renderable", "camera", "light", "rigid_body", "collider", "soft_body",
-                    "fluid", "strand", "material", "ultrasound_probe", "ultrasound_tissue"))
+                    "fluid", "strand", "tendons", "material", "ultrasound_probe", "ultrasound_tissue"))
         if any(k in e for k in self.skip):
             return
         name = e["name"].str() if "name" in e else ""
@@ -390,7 +390,8 @@ class _Loader:
             self.probes.append((tuple(transform.position), tuple(transform.rotation)))
         for key, make in (("renderable", self.renderable), ("camera", self.camera), ("light", self.light),
                           ("rigid_body", self.rigid_body), ("collider", self.collider), ("soft_body", self.soft_body),
-                          ("fluid", self.fluid), ("strand", self.strand), ("material", self.look),
+                          ("fluid", self.fluid), ("strand", self.strand),
+                          ("tendons", lambda g: self.tendons(g, e)), ("material", self.look),
                           ("ultrasound_probe", self.ultrasound_probe), ("ultrasound_tissue", self.ultrasound_tissue)):
             if key in e:
                 try:
@@ -610,7 +611,7 @@ class _Loader:
 
     def strand(self, f: Field) -> cressim.Strand:
         c = f.keys(("line", "radius", "mass", "fixed", "stretch_compliance", "bend_compliance", "twist_compliance",
-                    "damping", "friction"))
+                    "damping", "friction", "youngs_modulus", "poisson_ratio", "density"))
         if "line" not in c:
             raise f.fail("a strand needs 'line' {start, end, count}")
         keys = ("start", "end", "count")
@@ -620,6 +621,30 @@ class _Loader:
         fixed = self.selection(c["fixed"], points) if "fixed" in c else None
         opts = self._options({k: v for k, v in c.items() if k not in ("line", "fixed")})
         return cressim.Strand(points, fixed=fixed, **opts)
+
+    def tendons(self, f: Field, entity: dict[str, Field]) -> cressim.Tendons:
+        """`disks`: strand particle indices (base first), or {every: k} (particles 0, k, 2k, ... and
+        the last); `holes`: [[x, y], ...] per tendon (m, in the disks' frames)."""
+        c = f.keys(("disks", "holes", "stiffness"))
+        self._need(f, c, ("disks", "holes"), "tendons")
+        if "strand" not in entity:
+            raise f.fail("tendons need a strand on the same entity (the backbone)")
+        line = entity["strand"].items().get("line")
+        count = line.items()["count"].int(2) if line is not None and "count" in line.items() else 2
+        d = c["disks"]
+        if d.is_map():
+            every = d.keys(("every",))
+            if "every" not in every:
+                raise d.fail("give a list of particle indices or {every: k}")
+            k = every["every"].int(1)
+            disks = list(range(0, count, k)) + ([count - 1] if (count - 1) % k else [])
+        else:
+            disks = [x.int(0) for x in d.list()]
+        holes = [h.vec(2, "finite") for h in c["holes"].list()]
+        if not holes:
+            raise c["holes"].fail("needs at least one tendon's hole [x, y]")
+        opts = self._options({k: v for k, v in c.items() if k == "stiffness"})
+        return cressim.Tendons(disks, np.asarray(holes, np.float32), **opts)
 
     def ultrasound_probe(self, f: Field) -> cressim.UltrasoundProbe:
         """Types and finiteness here; ranges (positive lengths and frequencies, ...) at prepare(),

@@ -3,7 +3,8 @@ uploads and steps 30 frames with no NaN and no health event; the segmentation id
 lists are distinct and exactly the ones its camera sees, and its particle count is the header's.
 Then what each is for: the flap lies on the table under the tool with its far edge held, the
 blood stays in the basin while the bleeding source adds to it, the probe images the phantom's
-cyst dark and its lesion bright, and the liver for cautery carries heat at body temperature."""
+cyst dark and its lesion bright, the liver for cautery carries heat at body temperature, and the
+continuum robot bends by its tendons."""
 import re
 from pathlib import Path
 
@@ -51,7 +52,8 @@ def objects(engine, world):
             for e, o, c in zip(m["object_entity"], m["object_offset"], m["object_count"])}
 
 
-@pytest.mark.parametrize("name", ["tissue_retraction", "blood_suction", "ultrasound_phantom", "cautery"])
+@pytest.mark.parametrize("name", ["tissue_retraction", "blood_suction", "ultrasound_phantom", "cautery",
+                                  "continuum_robot"])
 def test_scene_steps_and_shows_its_documented_ids(make_engine, name):
     labels, count = header(name)
     engine, _, _ = run(make_engine, name)
@@ -113,3 +115,22 @@ def test_the_liver_for_cautery_carries_heat_at_body_temperature(make_engine):
     assert (engine.buffer("particles.heat_capacities").read()[first:first + count] > 0).all()
     np.testing.assert_allclose(engine.buffer("particles.temperatures").read(), 310.15, atol=1e-4)  # nothing heats it
     assert not engine.buffer("particles.damage").read().any()
+
+
+def test_the_continuum_robot_bends_toward_its_pulled_tendon(make_engine):
+    from cressim.tendons import TendonDrive
+
+    engine, world, rest = run(make_engine, "continuum_robot")
+    first, count = objects(engine, world)["robot"]
+    tip = first + count - 1
+    assert np.allclose(engine.buffer("particles.positions").read()[tip, :3], rest[tip, :3], atol=1e-4)  # held straight
+    drive = TendonDrive(engine)
+    assert drive.rest_lengths.shape == (1, 4)
+    drive.pull([0.002, 0, -0.002, 0])  # 0.5 rad toward tendon 0 (constant curvature: d / r)
+    for _ in range(120):
+        engine.step_physics()
+        engine.end_frame()
+    moved = engine.buffer("particles.positions").read()[tip, :3] - rest[tip, :3]
+    # a 0.1 m arc turned 0.5 rad from its clamp swings its tip about 24 mm sideways and 4 mm up
+    assert 0.018 < np.linalg.norm(moved[:2]) < 0.03 and moved[2] > 0.002
+    assert engine.health_events == 0

@@ -350,3 +350,38 @@ def test_ultrasound_prepare_errors_name_the_line(tmp_path, make_engine, old, new
     path, error = prepare_error(make_engine, tmp_path, PROBE.replace(old, new))
     assert error.source == f"{path}:{line}" and error.field == field, (error.source, error.field)
     assert message in str(error), str(error)
+
+
+def test_a_strand_with_tendons_loads_as_a_continuum_robot(tmp_path, make_engine):
+    path = write(tmp_path, """
+        entities:
+          - name: robot
+            strand: {line: {start: [0, 0, 0.5], end: [0.1, 0, 0.5], count: 11}, fixed: [0, 1], radius: 0.0005,
+                     youngs_modulus: 50e9, density: 6450}
+            tendons: {disks: {every: 3}, holes: [[0.004, 0], [-0.004, 0]], stiffness: 2000}
+        """)
+    engine = prepared(make_engine, path)
+    tendons = engine.buffer("particles.tendons").read()
+    assert len(tendons) == 2 and np.allclose(tendons[:, 2].view(np.float32), 0.1, atol=1e-6)  # rest lengths
+    assert tendons[0, 3].view(np.float32) == pytest.approx(0.1 / 2000)  # compliance L / EA
+    disks = engine.buffer("particles.tendon_disks").read()[:, 0]
+    assert disks.tolist() == [0, 3, 6, 9, 10]  # every third particle and the tip
+
+
+@pytest.mark.parametrize("tendons, line, message", [
+    ("{disks: [0, 12], holes: [[0.004, 0]]}", 4, "Tendons.disks[1] names particle 12 of the Strand's 11"),
+    ("{disks: {every: 2}, holes: [[0.004]]}", 4, "entities[0].tendons.holes[0]: expected 2 numbers, got 1"),
+    ("{disks: {each: 2}, holes: [[0.004, 0]]}", 4, "entities[0].tendons.disks.each: unknown field 'each'"),
+    ("{holes: [[0.004, 0]]}", 4, "entities[0].tendons: tendons needs 'disks'"),
+])
+def test_tendon_errors_name_the_line(tmp_path, make_engine, tendons, line, message):
+    text = f"""
+        entities:
+          - name: robot
+            strand: {{line: {{start: [0, 0, 0.5], end: [0.1, 0, 0.5], count: 11}}, youngs_modulus: 50e9}}
+            tendons: {tendons}
+        """
+    path = write(tmp_path, text)
+    with pytest.raises((SceneFileError, cressim.AuthoringError)) as e:
+        make_engine(load_scene(path)).prepare()
+    assert f"{path}:{line}" in str(e.value) and message in str(e.value)
