@@ -5,6 +5,7 @@
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-b bench-twin  # ultrasound; the twin
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-twin-tissue  # the twin over tissue
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-heat  # the cautery scene; the twin's tick
+#   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-sew   # the continuum robot and suture scenes
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-soft bench-fluid  # SoftBodyPush, FluidPour
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-soft-material      # elastic tets' cost
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-surgical  # TissueRetract, BloodSuction
@@ -92,6 +93,10 @@ for stage in "$@"; do
       run cautery 300 python3 benchmarks/bench_cautery.py --envs 1,64,1024 --json "$OUT/cautery.json"
       run profile_twin 300 python3 benchmarks/profile_twin.py --physics-rates 200,800 --iterations 4/4,2/1 \
         --json "$OUT/profile_twin.json"
+      ;;
+    bench-sew)  # cressim demo cable's and suture's scenes
+      run cable 300 python3 benchmarks/bench_cable.py --envs 1,64,1024 --json "$OUT/cable.json"
+      run suture 300 python3 benchmarks/bench_suture.py --envs 1,64,1024 --json "$OUT/suture.json"
       ;;
     bench-soft)
       mkdir -p "$OUT/softbodypush" "$OUT/softbodypush_ppo"

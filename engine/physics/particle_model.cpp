@@ -253,7 +253,9 @@ class Builder {
     if (n < 2) fail(a.world, a.entity, "Strand.points needs at least 2 points");
     if (!(s.mass > 0)) fail(a.world, a.entity, "Strand.mass must be positive");
     if (!(s.radius > 0)) fail(a.world, a.entity, "Strand.radius must be positive");
-    add_particles(a, s.points, n, 1 / s.mass, shader::PARTICLE_STRAND, s.self_collision ? shader::PARTICLE_SELF_COLLIDE : 0u,
+    add_particles(a, s.points, n, 1 / s.mass, shader::PARTICLE_STRAND,
+                  (s.self_collision ? shader::PARTICLE_SELF_COLLIDE : 0u) |
+                      (s.soft_body_contacts ? 0u : shader::PARTICLE_NO_SOFT_CONTACT),
                   "Strand.points");
     // a rod of a material: density x volume lumped to the particles (half of each segment to each
     // end), bending EI and twist GJ of a solid round section, E I = E pi r^4 / 4, G J = G pi r^4 / 2
@@ -601,6 +603,30 @@ ParticleModel build_particle_model(const scene::World& world, const scene::Layou
     }
     range.y = uint32_t(m.size()) - range.x;
     range.w = uint32_t(m.objects.size()) - range.z;
+    // suture needles: the env's soft-body surface (its objects' triangles are contiguous) and the thread
+    for (uint32_t row = mapping.env_offset[env]; row < mapping.env_offset[env] + mapping.env_count[env]; ++row) {
+      const scene::EntityId e = mapping.row_entity[row];
+      if (!world.has<scene::Needle>(e)) continue;
+      const auto& n = world.get<scene::Needle>(e);
+      shader::NeedleModel nm{};
+      nm.ids = {uint32_t(e), NONE, 0, env};
+      if (n.thread >= 0)
+        for (uint32_t o = range.z; o < range.z + range.w; ++o)
+          if (m.object_entity[o] == scene::EntityId(n.thread)) nm.ids.y = m.objects[o].range.x, nm.ids.z = m.objects[o].range.y;
+      // the thread's first particle goes where the tail is (particle_needle_solve): driven, like a
+      // fixed particle, so the strand's own solves take it as an anchor
+      if (nm.ids.y != NONE) m.positions[nm.ids.y].w = 0;
+      const uint32_t tri_first = range.w ? m.surface_offset[range.z] : uint32_t(m.surface.size() / 3);
+      nm.records = {m.puncture_records, n.max_punctures, tri_first, uint32_t(m.surface.size() / 3) - tri_first};
+      nm.arc = {n.arc_radius, n.arc_angle, n.puncture_force, n.friction};
+      nm.puncture = {n.puncture_depth, 0, 0, 0};
+      nm.center = {n.center[0], n.center[1], n.center[2], 0};
+      const float qn = std::sqrt(n.rotation[0] * n.rotation[0] + n.rotation[1] * n.rotation[1] + n.rotation[2] * n.rotation[2] +
+                                 n.rotation[3] * n.rotation[3]);
+      nm.rotation = {n.rotation[0] / qn, n.rotation[1] / qn, n.rotation[2] / qn, n.rotation[3] / qn};
+      m.needles.push_back(nm);
+      m.puncture_records += n.max_punctures;
+    }
   }
   if (m.has_heat) m.heat_capacities.resize(m.size(), 0.f);
   b.frame_constraints();

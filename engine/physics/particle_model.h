@@ -71,6 +71,9 @@ struct ParticleModel {
   std::vector<shader::TendonRobot> tendon_robots;
   std::vector<uint32_t> tendon_disks;      // (particle, frame) per disk
   std::vector<shader::Tendon> tendons;
+  // suture needles (scene::Needle): ids.x is the entity until the engine resolves its rigid body
+  std::vector<shader::NeedleModel> needles;
+  uint32_t puncture_records = 0;
 
   size_t size() const { return positions.size(); }
   bool empty() const { return positions.empty(); }

@@ -86,7 +86,7 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   for (size_t o = 0; o < active.size(); ++o) active[o] = model_.objects[o].range.w == shader::PARTICLE_FLUID ? model_.objects[o].ids.w : model_.objects[o].range.y;
   in("emitted", "particles.emitted", active, {no}, DType::UINT32);
   in("first_free", "particles.first_free", active, {no}, DType::UINT32);
-  in("", "particles.surface", model_.surface, {int64_t(model_.surface.size() / 3), 3}, DType::UINT32);
+  in("surface", "particles.surface", model_.surface, {int64_t(model_.surface.size() / 3), 3}, DType::UINT32);
   scratch("densities", "particles.densities", {n}, DType::FLOAT32);
   // scratch
   // elastic bodies: the share of a substep's fall their last solve held back (particle_tet_support)
@@ -156,6 +156,19 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
        DType::FLOAT32);
     auto lambdas = scratch("tendon_lambdas", "particles.tendon_lambdas", {nt}, DType::FLOAT32);
     per_substep_clears_.push_back(lambdas->storage->buffer.buffer);
+  }
+
+  // suture needles (scene::Needle; particle_needle_*.comp.hlsl): puncture records, all free, and
+  // their grip on the tissue for the elastic solve (cleared each substep), or a stand-in
+  scratch("tet_pins", "particles.tet_pins", {model_.needles.empty() ? 1 : n, 4}, DType::FLOAT32);
+  if (!model_.needles.empty()) {
+    per_substep_clears_.push_back(bindings_.at("tet_pins")->storage->buffer.buffer);
+    const auto nn = int64_t(model_.needles.size()), nr = int64_t(model_.puncture_records);
+    in("needles", "particles.needles", words(model_.needles), {nn, int64_t(sizeof(shader::NeedleModel) / 4)}, DType::UINT32);
+    in("punctures", "particles.punctures", std::vector<shader::Puncture>(size_t(nr), shader::Puncture{}),
+       {nr, int64_t(sizeof(shader::Puncture) / 4)}, DType::UINT32);
+    in("needle_states", "particles.needle_states", std::vector<float4>(size_t(nn), float4{0, 0, 0, -1}), {nn, 4},
+       DType::FLOAT32);
   }
 
   // env flags, shared with the rigid solver; made here when there is none
@@ -327,6 +340,13 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
     heat_cover_ = pass("physics/particle_heat_cover", uint64_t(ne));
     heat_apply_ = pass("physics/particle_heat_apply", uint64_t(n));
   }
+  if (!model_.needles.empty()) {
+    needle_detect_ = pass("physics/particle_needle_detect", model_.needles.size());
+    needle_solve_ = pass("physics/particle_needle_solve", model_.needles.size());
+    needle_reset_ = pass("physics/particle_needle_reset", model_.needles.size());
+    moving_.push_back(needle_detect_.get());
+    moving_.push_back(needle_solve_.get());
+  }
   if (!model_.tendons.empty()) {
     tendon_ = pass("physics/particle_tendon", model_.tendon_robots.size());
     tendon_force_ = pass("physics/particle_tendon", model_.tendon_robots.size());
@@ -449,6 +469,7 @@ void ParticleSystem::set_constants(const PhysicsSettings& s) {
     c.owns_health = !has_rigid_;
     c.attachment_count = c.env_count * attachments_per_env_;
     c.edge_count = uint32_t(model_.orientations.size());
+    c.has_pins = model_.needles.empty() ? 0u : 1u;
     c.item_count = p == scan_blocks_ ? blocks_ : (p == emit_ || p == reset_) ? uint32_t(model_.objects.size()) : 0;
     for (auto& [r, records] : cut_resets_)
       if (p == r) c.item_count = records;
@@ -458,6 +479,7 @@ void ParticleSystem::set_constants(const PhysicsSettings& s) {
     if (p == heat_apply_) c.item_count = heat_cycles(s);
     if (p == tendon_ || p == tendon_force_) c.item_count = uint32_t(model_.tendon_robots.size());
     if (p == tendon_force_) c.item_offset = 1;
+    if (p == needle_detect_ || p == needle_solve_ || p == needle_reset_) c.item_count = uint32_t(model_.needles.size());
     if (p->constants.size() != sizeof(c)) throw std::logic_error("ParticleConstants does not match " + p->name);
     std::memcpy(p->constants.data(), &c, sizeof(c));
   }
@@ -485,6 +507,7 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
     run(integrate_);
     run(orient_integrate_);
     run(tendon_force_);
+    run(needle_detect_);
     if (grid_count_) {
       for (auto& p : {grid_count_, scan_local_, scan_blocks_, scan_add_, scatter_, sort_, neighbor_list_}) run(p);
     }
@@ -495,6 +518,9 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
     for (uint32_t k = 0; k < contacts; ++k) {
       run(fluid_lambda_);
       const uint32_t passes = (k + 1) * iterations / contacts - k * iterations / contacts;
+      // punctures before the families: the elastic solve holds the tissue where they pin it, and a
+      // sewn thread's own solves (stretch last) have the final say on its length
+      run(needle_solve_);
       record_families(cmd, passes);
       for (uint32_t i = 0; tendon_ && i < passes; ++i) run(tendon_);
       run(neighbors_);
@@ -521,6 +547,7 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
 
 void ParticleSystem::record_reset(VkCommandBuffer cmd) const {
   reset_->record(cmd);
+  if (needle_reset_) needle_reset_->record(cmd);
   for (auto& [p, records] : cut_resets_) p->record(cmd);
   if (coagulate_) {  // a reset env's tets as authored (its damage is 0 again): every tet written
     gpu::compute_barrier(cmd);

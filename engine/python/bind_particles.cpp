@@ -215,7 +215,7 @@ void bind_particles(py::module_& m) {
   py::class_<scene::Strand>(m, "Strand")
       .def(py::init([](py::object pts, py::object fixed, py::object mass, float radius, float stretch, py::object bend,
                        py::object twist, float initial_twist, float damping, float friction, bool self_collision,
-                       py::object youngs_modulus, float poisson_ratio, float density) {
+                       py::object youngs_modulus, float poisson_ratio, float density, bool soft_body_contacts) {
              scene::Strand s;
              s.points = points(pts, "Strand points");
              s.fixed = indices(fixed, 1, "Strand fixed");
@@ -232,19 +232,20 @@ void bind_particles(py::module_& m) {
              if (!twist.is_none()) s.twist_compliance = twist.cast<float>();
              s.radius = radius, s.stretch_compliance = stretch, s.initial_twist = initial_twist;
              s.damping = damping, s.friction = friction, s.self_collision = self_collision;
-             s.poisson_ratio = poisson_ratio, s.density = density;
+             s.poisson_ratio = poisson_ratio, s.density = density, s.soft_body_contacts = soft_body_contacts;
              return s;
            }),
            py::arg("points"), py::kw_only(), py::arg("fixed") = py::none(), py::arg("mass") = py::none(),
            py::arg("radius") = 0.005f, py::arg("stretch_compliance") = 0.f, py::arg("bend_compliance") = py::none(),
            py::arg("twist_compliance") = py::none(), py::arg("initial_twist") = 0.f, py::arg("damping") = 0.f,
            py::arg("friction") = 0.3f, py::arg("self_collision") = false, py::arg("youngs_modulus") = py::none(),
-           py::arg("poisson_ratio") = 0.3f, py::arg("density") = 1000.f,
+           py::arg("poisson_ratio") = 0.3f, py::arg("density") = 1000.f, py::arg("soft_body_contacts") = true,
            "A thread or cable through `points` (n, 3), a Cosserat rod: segment distance, stretch-shear, bend "
            "and twist constraints (rest straight and untwisted; initial_twist radians spread along it); "
            "self-collision off unless asked. Either a thread of given mass per particle (default 1 g) and XPBD "
            "compliances (bend and twist default 1e-3), or a rod of a material: youngs_modulus (Pa), "
-           "poisson_ratio and density (kg/m^3) with a solid round section of `radius`.")
+           "poisson_ratio and density (kg/m^3) with a solid round section of `radius`. soft_body_contacts=False: "
+           "it passes through soft bodies (a suture thread sewn into tissue by a cressim.Needle).")
       .def_readonly("mass", &scene::Strand::mass)
       .def_readonly("youngs_modulus", &scene::Strand::youngs_modulus);
 
@@ -267,6 +268,34 @@ void bind_particles(py::module_& m) {
       .def_readonly("disks", &scene::Tendons::disks)
       .def_readonly("holes", &scene::Tendons::holes);
 
+  py::class_<scene::Needle>(m, "Needle")
+      .def(py::init([](py::object thread, float arc_radius, float arc_angle, scene::Vec3 center, scene::Quat rotation,
+                       float puncture_force, float puncture_depth, float friction, uint32_t max_punctures) {
+             scene::Needle n;
+             if (!thread.is_none()) n.thread = py::isinstance<Entity>(thread) ? int64_t(thread.cast<Entity>().id)
+                                                                               : thread.cast<int64_t>();
+             n.arc_radius = arc_radius, n.arc_angle = arc_angle, n.center = center, n.rotation = rotation;
+             n.puncture_force = puncture_force, n.puncture_depth = puncture_depth, n.friction = friction;
+             n.max_punctures = max_punctures;
+             return n;
+           }),
+           py::kw_only(), py::arg("thread") = py::none(), py::arg("arc_radius") = 0.008f,
+           py::arg("arc_angle") = 2.35619449f, py::arg("center") = scene::Vec3{0, 0, 0},
+           py::arg("rotation") = scene::Quat{0, 0, 0, 1}, py::arg("puncture_force") = 1.0f,
+           py::arg("puncture_depth") = 0.002f, py::arg("friction") = 0.3f,
+           py::arg("max_punctures") = 8u,
+           "A curved suture needle on the entity's rigid body: a circular arc of `arc_radius` (m) in the xy plane "
+           "of the arc frame (`center`, `rotation` in the body frame) about its z axis, from the tail at angle 0 "
+           "to the tip at `arc_angle` (rad, counter-clockwise). `thread`: a Strand entity of the same env whose "
+           "first particle is tied to the tail. Where the tip meets a soft body's surface it pushes it until "
+           "the surface takes `puncture_force` (N) or the tip is `puncture_depth` (m) past where it met it, then "
+           "passes through; the punctured points slide along the "
+           "needle and then the thread against Coulomb `friction`, and stop at the thread's last particle (a "
+           "knot). `max_punctures` records (entries and exits).")
+      .def_readonly("arc_radius", &scene::Needle::arc_radius)
+      .def_readonly("arc_angle", &scene::Needle::arc_angle)
+      .def_readonly("thread", &scene::Needle::thread);
+
   auto entity = py::reinterpret_borrow<py::class_<Entity>>(m.attr("Entity"));
   py::class_<scene::Material>(m, "Material")
       .def(py::init([](std::array<float, 4> color, float metallic, float roughness, uint32_t seg) {
@@ -286,7 +315,8 @@ void bind_particles(py::module_& m) {
       .def("add", &add<scene::SoftBody>, py::arg("component"))
       .def("add", &add<scene::Fluid>, py::arg("component"))
       .def("add", &add<scene::Strand>, py::arg("component"))
-      .def("add", &add<scene::Tendons>, py::arg("component"));
+      .def("add", &add<scene::Tendons>, py::arg("component"))
+      .def("add", &add<scene::Needle>, py::arg("component"));
 
   auto engine = py::reinterpret_borrow<py::class_<runtime::Engine>>(m.attr("Engine"));
   engine

@@ -60,6 +60,7 @@ void Engine::prepare() {
   mapping_ = scene::build_layout_mapping(*world_);
   rigid_model_ = physics::build_rigid_model(*world_, mapping_);
   particle_model_ = physics::build_particle_model(*world_, mapping_);
+  for (auto& n : particle_model_.needles) n.ids.x = uint32_t(rigid_model_.entity_body[n.ids.x]);  // entity -> body
   const auto& limits = ctx_->properties.limits;
   render_model_ = render::build_render_model(*world_, mapping_,
                                              std::min(limits.maxImageArrayLayers, limits.maxFramebufferLayers),

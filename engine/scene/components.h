@@ -282,6 +282,7 @@ struct Strand {
   float damping = 0;
   float friction = 0.3f;
   bool self_collision = false;
+  bool soft_body_contacts = true;   // false: passes through soft bodies (a suture thread sewn into tissue)
   // a rod's material (0: the compliances and mass above): bending EI and twist GJ of a solid
   // round section of `radius`, mass density x volume lumped to the particles
   float youngs_modulus = 0;         // Pa
@@ -300,8 +301,27 @@ struct Tendons {
   float stiffness = 0;          // axial stiffness EA of a tendon (N; 0: inextensible)
 };
 
+// A curved suture needle on a rigid body (docs/particles.md, "Suturing"): a circular arc in the
+// body frame, in the xy plane of the arc frame (`center`, `rotation`) about its z axis, from the
+// tail at angle 0 (on its x axis) to the tip at `arc_angle`, turning counter-clockwise. Where its
+// tip crosses a soft body's surface it pushes the surface ahead until that takes `puncture_force`
+// or the tip is `puncture_depth` past where it met it, then the surface point is punctured: it lies on the needle and then on the thread (a Strand of
+// the same env whose first particle is tied to the tail) and slides along them against Coulomb
+// friction; the thread's last particle is a knot that does not pass a puncture.
+struct Needle {
+  float arc_radius = 0.008f;         // m (a 16 mm 3/8 circle needle by default)
+  float arc_angle = 2.35619449f;     // rad, tail to tip (3/8 of a turn)
+  Vec3 center{0, 0, 0};              // the arc's centre in the body frame (m)
+  Quat rotation{0, 0, 0, 1};         // the arc's frame in the body frame
+  int64_t thread = -1;               // the Strand entity tied to the tail (-1: none)
+  float puncture_force = 1.0f;       // N: the surface gives way when it takes this push ...
+  float puncture_depth = 0.002f;     // m: ... or when the tip is this far past where it met it
+  float friction = 0.3f;             // Coulomb coefficient of thread and needle in the tissue
+  uint32_t max_punctures = 8;        // puncture records of this needle
+};
+
 using ComponentTypes = std::tuple<Transform, RigidBody, Collider, Joint, Renderable, Material, Camera, Light, EnvironmentLight,
-                                  UltrasoundProbe, UltrasoundTissue, SoftBody, Fluid, Strand, Tendons>;
+                                  UltrasoundProbe, UltrasoundTissue, SoftBody, Fluid, Strand, Tendons, Needle>;
 
 // The name errors use for a component kind ("Collider"), as the binding spells it.
 template <class C>
@@ -321,6 +341,7 @@ template <> constexpr const char* component_name<SoftBody>() { return "SoftBody"
 template <> constexpr const char* component_name<Fluid>() { return "Fluid"; }
 template <> constexpr const char* component_name<Strand>() { return "Strand"; }
 template <> constexpr const char* component_name<Tendons>() { return "Tendons"; }
+template <> constexpr const char* component_name<Needle>() { return "Needle"; }
 
 // Triangle meshes shared by all envs; vertex normals per vertex.
 struct Mesh {

@@ -326,6 +326,26 @@ void tendons(const Fields& c, const Tendons& t) {
   c.non_negative("stiffness", t.stiffness);
 }
 
+void needle(const Fields& c, const Needle& n) {
+  if (!c.world().has<RigidBody>(c.entity())) c.fail("", "needs a RigidBody on the same entity (the needle is rigid)");
+  c.positive("arc_radius", n.arc_radius);
+  c.within("arc_angle", n.arc_angle, 1e-3, 2 * 3.14159265);
+  c.finite("center", n.center);
+  c.rotation("rotation", n.rotation);
+  c.positive("puncture_force", n.puncture_force);
+  c.positive("puncture_depth", n.puncture_depth);
+  c.non_negative("friction", n.friction);
+  c.at_least("max_punctures", n.max_punctures, 2);
+  if (n.thread >= 0) {
+    const World& w = c.world();
+    if (uint64_t(n.thread) >= w.entity_count() || !w.has<Strand>(EntityId(n.thread)))
+      c.fail("thread", "names entity " + std::to_string(n.thread) + ", which has no Strand");
+    if (w.env_of(EntityId(n.thread)) != w.env_of(c.entity()))
+      c.fail("thread", "names entity " + std::to_string(n.thread) + " of env " + std::to_string(w.env_of(EntityId(n.thread))) +
+                           "; a needle's thread is in its env");
+  }
+}
+
 template <class C>
 void check(const World& w, EntityId e, void (*fields)(const Fields&, const C&)) {
   if (w.has<C>(e)) fields(Fields(w, e, component_name<C>()), w.get<C>(e));
@@ -368,6 +388,7 @@ void validate_world(const World& w) {
     check(w, e, fluid);
     check(w, e, strand);
     check(w, e, tendons);
+    check(w, e, needle);
   }
 }
 

@@ -22,6 +22,7 @@ static const uint PARTICLE_MAX_NEIGHBORS = 64;
 static const uint PARTICLE_ACTIVE = 1;        // inactive slots (fluid budget) neither move nor collide
 static const uint PARTICLE_SELF_COLLIDE = 2;  // collides with particles of its own object
 static const uint PARTICLE_ELASTIC = 4;       // moved by an elastic energy (particle_tet): integrated without gravity
+static const uint PARTICLE_NO_SOFT_CONTACT = 8;  // no contacts with soft-body particles (a suture thread through tissue)
 
 // Every constraint family stores records of this shape: up to 4 particles and family-specific
 // parameters. Records are grouped by colour (no two constraints of a colour share a particle),
@@ -83,6 +84,28 @@ struct Tendon {
   uint4 ids;     // x robot, y env
 };
 
+// Suturing (a Needle on a rigid body; particle_needle_detect / _solve). A needle's path runs from
+// its tip along the arc to its tail (s from 0 to radius x angle) and on along its thread from the
+// thread's first particle to its last. A puncture record ties a point of a soft body's surface
+// (a surface triangle and barycentric weights) to the tip while it is pushed in (indenting), then
+// to the path at s (through), sliding along it against friction.
+static const uint PUNCTURE_FREE = 0;
+static const uint PUNCTURE_INDENTING = 1;
+static const uint PUNCTURE_THROUGH = 2;
+struct NeedleModel {
+  uint4 ids;       // x rigid body, y the thread's first particle (CRESSIM_NONE: none), z its particles, w env
+  uint4 records;   // x first puncture record, y records, z first surface triangle of its env, w triangles
+  float4 arc;      // x radius (m), y angle (rad), z puncture force (N), w friction coefficient
+  float4 puncture; // x puncture depth (m): the tip's way past where it met the surface
+  float4 center;   // xyz the arc's centre in the body frame
+  float4 rotation; // the arc's frame in the body frame (xyzw)
+};
+struct Puncture {
+  uint4 ids;      // x state (PUNCTURE_*), y surface triangle (row of particles.surface), z the side the tip came from (1 outside, 0 inside), w 1: the knot holds it
+  float4 place;   // xy barycentric weights of the triangle's corners 0 and 1, z path parameter s (m), w the push on the surface (N; indenting)
+  float4 contact; // xyz where the tip met the surface (world), w the push (N) when it went through
+};
+
 // push constants of every particle pass
 struct ParticleConstants {
   float4 gravity;     // xyz; w substep h
@@ -96,7 +119,7 @@ struct ParticleConstants {
   uint attachment_count;
   uint item_offset;   // first constraint of the colour this dispatch projects
   uint edge_count;    // strand segments (material frames)
-  uint pad0;
+  uint has_pins;      // particles.tet_pins is one per particle (suture needles pin tissue there)
   uint pad1;
   uint pad2;
 };

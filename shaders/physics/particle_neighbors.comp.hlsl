@@ -44,9 +44,11 @@ void main(uint3 id : SV_DispatchThreadID) {
       const float3 r = xi.xyz - xj.xyz;
       if (fluid && pj.x == PARTICLE_FLUID) {
         density_delta += particle_mass(xj) * (lambda_i + fluid_lambdas[j]) * spiky_gradient(K, r);
-      } else if (pj.y != ph.y || ((ph.w & PARTICLE_SELF_COLLIDE) != 0 &&
-                                  // a strand's own neighbours along it overlap by construction
-                                  !(ph.x == PARTICLE_STRAND && abs(int(j) - int(i)) <= 2))) {
+      } else if ((pj.y != ph.y || ((ph.w & PARTICLE_SELF_COLLIDE) != 0 &&
+                                   // a strand's own neighbours along it overlap by construction
+                                   !(ph.x == PARTICLE_STRAND && abs(int(j) - int(i)) <= 2))) &&
+                 // a suture thread runs through the tissue it is sewn into
+                 !(((ph.w | pj.w) & PARTICLE_NO_SOFT_CONTACT) != 0 && (ph.x == PARTICLE_SOLID || pj.x == PARTICLE_SOLID))) {
         const float reach = oi.material.x + objects[pj.y].material.x, d = length(r);
         const float w = xi.w + xj.w;
         if (d < reach && d > 1e-9 && w > 0) {

@@ -46,6 +46,9 @@ RWStructuredBuffer<float4> positions;
 // (0: none)
 RWStructuredBuffer<float4> tet_contact_forces;
 RWStructuredBuffer<float4> rigid_contacts;  // xyz the contact point on that body
+// suture punctures' grip on the tissue (particle_needle_solve): per particle sum K T and sum K, a
+// spring of stiffness K toward T in the particle's energy (0: none; one element unless has_pins)
+StructuredBuffer<float4> tet_pins;
 StructuredBuffer<ParticleAttachment> attachments;
 
 #include "particle_collide.hlsli"
@@ -188,6 +191,11 @@ void solve(uint v) {
     tet_contact_forces[i] = float4(f, float(at.ids.y + 1));
     rigid_contacts[i] = float4(xi.xyz, 0);
     return;
+  }
+  if (pc.has_pins != 0) {
+    const float4 pin = tet_pins[i];
+    f += pin.xyz - pin.w * xi.xyz;
+    H += float3x3(pin.w, 0, 0, 0, pin.w, 0, 0, 0, pin.w);
   }
   if (!(determinant(H) > 0)) return;
   float3 x = xi.xyz + solve3(H, f);

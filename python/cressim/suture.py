@@ -1,0 +1,65 @@
+"""Suturing helpers (docs/particles.md, "Suturing"): the punctures a cressim.Needle has made, read
+back from `particles.punctures`, and a mesh of a needle's arc for its Renderable."""
+from __future__ import annotations
+
+import numpy as np
+
+import cressim
+
+FREE, INDENTING, PUNCTURED = 0, 1, 2
+STATES = {FREE: "free", INDENTING: "indenting", PUNCTURED: "punctured"}
+
+
+def punctures(engine) -> list[list[dict]]:
+    """Per needle (in env order), its live puncture records: state (INDENTING: the tip pushes the
+    surface ahead; PUNCTURED: the surface point lies on the needle or thread), the surface triangle
+    (row of particles.surface) and barycentric weights, the world point, its path parameter s (m
+    from the tip along the needle, then the thread), whether the knot holds it, where the tip met the
+    surface, and the push (N) it took to go through."""
+    if "particles.punctures" not in engine.internal_keys:
+        return []
+    records = engine.buffer("particles.punctures").read()
+    needles = engine.buffer("particles.needles").read()
+    surface = engine.buffer("particles.surface").read()
+    x = engine.buffer("particles.positions").read()[:, :3]
+    out = []
+    for n in needles:
+        first, count = int(n[4]), int(n[5])
+        live = []
+        for r in records[first:first + count]:
+            if r[0] == FREE:
+                continue
+            f = r[4:].view(np.float32)
+            b = np.array([f[0], f[1], 1 - f[0] - f[1]])
+            corners = surface[int(r[1])]
+            live.append({"state": int(r[0]), "triangle": int(r[1]), "weights": b, "point": b @ x[corners],
+                         "s": float(f[2]), "knot": bool(r[3]), "contact": f[4:7].copy(), "push": float(f[7])})
+        out.append(live)
+    return out
+
+
+def needle_mesh(radius: float, angle: float, wire: float, segments: int = 48, sides: int = 12) -> cressim.Mesh:
+    """A needle's arc as a tube of radius `wire` (m) in the xy plane about z, from the tail at angle 0
+    to the tip at `angle`, tapering to a point over its last tenth (cressim.Needle's arc frame)."""
+    phi = np.linspace(0, angle, segments + 1)
+    taper = np.clip((angle - phi) / (0.1 * angle), 0.0, 1.0)
+    ring = np.linspace(0, 2 * np.pi, sides, endpoint=False)
+    pos, nrm = [], []
+    for p, t in zip(phi, taper):
+        centre = radius * np.array([np.cos(p), np.sin(p), 0.0])
+        out, up = np.array([np.cos(p), np.sin(p), 0.0]), np.array([0.0, 0.0, 1.0])
+        for a in ring:
+            n = np.cos(a) * out + np.sin(a) * up
+            pos.append(centre + max(t, 0.02) * wire * n)
+            nrm.append(n)
+    tri = []
+    for i in range(segments):
+        for k in range(sides):
+            a, b = i * sides + k, i * sides + (k + 1) % sides
+            tri += [(a, b, b + sides), (a, b + sides, a + sides)]
+    # the tail's cap
+    base = len(pos)
+    pos.append(np.array([radius, 0.0, 0.0]))
+    nrm.append(np.array([0.0, -1.0, 0.0]))
+    tri += [(base, (k + 1) % sides, k) for k in range(sides)]
+    return cressim.Mesh(np.asarray(pos, np.float32), np.asarray(tri, np.uint32), np.asarray(nrm, np.float32))

@@ -1,0 +1,129 @@
+// Suturing, once a substep before the solver iterations (docs/particles.md, "Suturing"); one
+// thread per needle. First the records' states move on by what the last substep did: an
+// indented surface point whose push reached the needle's puncture force, or that the tip has
+// pushed its puncture depth past where it met it, is punctured (it now lies
+// on the path at the tip and slides along it); one the tip no longer pushes (it backed away the
+// way it came, past the surface point) is let go; a punctured point the needle has slid back off (s < 0, before the tip) is
+// let go. Then, while no point is being indented, the tip's move over the substep is tested
+// against the env's soft-body surface: the first triangle it crosses, either way (in at an entry,
+// out at an exit), starts an indented point there. Triangles that share a corner with a point
+// punctured within the tip's first 10 % are skipped: the tip has just gone through there.
+#include "particle_needle.hlsli"
+
+RWStructuredBuffer<float4> needle_states;
+RWStructuredBuffer<uint4> phases;
+StructuredBuffer<uint4> initial_phases;
+static const float RETREAT = 1e-5;  // m behind the surface point: the tip no longer touches it  // per needle: xyz the tip at the last substep, w its push (N; < 0: no tip yet)
+
+// the segment p0 -> p1 against triangle (a, b, c): t along the segment and the barycentric
+// weights of a and b, or t < 0 for none
+float4 crossing(float3 p0, float3 p1, float3 a, float3 b, float3 c) {
+  const float3 d = p1 - p0, e1 = b - a, e2 = c - a;
+  const float3 h = cross(d, e2);
+  const float det = dot(e1, h);
+  if (abs(det) < 1e-14) return float4(-1, 0, 0, 0);
+  const float3 s = p0 - a;
+  const float u = dot(s, h) / det;
+  const float3 qv = cross(s, e1);
+  const float v = dot(d, qv) / det;
+  const float t = dot(e2, qv) / det;
+  if (u < 0 || v < 0 || u + v > 1 || t < 0 || t > 1) return float4(-1, 0, 0, 0);
+  return float4(t, 1 - u - v, u, 0);  // weights of a, b (c: the rest)
+}
+
+// The thread runs through the tissue between an exit and the entry before it (on the path, the
+// exit is nearer the tip): its particles there, and within a segment of any puncture, pass
+// through soft bodies (PARTICLE_NO_SOFT_CONTACT); elsewhere it lies on the tissue as authored.
+void sew(NeedleModel n, Arc a) {
+  if (n.ids.y == CRESSIM_NONE) return;
+  float s = a.radius * a.angle;
+  for (uint i = 0; i < n.ids.z; ++i) {
+    const uint k = n.ids.y + i;
+    const float l = i + 1 < n.ids.z ? distance(positions[k].xyz, positions[k + 1].xyz) : 0;
+    float below = -1e30, above = 1e30;
+    uint below_side = 1, above_side = 0;
+    bool near = false;
+    for (uint r = n.records.x; r < n.records.x + n.records.y; ++r) {
+      const Puncture p = punctures[r];
+      if (p.ids.x != PUNCTURE_THROUGH) continue;
+      near = near || abs(p.place.z - s) < 1.5 * max(l, 1e-4);
+      if (p.place.z <= s && p.place.z > below) below = p.place.z, below_side = p.ids.z;
+      if (p.place.z > s && p.place.z < above) above = p.place.z, above_side = p.ids.z;
+    }
+    const bool inside = near || (below_side == 0 && above_side == 1);
+    const uint authored = initial_phases[k].w & PARTICLE_NO_SOFT_CONTACT;
+    phases[k].w = (phases[k].w & ~PARTICLE_NO_SOFT_CONTACT) | (inside ? PARTICLE_NO_SOFT_CONTACT : authored);
+    s += l;
+  }
+}
+
+[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
+void main(uint3 id : SV_DispatchThreadID) {
+  if (id.x >= pc.item_count) return;
+  const NeedleModel n = needles[id.x];
+  const Arc a = arc_of(n);
+  const float3 tip = tip_of(a);
+  const float4 state = needle_states[id.x];
+  const float recent = 0.1 * a.radius * a.angle;
+  float push = 0;
+  bool indenting = false;
+  for (uint r = n.records.x; r < n.records.x + n.records.y; ++r) {
+    Puncture p = punctures[r];
+    if (p.ids.x == PUNCTURE_INDENTING) {
+      push = p.place.w;
+      const uint3 c = corners(p.ids.y);
+      const float3 x0 = positions[c.x].xyz;
+      float3 normal = normalize(cross(positions[c.y].xyz - x0, positions[c.z].xyz - x0));
+      if (p.ids.z == 0) normal = -normal;
+      if (push >= n.arc.z || distance(tip, p.contact.xyz) >= n.puncture.x) {
+        p.ids.x = PUNCTURE_THROUGH;
+        p.place.z = 0;
+        p.contact.w = push;
+      } else if (dot(surface_point(c, weights(p)) - tip, normal) < -RETREAT) {
+        p.ids.x = PUNCTURE_FREE;  // the tip backed away the way it came
+      }
+      p.place.w = 0;
+    } else if (p.ids.x == PUNCTURE_THROUGH && p.place.z < 0) {
+      p.ids.x = PUNCTURE_FREE;
+    }
+    punctures[r] = p;
+    indenting = indenting || p.ids.x == PUNCTURE_INDENTING;
+  }
+  if (state.w >= 0 && !indenting) {
+    float best = 2;
+    uint best_tri = CRESSIM_NONE;
+    float2 best_w = float2(0, 0);
+    uint from_outside = 0;
+    for (uint k = n.records.z; k < n.records.z + n.records.w; ++k) {
+      const uint3 c = corners(k);
+      const float3 x0 = positions[c.x].xyz, x1 = positions[c.y].xyz, x2 = positions[c.z].xyz;
+      const float4 hit = crossing(state.xyz, tip, x0, x1, x2);
+      if (hit.x < 0 || hit.x >= best) continue;
+      bool fresh = false;
+      for (uint r = n.records.x; r < n.records.x + n.records.y && !fresh; ++r) {
+        const Puncture p = punctures[r];
+        if (p.ids.x != PUNCTURE_THROUGH || p.place.z > recent) continue;
+        const uint3 o = corners(p.ids.y);
+        fresh = any(c == o.x) || any(c == o.y) || any(c == o.z);
+      }
+      if (fresh) continue;
+      best = hit.x;
+      best_tri = k;
+      best_w = hit.yz;
+      from_outside = dot(state.xyz - x0, cross(x1 - x0, x2 - x0)) > 0 ? 1 : 0;
+    }
+    if (best_tri != CRESSIM_NONE) {
+      for (uint r = n.records.x; r < n.records.x + n.records.y; ++r) {
+        if (punctures[r].ids.x != PUNCTURE_FREE) continue;
+        Puncture p;
+        p.ids = uint4(PUNCTURE_INDENTING, best_tri, from_outside, 0);  // w: no knot
+        p.place = float4(best_w, 0, 0);
+        p.contact = float4(lerp(state.xyz, tip, best), 0);
+        punctures[r] = p;
+        break;
+      }
+    }
+  }
+  needle_states[id.x] = float4(tip, push);
+  sew(n, a);
+}

@@ -1,0 +1,113 @@
+// Suturing, every solver iteration before the constraint families (docs/particles.md, "Suturing");
+// one thread per needle, its records one after the other (they share the thread). The thread's
+// first particle (driven: an anchor to the strand's solves) is put at the needle's tail. Where a
+// record moves tissue it does so through a stiff spring in the elastic solve (particles.tet_pins,
+// PUNCTURE_GRIP N/m on the surface point, shared by its triangle's corners), so that the tissue's
+// elasticity and the needle balance in one solve instead of one undoing the other each iteration.
+// - Indenting: the surface point is pulled to the tip while the tip pushes it (away from the side
+//   it came from); the spring's force along the normal at the substep's last iteration (the
+//   tissue's push back on the tip) is the push the puncture test reads.
+// - Punctured, on the needle (rigid, driven): the path parameter s slides toward the path's point
+//   nearest the surface point by what Coulomb friction cannot hold (position-level friction, as
+//   PBD contacts do: the slide sticks within mu times the point's distance from the path), and the
+//   tissue goes to the path there.
+// - Punctured, on the thread: the thread, light and slack, is drawn through the puncture (it moves
+//   across to it; the tissue stays), s following the nearest point along it. Once s reaches the
+//   path's end, the thread's last particle is a knot: it neither passes nor comes back out, and
+//   the tissue there goes where the knot goes.
+// Not modelled: a taut thread's squeeze on the punctures it runs through (it passes them without
+// pulling them), so pulling a running suture tight moves the tissue at the knot only. Tried: split
+// by inverse mass, a thread 100 times lighter than the tissue still dragged it toward the straight
+// line its own length solve pulled it to every iteration; with the tissue following a taut thread,
+// pulled by a kinematic needle, the flaps were lifted away.
+#include "particle_needle.hlsli"
+
+RWStructuredBuffer<float4> tet_pins;  // per particle: sum K T, sum K (cleared each substep)
+
+static const float PUNCTURE_GRIP = 1e4;  // N/m: 0.1 mm of give under 1 N
+
+static const float REACH = 0.002;         // m: the most a punctured point slides along the path an iteration
+
+// the spring that pulls surface point p = sum b_i x_i (corners c) toward `goal`: on corner i the
+// force K b_i (goal - p) and the stiffness K b_i, not the K b_i^2 of the energy's own Hessian. The
+// corners are solved apart, each against the gap as it was: with K b_i each moves by the whole gap
+// where the spring dominates, which moves p by exactly the gap (the sum of the b_i is 1), where
+// K b_i^2 would move each by gap / b_i and p by three times the gap, and the solve would diverge.
+void pin(uint3 c, float3 b, float3 p, float3 goal) {
+  [unroll] for (uint k = 0; k < 3; ++k) {
+    const uint i = c[k];
+    if (positions[i].w <= 0 || b[k] <= 0) continue;
+    const float K = PUNCTURE_GRIP * b[k];
+    tet_pins[i] += float4(K * (goal - p + positions[i].xyz), K);
+  }
+}
+
+[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
+void main(uint3 id : SV_DispatchThreadID) {
+  if (id.x >= pc.item_count) return;
+  const NeedleModel n = needles[id.x];
+  const Arc a = arc_of(n);
+  const float3 tip = tip_of(a);
+  if (n.ids.y != CRESSIM_NONE) positions[n.ids.y].xyz = tail_of(a);
+  const float mu = n.arc.w;
+  const float end = path_length(n, a);
+  // this iteration's grip replaces the last one's
+  for (uint r = n.records.x; r < n.records.x + n.records.y; ++r)
+    if (punctures[r].ids.x != PUNCTURE_FREE) {
+      const uint3 c = corners(punctures[r].ids.y);
+      tet_pins[c.x] = tet_pins[c.y] = tet_pins[c.z] = float4(0, 0, 0, 0);
+    }
+  for (uint r = n.records.x; r < n.records.x + n.records.y; ++r) {
+    Puncture p = punctures[r];
+    if (p.ids.x == PUNCTURE_FREE) continue;
+    const uint3 c = corners(p.ids.y);
+    const float3 b = weights(p);
+    const float3 wc = float3(positions[c.x].w, positions[c.y].w, positions[c.z].w);
+    const float wp = dot(b * b, wc);
+    const float3 x = surface_point(c, b);
+    if (p.ids.x == PUNCTURE_INDENTING) {
+      // the push counts along the normal toward the side the tip came from
+      const float3 x0 = positions[c.x].xyz;
+      float3 normal = normalize(cross(positions[c.y].xyz - x0, positions[c.z].xyz - x0));
+      if (p.ids.z == 0) normal = -normal;
+      const float depth = dot(x - tip, normal);
+      // the last iteration's: the first of a substep also holds the tip's move over it
+      p.place.w = PUNCTURE_GRIP * max(depth, 0.0);
+      if (depth > 0) pin(c, b, x, tip);  // behind the surface point the tip does not pull it
+      punctures[r] = p;
+      continue;
+    }
+    // where the path passes nearest, and how far along it from s
+    const float nearest = min(nearest_s(n, a, x, p.place.z, REACH), end);
+    const PathPoint q = path_at(n, a, nearest);
+    if (q.segment == CRESSIM_NONE) {  // on the rigid, driven needle: the tissue goes to the path
+      const float across = distance(x, q.x), slide = nearest - p.place.z;
+      if (abs(slide) > mu * across) p.place.z += sign(slide) * (abs(slide) - mu * across);
+      pin(c, b, x, path_at(n, a, p.place.z).x);
+      punctures[r] = p;
+      continue;
+    }
+    if (nearest >= end - 1e-6 || p.ids.w != 0) {
+      p.place.z = end;
+      p.ids.w = 1;
+      pin(c, b, x, path_at(n, a, end).x);  // the knot does not pass (nor come back out): it pulls the tissue along
+    } else {
+      p.place.z = nearest;
+      // slack, the light thread is drawn through the puncture: it moves across to it
+      const float3 d = x - q.x;
+      if (positions[q.segment].w <= 0) {
+        // the segment from the tail (driven): turned about it to run through the puncture
+        const float3 from = x - positions[q.segment].xyz;
+        if (length(from) > 1e-7)
+          positions[q.segment + 1].xyz = positions[q.segment].xyz +
+                                          distance(positions[q.segment].xyz, positions[q.segment + 1].xyz) * normalize(from);
+      } else {
+        // its point at f moved onto the puncture with the least motion of its two ends
+        const float k = 1 / ((1 - q.f) * (1 - q.f) + q.f * q.f);
+        positions[q.segment].xyz += (1 - q.f) * k * d;
+        if (positions[q.segment + 1].w > 0) positions[q.segment + 1].xyz += q.f * k * d;
+      }
+    }
+    punctures[r] = p;
+  }
+}
