@@ -340,6 +340,9 @@ void needle(const Fields& c, const Needle& n) {
     const World& w = c.world();
     if (uint64_t(n.thread) >= w.entity_count() || !w.has<Strand>(EntityId(n.thread)))
       c.fail("thread", "names entity " + std::to_string(n.thread) + ", which has no Strand");
+    if (w.get<Strand>(EntityId(n.thread)).points.size() / 3 > 256)
+      c.fail("thread", "names a Strand of " + std::to_string(w.get<Strand>(EntityId(n.thread)).points.size() / 3) +
+                           " particles; a needle's thread has at most 256 (particle_needle.hlsli, MAX_THREAD)");
     if (w.env_of(EntityId(n.thread)) != w.env_of(c.entity()))
       c.fail("thread", "names entity " + std::to_string(n.thread) + " of env " + std::to_string(w.env_of(EntityId(n.thread))) +
                            "; a needle's thread is in its env");

@@ -40,6 +40,32 @@ float3 arc_point(Arc a, float phi) { return a.centre + quat_rotate(a.q, a.radius
 float3 tip_of(Arc a) { return arc_point(a, a.angle); }
 float3 tail_of(Arc a) { return arc_point(a, 0); }
 
+// The thread's particles by path parameter: where along the path each one sits (the needle's
+// length plus the thread's up to it), taken once a pass (load_thread): a pass looks points up along
+// the thread many times, and walking it from its start each time was most of a step's cost.
+static const uint MAX_THREAD = 256;  // particles of a needle's thread (scene validation enforces it)
+static float thread_at[MAX_THREAD];
+static uint thread_count;
+
+void load_thread(NeedleModel n, Arc a) {
+  thread_count = n.ids.y == CRESSIM_NONE ? 0 : min(n.ids.z, MAX_THREAD);
+  float s = a.radius * a.angle;
+  for (uint i = 0; i < thread_count; ++i) {
+    if (i > 0) s += distance(positions[n.ids.y + i - 1].xyz, positions[n.ids.y + i].xyz);
+    thread_at[i] = s;
+  }
+}
+
+// the thread segment whose span holds s (the first or last beyond either end)
+uint segment_at(float s) {
+  uint lo = 0, hi = thread_count - 1;  // thread_at[lo] <= s < thread_at[hi] once narrowed
+  while (hi - lo > 1) {
+    const uint mid = (lo + hi) / 2;
+    if (thread_at[mid] <= s) lo = mid; else hi = mid;
+  }
+  return lo;
+}
+
 // A point of the path at s (m from the tip): its position, unit tangent toward the tail and on,
 // and on the thread the segment's first particle and the share of the second (else NONE)
 struct PathPoint {
@@ -52,30 +78,19 @@ PathPoint path_at(NeedleModel n, Arc a, float s) {
   PathPoint r;
   r.segment = CRESSIM_NONE;
   r.f = 0;
-  const float needle_length = a.radius * a.angle;
-  if (s <= needle_length || n.ids.y == CRESSIM_NONE) {
+  if (s <= a.radius * a.angle || thread_count < 2) {
     const float phi = a.angle - s / a.radius;  // beyond either end: on the arc's extension
     r.x = arc_point(a, phi);
     r.t = quat_rotate(a.q, float3(sin(phi), -cos(phi), 0));
     return r;
   }
-  // along the thread from its first particle (tied to the tail)
-  float left = s - needle_length;
-  const uint first = n.ids.y, count = n.ids.z;
-  for (uint i = 0; i + 1 < count; ++i) {
-    const float3 x0 = positions[first + i].xyz, x1 = positions[first + i + 1].xyz;
-    const float l = distance(x0, x1);
-    if (left <= l || i + 2 == count) {
-      r.f = l > 1e-9 ? clamp(left / l, 0.0, 1.0) : 0;
-      r.x = lerp(x0, x1, r.f);
-      r.t = l > 1e-9 ? (x1 - x0) / l : float3(1, 0, 0);
-      r.segment = first + i;
-      return r;
-    }
-    left -= l;
-  }
-  r.x = positions[first].xyz;
-  r.t = float3(1, 0, 0);
+  const uint i = segment_at(s);
+  const float3 x0 = positions[n.ids.y + i].xyz, x1 = positions[n.ids.y + i + 1].xyz;
+  const float l = thread_at[i + 1] - thread_at[i];
+  r.f = l > 1e-9 ? clamp((s - thread_at[i]) / l, 0.0, 1.0) : 0;
+  r.x = lerp(x0, x1, r.f);
+  r.t = l > 1e-9 ? (x1 - x0) / l : float3(1, 0, 0);
+  r.segment = n.ids.y + i;
   return r;
 }
 
@@ -87,51 +102,39 @@ float nearest_s(NeedleModel n, Arc a, float3 x, float s, float reach) {
   const float needle_length = a.radius * a.angle;
   float best = s, best_d2 = 1e30;
   // past the tail a point stays on the thread: the thread is pulled into it, the needle is gone
-  if (n.ids.y == CRESSIM_NONE || s <= needle_length) {
+  if (thread_count < 2 || s <= needle_length) {
     const float3 local = quat_unrotate(a.q, x - a.centre);
     float phi = atan2(local.y, local.x);  // in (-pi, pi]; the arc runs over [0, angle]
     if (phi < -0.5 * (2 * 3.14159265 - a.angle)) phi += 2 * 3.14159265;
     const float raw = (a.angle - phi) * a.radius;
     // past the tail: onto the thread, which the puncture then draws through whatever way it hangs
-    if (raw > needle_length && n.ids.y != CRESSIM_NONE) return min(needle_length + 1e-5, s + reach);
+    if (raw > needle_length && thread_count >= 2) return min(needle_length + 1e-5, s + reach);
     const float sa = clamp(raw, max(s - reach, 0.0), min(s + reach, needle_length));
     const float3 px = arc_point(a, a.angle - sa / a.radius);
     best = sa;
     best_d2 = dot(x - px, x - px);
   }
-  if (n.ids.y == CRESSIM_NONE) return best;
-  // thread segments from two before s's to two after
-  float start = needle_length;
-  uint seg = 0;
-  const uint first = n.ids.y, count = n.ids.z;
-  while (seg + 2 < count && start + distance(positions[first + seg].xyz, positions[first + seg + 1].xyz) < s) {
-    start += distance(positions[first + seg].xyz, positions[first + seg + 1].xyz);
-    ++seg;
-  }
-  uint lo = seg >= 2 ? seg - 2 : 0;
-  for (uint i = lo; i < seg; ++i) start -= distance(positions[first + i].xyz, positions[first + i + 1].xyz);
-  for (uint i = lo; i + 1 < count && i <= seg + 2; ++i) {
-    const float3 x0 = positions[first + i].xyz, x1 = positions[first + i + 1].xyz;
+  if (thread_count < 2) return best;
+  const uint seg = segment_at(max(s, needle_length));
+  for (uint i = seg >= 2 ? seg - 2 : 0; i + 1 < thread_count && i <= seg + 2; ++i) {
+    const float3 x0 = positions[n.ids.y + i].xyz, x1 = positions[n.ids.y + i + 1].xyz;
     const float3 e = x1 - x0;
-    const float l = length(e);
-    const float f = l > 1e-9 ? clamp(dot(x - x0, e) / (l * l), 0.0, 1.0) : 0;
+    const float l = thread_at[i + 1] - thread_at[i];
+    const float f = dot(e, e) > 1e-18 ? clamp(dot(x - x0, e) / dot(e, e), 0.0, 1.0) : 0;
     const float3 px = x0 + f * e;
     const float d2 = dot(x - px, x - px);
-    if (d2 < best_d2 && abs(start + f * l - s) <= reach) {
+    const float sp = thread_at[i] + f * l;
+    if (d2 < best_d2 && abs(sp - s) <= reach) {
       best_d2 = d2;
-      best = start + f * l;
+      best = sp;
     }
-    start += l;
   }
   return best;
 }
 
 // the path's length: the needle and its thread
-float path_length(NeedleModel n, Arc a) {
-  float l = a.radius * a.angle;
-  for (uint i = 0; n.ids.y != CRESSIM_NONE && i + 1 < n.ids.z; ++i)
-    l += distance(positions[n.ids.y + i].xyz, positions[n.ids.y + i + 1].xyz);
-  return l;
+float path_length(Arc a) {
+  return thread_count ? thread_at[thread_count - 1] : a.radius * a.angle;
 }
 
 uint3 corners(uint tri) { return uint3(surface[3 * tri], surface[3 * tri + 1], surface[3 * tri + 2]); }

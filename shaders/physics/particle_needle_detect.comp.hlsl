@@ -27,8 +27,12 @@ float4 crossing(float3 p0, float3 p1, float3 a, float3 b, float3 c) {
   const float3 qv = cross(s, e1);
   const float v = dot(d, qv) / det;
   const float t = dot(e2, qv) / det;
-  if (u < 0 || v < 0 || u + v > 1 || t < 0 || t > 1) return float4(-1, 0, 0, 0);
-  return float4(t, 1 - u - v, u, 0);  // weights of a, b (c: the rest)
+  // a little past the edges: a tip crossing exactly on an edge shared by two triangles (a needle in
+  // a plane of the mesh) is missed by both to rounding otherwise (on one GPU, not on another)
+  const float e = 1e-4;
+  if (u < -e || v < -e || u + v > 1 + e || t < 0 || t > 1) return float4(-1, 0, 0, 0);
+  const float uc = clamp(u, 0.0, 1.0), vc = clamp(v, 0.0, 1.0 - uc);
+  return float4(t, 1 - uc - vc, uc, 0);  // weights of a, b (c: the rest)
 }
 
 // The thread runs through the tissue between an exit and the entry before it (on the path, the

@@ -14,7 +14,8 @@
 // - Punctured, on the thread: the thread, light and slack, is drawn through the puncture (it moves
 //   across to it; the tissue stays), s following the nearest point along it. Once s reaches the
 //   path's end, the thread's last particle is a knot: it neither passes nor comes back out, and
-//   the tissue there goes where the knot goes.
+//   it and the tissue there meet by inverse mass (the thread, far lighter, does most of the
+//   moving: pulled on against the knot, it gives rather than tear the tissue away).
 // Not modelled: a taut thread's squeeze on the punctures it runs through (it passes them without
 // pulling them), so pulling a running suture tight moves the tissue at the knot only. Tried: split
 // by inverse mass, a thread 100 times lighter than the tissue still dragged it toward the straight
@@ -50,7 +51,8 @@ void main(uint3 id : SV_DispatchThreadID) {
   const float3 tip = tip_of(a);
   if (n.ids.y != CRESSIM_NONE) positions[n.ids.y].xyz = tail_of(a);
   const float mu = n.arc.w;
-  const float end = path_length(n, a);
+  load_thread(n, a);
+  const float end = path_length(a);
   // this iteration's grip replaces the last one's
   for (uint r = n.records.x; r < n.records.x + n.records.y; ++r)
     if (punctures[r].ids.x != PUNCTURE_FREE) {
@@ -88,9 +90,16 @@ void main(uint3 id : SV_DispatchThreadID) {
       continue;
     }
     if (nearest >= end - 1e-6 || p.ids.w != 0) {
+      // the knot does not pass (nor come back out): it and the tissue there meet by inverse mass
       p.place.z = end;
       p.ids.w = 1;
-      pin(c, b, x, path_at(n, a, end).x);  // the knot does not pass (nor come back out): it pulls the tissue along
+      const uint k = n.ids.y + thread_count - 1;
+      const float wk = positions[k].w;
+      const float3 d = x - positions[k].xyz;
+      if (wp + wk > 0) {
+        positions[k].xyz += wk / (wp + wk) * d;
+        pin(c, b, x, x - wp / (wp + wk) * d);
+      }
     } else {
       p.place.z = nearest;
       // slack, the light thread is drawn through the puncture: it moves across to it

@@ -32,7 +32,7 @@ THREAD, THREAD_COUNT = 0.16, 81
 BITES = (-0.005, 0.005)  # y of each bite
 TURN_RATE, LIFT = 2.0, 0.015  # rad/s, m above the bite for the carry
 PULL = (0.0, 0.02, 0.004)  # m/s: drawing the thread through, along the wound and a little up
-TIGHTEN = 0.006  # m the needle goes on once the knot has caught
+TIGHTEN = 0.002  # m the needle goes on once the knot has caught: the thread snug
 
 
 def _quat(theta):
