@@ -27,12 +27,14 @@ float4 crossing(float3 p0, float3 p1, float3 a, float3 b, float3 c) {
   const float3 qv = cross(s, e1);
   const float v = dot(d, qv) / det;
   const float t = dot(e2, qv) / det;
-  // a little past the edges: a tip crossing exactly on an edge shared by two triangles (a needle in
-  // a plane of the mesh) is missed by both to rounding otherwise (on one GPU, not on another)
+  // a little past the edges and the ends: a crossing exactly on an edge shared by two triangles (a
+  // needle in a plane of the mesh), or a tip that lands exactly on the surface at a substep's end
+  // (the next segment then starts on it), is missed by both to rounding otherwise (it was, on an
+  // H100, not on lavapipe)
   const float e = 1e-4;
-  if (u < -e || v < -e || u + v > 1 + e || t < 0 || t > 1) return float4(-1, 0, 0, 0);
+  if (u < -e || v < -e || u + v > 1 + e || t < -e || t > 1 + e) return float4(-1, 0, 0, 0);
   const float uc = clamp(u, 0.0, 1.0), vc = clamp(v, 0.0, 1.0 - uc);
-  return float4(t, 1 - uc - vc, uc, 0);  // weights of a, b (c: the rest)
+  return float4(clamp(t, 0.0, 1.0), 1 - uc - vc, uc, 0);  // weights of a, b (c: the rest)
 }
 
 // The thread runs through the tissue between an exit and the entry before it (on the path, the
@@ -114,7 +116,8 @@ void main(uint3 id : SV_DispatchThreadID) {
       best = hit.x;
       best_tri = k;
       best_w = hit.yz;
-      from_outside = dot(state.xyz - x0, cross(x1 - x0, x2 - x0)) > 0 ? 1 : 0;
+      // the side it came from by its way across (its start may lie on the surface itself)
+      from_outside = dot(tip - state.xyz, cross(x1 - x0, x2 - x0)) < 0 ? 1 : 0;
     }
     if (best_tri != CRESSIM_NONE) {
       for (uint r = n.records.x; r < n.records.x + n.records.y; ++r) {
