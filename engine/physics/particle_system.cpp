@@ -341,7 +341,8 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
     heat_apply_ = pass("physics/particle_heat_apply", uint64_t(n));
   }
   if (!model_.needles.empty()) {
-    needle_detect_ = pass("physics/particle_needle_detect", model_.needles.size());
+    needle_detect_ = pass("physics/particle_needle_detect", 1);
+    needle_detect_->groups = {uint32_t(model_.needles.size()), 1, 1};  // a workgroup per needle
     needle_solve_ = pass("physics/particle_needle_solve", model_.needles.size());
     needle_reset_ = pass("physics/particle_needle_reset", model_.needles.size());
     moving_.push_back(needle_detect_.get());

@@ -63,47 +63,57 @@ void sew(NeedleModel n, Arc a) {
   }
 }
 
-[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
-void main(uint3 id : SV_DispatchThreadID) {
-  if (id.x >= pc.item_count) return;
-  const NeedleModel n = needles[id.x];
+// one workgroup per needle: its first thread moves the records on and writes the result, all of
+// them test the env's triangles (a serial scan of every triangle each substep was most of a step)
+static const uint SCAN_THREADS = 64;
+groupshared float scan_t[SCAN_THREADS];
+groupshared uint scan_tri[SCAN_THREADS];
+groupshared bool scan_on;
+
+[numthreads(SCAN_THREADS, 1, 1)]
+void main(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
+  const uint needle = group.x, lane = thread.x;
+  if (needle >= pc.item_count) return;
+  const NeedleModel n = needles[needle];
   const Arc a = arc_of(n);
   const float3 tip = tip_of(a);
-  const float4 state = needle_states[id.x];
+  const float4 state = needle_states[needle];
   const float recent = 0.1 * a.radius * a.angle;
   float push = 0;
-  bool indenting = false;
-  for (uint r = n.records.x; r < n.records.x + n.records.y; ++r) {
-    Puncture p = punctures[r];
-    if (p.ids.x == PUNCTURE_INDENTING) {
-      push = p.place.w;
-      const uint3 c = corners(p.ids.y);
-      const float3 x0 = positions[c.x].xyz;
-      float3 normal = normalize(cross(positions[c.y].xyz - x0, positions[c.z].xyz - x0));
-      if (p.ids.z == 0) normal = -normal;
-      if (push >= n.arc.z || distance(tip, p.contact.xyz) >= n.puncture.x) {
-        p.ids.x = PUNCTURE_THROUGH;
-        p.place.z = 0;
-        p.contact.w = push;
-      } else if (dot(surface_point(c, weights(p)) - tip, normal) < -RETREAT) {
-        p.ids.x = PUNCTURE_FREE;  // the tip backed away the way it came
+  if (lane == 0) {
+    bool indenting = false;
+    for (uint r = n.records.x; r < n.records.x + n.records.y; ++r) {
+      Puncture p = punctures[r];
+      if (p.ids.x == PUNCTURE_INDENTING) {
+        push = p.place.w;
+        const uint3 c = corners(p.ids.y);
+        const float3 x0 = positions[c.x].xyz;
+        float3 normal = normalize(cross(positions[c.y].xyz - x0, positions[c.z].xyz - x0));
+        if (p.ids.z == 0) normal = -normal;
+        if (push >= n.arc.z || distance(tip, p.contact.xyz) >= n.puncture.x) {
+          p.ids.x = PUNCTURE_THROUGH;
+          p.place.z = 0;
+          p.contact.w = push;
+        } else if (dot(surface_point(c, weights(p)) - tip, normal) < -RETREAT) {
+          p.ids.x = PUNCTURE_FREE;  // the tip backed away the way it came
+        }
+        p.place.w = 0;
+      } else if (p.ids.x == PUNCTURE_THROUGH && p.place.z < 0) {
+        p.ids.x = PUNCTURE_FREE;
       }
-      p.place.w = 0;
-    } else if (p.ids.x == PUNCTURE_THROUGH && p.place.z < 0) {
-      p.ids.x = PUNCTURE_FREE;
+      punctures[r] = p;
+      indenting = indenting || p.ids.x == PUNCTURE_INDENTING;
     }
-    punctures[r] = p;
-    indenting = indenting || p.ids.x == PUNCTURE_INDENTING;
+    scan_on = state.w >= 0 && !indenting;
   }
-  if (state.w >= 0 && !indenting) {
-    float best = 2;
-    uint best_tri = CRESSIM_NONE;
-    float2 best_w = float2(0, 0);
-    uint from_outside = 0;
-    for (uint k = n.records.z; k < n.records.z + n.records.w; ++k) {
+  GroupMemoryBarrierWithGroupSync();
+  // each lane's first crossing among its share of the triangles
+  float best = 2;
+  uint best_tri = CRESSIM_NONE;
+  if (scan_on) {
+    for (uint k = n.records.z + lane; k < n.records.z + n.records.w; k += SCAN_THREADS) {
       const uint3 c = corners(k);
-      const float3 x0 = positions[c.x].xyz, x1 = positions[c.y].xyz, x2 = positions[c.z].xyz;
-      const float4 hit = crossing(state.xyz, tip, x0, x1, x2);
+      const float4 hit = crossing(state.xyz, tip, positions[c.x].xyz, positions[c.y].xyz, positions[c.z].xyz);
       if (hit.x < 0 || hit.x >= best) continue;
       bool fresh = false;
       for (uint r = n.records.x; r < n.records.x + n.records.y && !fresh; ++r) {
@@ -115,22 +125,29 @@ void main(uint3 id : SV_DispatchThreadID) {
       if (fresh) continue;
       best = hit.x;
       best_tri = k;
-      best_w = hit.yz;
-      // the side it came from by its way across (its start may lie on the surface itself)
-      from_outside = dot(tip - state.xyz, cross(x1 - x0, x2 - x0)) < 0 ? 1 : 0;
-    }
-    if (best_tri != CRESSIM_NONE) {
-      for (uint r = n.records.x; r < n.records.x + n.records.y; ++r) {
-        if (punctures[r].ids.x != PUNCTURE_FREE) continue;
-        Puncture p;
-        p.ids = uint4(PUNCTURE_INDENTING, best_tri, from_outside, 0);  // w: no knot
-        p.place = float4(best_w, 0, 0);
-        p.contact = float4(lerp(state.xyz, tip, best), 0);
-        punctures[r] = p;
-        break;
-      }
     }
   }
-  needle_states[id.x] = float4(tip, push);
+  scan_t[lane] = best;
+  scan_tri[lane] = best_tri;
+  GroupMemoryBarrierWithGroupSync();
+  if (lane != 0) return;
+  for (uint l = 1; l < SCAN_THREADS; ++l)
+    if (scan_t[l] < best || (scan_t[l] == best && scan_tri[l] < best_tri)) best = scan_t[l], best_tri = scan_tri[l];
+  if (best_tri != CRESSIM_NONE) {
+    const uint3 c = corners(best_tri);
+    const float3 x0 = positions[c.x].xyz, x1 = positions[c.y].xyz, x2 = positions[c.z].xyz;
+    const float4 hit = crossing(state.xyz, tip, x0, x1, x2);
+    for (uint r = n.records.x; r < n.records.x + n.records.y; ++r) {
+      if (punctures[r].ids.x != PUNCTURE_FREE) continue;
+      Puncture p;
+      // the side it came from by its way across (its start may lie on the surface itself); w: no knot
+      p.ids = uint4(PUNCTURE_INDENTING, best_tri, dot(tip - state.xyz, cross(x1 - x0, x2 - x0)) < 0 ? 1 : 0, 0);
+      p.place = float4(hit.yz, 0, 0);
+      p.contact = float4(lerp(state.xyz, tip, best), 0);
+      punctures[r] = p;
+      break;
+    }
+  }
+  needle_states[needle] = float4(tip, push);
   sew(n, a);
 }
