@@ -39,6 +39,10 @@ def _demo(args: argparse.Namespace) -> int:
         from cressim.demos.cable import run
 
         return run(frames=args.frames, out_dir=args.out, num_envs=args.envs or 1)
+    if args.scene == "suture":
+        from cressim.demos.suture import run
+
+        return run(frames=args.frames, out_dir=args.out, num_envs=args.envs or 1)
     from cressim.demos.batched_scene import run
 
     return run(num_envs=args.envs or 16, frames=args.frames or 120, out_dir=args.out)
@@ -102,14 +106,15 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--json", action="store_true", help="print the chosen device as JSON")
     p.set_defaults(run=_info)
     p = sub.add_parser("demo", help="the main job on the default scene")
-    p.add_argument("scene", nargs="?", default="batched", choices=("batched", "soft", "fluid", "thread", "cautery", "cable"),
+    p.add_argument("scene", nargs="?", default="batched", choices=("batched", "soft", "fluid", "thread", "cautery", "cable", "suture"),
                    help="batched: a batched scene and a custom compute pass (default); soft, fluid, thread: "
                         "particle scenes saved as particle-state sequences (.npz) and a few rendered frames (PNG "
                         "colour, segmentation); cautery: an energized hook coagulates and cuts a track in liver; "
-                        "cable: a tendon-driven continuum robot bends, sweeps and carries a load. "
+                        "cable: a tendon-driven continuum robot bends, sweeps and carries a load; suture: a "
+                        "needle sews two bites across a wound and the thread is drawn until its knot catches. "
                         "The twin's demo is ROS's: `python -m cressim_ros.demo`")
-    p.add_argument("--envs", type=int, help="batched: envs (default 16); cautery, cable: envs (default 1)")
-    p.add_argument("--frames", type=int, help="frames (default 120; cautery 480; cable: the whole sequence, 405)")
+    p.add_argument("--envs", type=int, help="batched: envs (default 16); cautery, cable, suture: envs (default 1)")
+    p.add_argument("--frames", type=int, help="frames (default 120; cautery 480; cable, suture: the whole sequence)")
     p.add_argument("--out", default="out/demo", help="folder for the demo's outputs")
     p.set_defaults(run=_demo)
     p = sub.add_parser("render", help="PNG images of a scene file's cameras (RGB, depth, segmentation)")
