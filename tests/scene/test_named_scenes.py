@@ -53,7 +53,7 @@ def objects(engine, world):
 
 
 @pytest.mark.parametrize("name", ["tissue_retraction", "blood_suction", "ultrasound_phantom", "cautery",
-                                  "continuum_robot"])
+                                  "continuum_robot", "suture_pad"])
 def test_scene_steps_and_shows_its_documented_ids(make_engine, name):
     labels, count = header(name)
     engine, _, _ = run(make_engine, name)

@@ -55,6 +55,7 @@ from .arm_visuals import ArmVisuals
 from .dh import PSM_DH, dh_forward_kinematics
 from .kinematics import rotation_xyzw
 from .link_poses import LinkPoses
+from .psm import JAW_GRASP_POINT, JAW_LINK
 
 ARM_GROUP = 2  # collision group of arm links; they do not collide with each other (mask below)
 DYNAMICS = ("kinematic", "dynamic")
@@ -142,10 +143,11 @@ class ArmBodies:
     def __init__(self, urdf_path, num_envs: int, *, base_position, base_rotation, publish_rate: float,
                  physics_rate: float, initial_q: np.ndarray, initial_jaw: float, dof: int, device=None,
                  dynamics: str = "kinematic", gravity=(0.0, 0.0, -9.81), scenery=None,
-                 world: cressim.World | None = None):
+                 world: cressim.World | None = None, needle: dict | None = None):
         """`world`: author the arm into this world (a task's, beside its own entities) instead of
         one of its own; the caller then creates the engine with its own physics settings (a dynamic
-        arm wants `iterations=SOLVER_ITERATIONS`) and calls `bind(engine)` after `upload_world()`."""
+        arm wants `iterations=SOLVER_ITERATIONS`) and calls `bind(engine)` after `upload_world()`.
+        `needle`: a suture needle held in the jaws (twin scene's arm.needle), with its thread."""
         if dynamics not in DYNAMICS:
             raise ValueError(f"dynamics {dynamics!r} is not one of {', '.join(DYNAMICS)}")
         if world is not None and scenery is not None:
@@ -197,7 +199,9 @@ class ArmBodies:
         plan = scenery
         own_world = world is None
         if plan is not None:
-            world = cressim.World(cressim.SceneLayout(num_envs, **plan.layout_limits(len(bodies))))
+            limits = plan.layout_limits(len(bodies))
+            limits["max_renderables_per_env"] += 1 if needle else 0  # the thread
+            world = cressim.World(cressim.SceneLayout(num_envs, **limits))
         elif own_world:
             world = cressim.World(cressim.SceneLayout(num_envs))
         scenery = None
@@ -226,6 +230,8 @@ class ArmBodies:
                 body_ids[env, k] = e.id
             if scenery is not None:
                 scenery.add_env(world, env)
+            if needle:
+                self._add_needle(world, env, needle, bodies, entities, poses)
             for k, spec in enumerate(joint_specs):
                 parent = None if spec["parent"] is None else entities[spec["parent"]]
                 e = world.create_entity(env=env, name=spec["name"])
@@ -260,6 +266,34 @@ class ArmBodies:
         engine.prepare()
         engine.upload_world()
         self.bind(engine, cuda_stream=True)
+
+    @staticmethod
+    def _add_needle(world, env, spec, bodies, entities, poses):
+        """A needle held between the jaws (cressim.Needle on the body that carries the jaw link):
+        its arc lies across the jaws (normal to their length, the link's +y) through the grasp
+        point, held a third of the way from its tail with its tangent along the link's z; its
+        thread (a 2-0 braid in 2 mm segments) trails from the tail back along the jaws."""
+        k = next(i for i, b in enumerate(bodies) if any(link.name == JAW_LINK for link in b.links))
+        in_body = np.linalg.solve(bodies[k].pose, poses[JAW_LINK])
+        R, A = spec["arc_radius"], spec["arc_angle"]
+        held = A / 3
+        r, t = in_body[:3, 0], in_body[:3, 2]  # the link's x (out from the centre) and z (the tangent there)
+        x_a = math.cos(held) * r - math.sin(held) * t
+        y_a = math.sin(held) * r + math.cos(held) * t
+        frame = np.stack([x_a, y_a, np.cross(x_a, y_a)], 1)
+        centre = (in_body @ np.append(JAW_GRASP_POINT, 1.0))[:3] - R * r
+        pose = bodies[k].pose
+        tail = (pose @ np.append(centre + R * x_a, 1.0))[:3]
+        back = pose[:3, :3] @ -in_body[:3, 1]
+        count = int(round(spec["thread_length"] / 0.002)) + 1
+        pts = tail + np.linspace(0.0, spec["thread_length"], count)[:, None] * back
+        thread = world.create_entity(env=env, name="suture_thread")
+        thread.add(cressim.Strand(pts.astype(np.float32), radius=0.00015, youngs_modulus=5e7, poisson_ratio=0.4,
+                                  density=1140, damping=2.0))
+        thread.add(cressim.Material(color=(0.25, 0.2, 0.7, 1), roughness=0.6))
+        entities[k].add(cressim.Needle(thread=thread, arc_radius=R, arc_angle=A, center=tuple(float(v) for v in centre),
+                                       rotation=rotation_xyzw(frame), puncture_force=spec["puncture_force"],
+                                       puncture_depth=spec["puncture_depth"], friction=spec["friction"]))
 
     def bind(self, engine: cressim.Engine, *, cuda_stream: bool = False):
         """Binds the arm to the engine of its world (prepared and uploaded): body and joint rows,

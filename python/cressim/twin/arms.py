@@ -137,7 +137,7 @@ class TwinArms:
                                 base_rotation=scene.base_rotation, publish_rate=self.publish_rate,
                                 physics_rate=self.physics_rate, initial_q=initial, initial_jaw=jaw0,
                                 dof=self.psm.dof, dynamics=config.value("dynamics"), scenery=plan,
-                                device=config.device)
+                                device=config.device, needle=scene.needle if self.psm.has_jaw and plan else None)
         self.engine_threads = process_threads() - before  # the Vulkan driver's (SensorLoop.lower_priority)
         self.dynamic = self.bodies.dynamic
         self.simulated = self.bodies.simulated  # the world moves: the engine steps in every tick

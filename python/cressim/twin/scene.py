@@ -62,6 +62,9 @@ class Scene:
     cautery_radius: float = 0.005  # m: an energized needle driver heats the tissue this near its jaws' middle
     cautery_power: float = 30.0  # W while the coag pedal is pressed
     cautery_mode: str = "coag"  # coag: heats; cut: also parts the tissue it has coagulated
+    # a suture needle held in the needle driver's jaws (arm.needle; None: none): cressim.Needle's
+    # arc_radius, arc_angle, puncture_force, puncture_depth and friction, and thread_length (m)
+    needle: dict | None = None
     lines: dict = field(default_factory=dict, repr=False)  # field -> "file:line:col" (for later checks)
 
 
@@ -104,7 +107,7 @@ def parse_scene(text: str, path: str = "<string>") -> Scene:
     if "arm" in top:
         arm = p.mapping(top["arm"], "arm", {"name", "robot", "dynamics", "base", "initial_jp", "initial_jaw",
                                             "home_jp", "measured_lag", "trajectory", "stale_command_after",
-                                            "grasp", "suction", "cautery"})
+                                            "grasp", "suction", "cautery", "needle"})
         if "name" in arm:
             scene.arm = p.name(arm["name"], "arm.name")
         if "robot" in arm:
@@ -157,6 +160,13 @@ def parse_scene(text: str, path: str = "<string>") -> Scene:
                 scene.cautery_power = p.number(cautery["power"], "arm.cautery.power", low=0.0, high=300.0)
             if "mode" in cautery:
                 scene.cautery_mode = p.choice(cautery["mode"], "arm.cautery.mode", ("coag", "cut"))
+        if "needle" in arm:
+            fields = {"arc_radius": (1e-3, 0.05, 0.008), "arc_angle": (0.5, 5.0, 3 * math.pi / 4),
+                      "puncture_force": (1e-3, 100.0, 1.0), "puncture_depth": (1e-4, 0.02, 0.002),
+                      "friction": (0.0, 2.0, 0.3), "thread_length": (0.005, 0.5, 0.06)}
+            needle = p.mapping(arm["needle"], "arm.needle", set(fields))
+            scene.needle = {k: (p.number(needle[k], f"arm.needle.{k}", low=lo, high=hi) if k in needle else default)
+                            for k, (lo, hi, default) in fields.items()}
         if "trajectory" in arm:
             traj = p.mapping(arm["trajectory"], "arm.trajectory", {"velocity_ratio", "acceleration_ratio"})
             if "velocity_ratio" in traj:

@@ -1,0 +1,64 @@
+"""The twin sewing (scenes/psm_suture.yaml), without ROS: a needle held in the needle driver's jaws
+punctures the pad when the arm pushes its tip in, in env 0 only, and an env reset lets go. The
+ROS side needs nothing of its own: the arm is driven by the dVRK's topics as always."""
+import numpy as np
+import pytest
+
+from cressim.suture import punctures
+from cressim.twin.scene import load_scene
+
+from arm_moves import jaws_at, run_ticks, settle
+
+TOP = np.array([0.0, 0.0, 0.1615])  # the pad's top at its centre
+
+
+def _tip(arms, env):
+    """The needle's tip in the world (the detect pass's last tip)."""
+    return arms.bodies.engine.buffer("particles.needle_states").read()[env, :3]
+
+
+def test_the_needle_in_the_jaws_punctures_the_pad_where_the_arm_pushes_it(make_arms):
+    arms = make_arms(scene=load_scene("psm_suture.yaml"), num_envs=2)
+    for env in range(2):
+        arms.state_command(env, "enable")
+        arms.state_command(env, "home")
+    settle(arms)
+    assert punctures(arms.bodies.engine) == [[], []]
+    above = _tip(arms, 0)[2] - TOP[2]
+    assert above > 0.005  # home: the needle clear of the pad
+    # with the jaws down (home) the needle's arc is level, across them: env 0's jaws go 4 mm into
+    # the pad, env 1's stop 10 mm above it
+    jaws_at(arms, np.array([-0.004, 0.010]), point=TOP)
+    first, second = punctures(arms.bodies.engine)
+    assert _tip(arms, 0)[2] < TOP[2] - 0.003 and _tip(arms, 1)[2] > TOP[2] + 0.005
+    assert len(first) == 1 and first[0]["state"] == 2  # the tip went through the top
+    assert abs(first[0]["contact"][2] - TOP[2]) < 0.001  # where it met the surface
+    assert second == []
+    arms.bodies.engine.reset_envs([0])  # the pad as authored: the puncture is gone
+    run_ticks(arms, 1)
+    assert all(r["state"] != 2 for r in punctures(arms.bodies.engine)[0])
+
+
+@pytest.mark.ros
+def test_a_client_drives_the_needle_into_the_pad_over_dds(make_node):
+    import torch
+    from sensor_msgs.msg import JointState
+
+    from arm_moves import JAW_MIDDLE
+    from hand_ticked import client_beside, homed
+
+    node = make_node(scene="psm_suture.yaml", sensors=["joints", "clock"])
+    arms = homed(node)
+    # where the jaws' middle is 4 mm into the pad: the client commands it by CRTK move_jp
+    T = arms.kin.forward(arms.setpoint[0:1])[0].clone()
+    T[:3, 3] = torch.as_tensor(TOP + np.array([0, 0, -0.004 + JAW_MIDDLE])) - arms.bodies.base[:3, 3]
+    q, ok = arms.kin.inverse(T[None], arms.setpoint[0:1])
+    assert bool(ok[0])
+    engine = arms.bodies.engine
+    with client_beside(node, "sewing_client") as (client, until):
+        move = client.create_publisher(JointState, "/PSM1/move_jp", 10)
+        until(lambda: move.get_subscription_count() > 0, "the twin does not listen on /PSM1/move_jp")
+        move.publish(JointState(position=q[0].tolist()))
+        until(lambda: any(r["state"] == 2 for r in punctures(engine)[0]), "the needle did not go into the pad",
+              ticks=600)
+    assert _tip(arms, 0)[2] < TOP[2]
