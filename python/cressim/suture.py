@@ -41,6 +41,11 @@ def punctures(engine) -> list[list[dict]]:
 def needle_mesh(radius: float, angle: float, wire: float, segments: int = 48, sides: int = 12) -> cressim.Mesh:
     """A needle's arc as a tube of radius `wire` (m) in the xy plane about z, from the tail at angle 0
     to the tip at `angle`, tapering to a point over its last tenth (cressim.Needle's arc frame)."""
+    return cressim.Mesh(*needle_arrays(radius, angle, wire, segments, sides))
+
+
+def needle_arrays(radius: float, angle: float, wire: float, segments: int = 48, sides: int = 12):
+    """needle_mesh's (positions, triangles, normals) as numpy arrays."""
     phi = np.linspace(0, angle, segments + 1)
     taper = np.clip((angle - phi) / (0.1 * angle), 0.0, 1.0)
     ring = np.linspace(0, 2 * np.pi, sides, endpoint=False)
@@ -62,4 +67,4 @@ def needle_mesh(radius: float, angle: float, wire: float, segments: int = 48, si
     pos.append(np.array([radius, 0.0, 0.0]))
     nrm.append(np.array([0.0, -1.0, 0.0]))
     tri += [(base, (k + 1) % sides, k) for k in range(sides)]
-    return cressim.Mesh(np.asarray(pos, np.float32), np.asarray(tri, np.uint32), np.asarray(nrm, np.float32))
+    return np.asarray(pos, np.float32), np.asarray(tri, np.uint32), np.asarray(nrm, np.float32)

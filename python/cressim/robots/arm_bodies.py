@@ -56,6 +56,7 @@ from .dh import PSM_DH, dh_forward_kinematics
 from .kinematics import rotation_xyzw
 from .link_poses import LinkPoses
 from .psm import JAW_GRASP_POINT, JAW_LINK
+from ..suture import needle_arrays
 
 ARM_GROUP = 2  # collision group of arm links; they do not collide with each other (mask below)
 DYNAMICS = ("kinematic", "dynamic")
@@ -206,7 +207,12 @@ class ArmBodies:
             world = cressim.World(cressim.SceneLayout(num_envs))
         scenery = None
         if plan is not None:  # what surrounds the arm (cameras, lights, props), from the caller's plan
-            scenery = plan.build(world, ArmVisuals(urdf, Path(urdf_path).parent, bodies, poses))
+            visuals = ArmVisuals(urdf, Path(urdf_path).parent, bodies, poses)
+            if needle:  # drawn with the jaws that hold it
+                k, centre, frame, _ = self._needle_frame(needle, bodies, poses)
+                pos, tri, nrm = needle_arrays(needle["arc_radius"], needle["arc_angle"], 0.00035)
+                visuals.add_part(k, pos @ frame.T + centre, tri, nrm @ frame.T)
+            scenery = plan.build(world, visuals)
         self.scenery = scenery
         body_ids = np.zeros((num_envs, len(bodies)), dtype=np.int64)
         joint_ids = np.zeros((num_envs, len(joint_specs)), dtype=np.int64)
@@ -268,22 +274,29 @@ class ArmBodies:
         self.bind(engine, cuda_stream=True)
 
     @staticmethod
-    def _add_needle(world, env, spec, bodies, entities, poses):
-        """A needle held between the jaws (cressim.Needle on the body that carries the jaw link):
-        its arc lies across the jaws (normal to their length, the link's +y) through the grasp
-        point, held a third of the way from its tail with its tangent along the link's z; its
-        thread (a 2-0 braid in 2 mm segments) trails from the tail back along the jaws."""
+    def _needle_frame(spec, bodies, poses):
+        """Where a needle held between the jaws sits: (the body that carries the jaw link, the arc's
+        centre and frame in that body's frame, the jaw link's frame there). Its arc lies across
+        the jaws (normal to their length, the link's +y) through the grasp point, held a third of
+        the way from its tail with its tangent along the link's z."""
         k = next(i for i, b in enumerate(bodies) if any(link.name == JAW_LINK for link in b.links))
         in_body = np.linalg.solve(bodies[k].pose, poses[JAW_LINK])
-        R, A = spec["arc_radius"], spec["arc_angle"]
-        held = A / 3
+        R, held = spec["arc_radius"], spec["arc_angle"] / 3
         r, t = in_body[:3, 0], in_body[:3, 2]  # the link's x (out from the centre) and z (the tangent there)
         x_a = math.cos(held) * r - math.sin(held) * t
         y_a = math.sin(held) * r + math.cos(held) * t
         frame = np.stack([x_a, y_a, np.cross(x_a, y_a)], 1)
         centre = (in_body @ np.append(JAW_GRASP_POINT, 1.0))[:3] - R * r
+        return k, centre, frame, in_body
+
+    @staticmethod
+    def _add_needle(world, env, spec, bodies, entities, poses):
+        """The needle (cressim.Needle on the jaws' body, _needle_frame) and its thread, a 2-0 braid
+        in 2 mm segments trailing from the tail back along the jaws."""
+        k, centre, frame, in_body = ArmBodies._needle_frame(spec, bodies, poses)
+        R, A = spec["arc_radius"], spec["arc_angle"]
         pose = bodies[k].pose
-        tail = (pose @ np.append(centre + R * x_a, 1.0))[:3]
+        tail = (pose @ np.append(centre + R * frame[:, 0], 1.0))[:3]
         back = pose[:3, :3] @ -in_body[:3, 1]
         count = int(round(spec["thread_length"] / 0.002)) + 1
         pts = tail + np.linspace(0.0, spec["thread_length"], count)[:, None] * back
