@@ -1,14 +1,16 @@
-"""`cressim demo suture`: a running suture closes a wound. Two flaps of soft tissue (24 x 30 x 8 mm
-each, 10 kPa, 2.5-3 mm tets) lie on a table 4 mm apart, each held at its far edge. A 16 mm 3/8
-circle needle (cressim.Needle on a kinematic body) carries 120 mm of thread (a cressim.Strand
-that passes through tissue), knotted at its end. The needle is turned about its centre, so that
-its tip runs along its own arc, through the left flap's top, out of its cut face, across the gap,
-into the right flap's cut face and out of its top: one bite, four punctures. It is lifted, carried
-10 mm along the wound and turned through a second bite, then drawn up and away: the thread slides
-through the punctures until the knot catches at the first, and the tension draws the flaps
-together. Prints the punctures, the gap at each bite before and after, the thread's length and
-the knot's hold (also in <out>/suture_summary.json); saves <out>/suture_<frame>_rgb.png and
-<out>/suture.npz (the particle positions at the saved frames)."""
+"""`cressim demo suture`: a running suture across a wound. Two flaps of soft tissue (24 x 30 x 8 mm
+each, 10 kPa, 3 mm tets) lie on a table 4 mm apart, each held at its far edge. A 16 mm 3/8 circle
+needle (cressim.Needle on a kinematic body) carries 160 mm of 2-0 braided thread (a cressim.Strand
+of a material), its end a knot. The needle is turned about its centre, so that its tip runs along
+its own arc, through the left flap's top, out of its cut face, across the gap, into the right
+flap's cut face and out of its top: one bite, four punctures. It is lifted, carried 10 mm along
+the wound and turned through a second bite, then drawn along the wound and a little up until the
+knot catches at the first puncture, and 2 mm on: the thread snug. Prints the punctures after each
+bite, when the knot caught, the gap at each bite before and after, and the thread's length (also
+in <out>/suture_summary.json); saves <out>/suture_<frame>_rgb.png and <out>/suture.npz (the
+particle positions at the saved frames). A taut thread's squeeze on its punctures is not
+modelled (docs/particles.md, "Suturing"), so the gap narrows by the needle's passage and the knot,
+not by the thread's tension across it."""
 from __future__ import annotations
 
 import json
