@@ -11,9 +11,8 @@
 // any resolution. A particle held rigidly by an attachment is an anchor (weight 0), and a cut
 // record drops out of its chain (its neighbours decouple).
 #include "particle_constraint.hlsli"
+#include "particle_anchors.hlsli"
 
-StructuredBuffer<uint4> phases;
-StructuredBuffer<ParticleAttachment> attachments;
 StructuredBuffer<uint2> chains;            // (first record, count)
 RWStructuredBuffer<float4> chain_scratch;  // per record: (n, 1 / L), then (d', c', on, dl)
 
@@ -21,27 +20,6 @@ RWStructuredBuffer<float4> chain_scratch;  // per record: (n, 1 / L), then (d', 
 // ends has a singular system (its length along the line cannot change); the fixed point of the
 // repeated solves is still C = 0
 static const float REGULARISATION = 1e-3;
-
-// particles of one chain's env held rigidly by an attachment slot (the first few)
-static const uint MAX_ANCHORS = 8;
-static uint anchors[MAX_ANCHORS];
-static uint anchor_count;
-
-void find_anchors(uint particle) {
-  anchor_count = 0;  // set here: initialisers of static globals are not run per invocation everywhere
-  if (pc.has_rigid == 0 || pc.attachment_count == 0) return;
-  const uint per_env = pc.attachment_count / pc.env_count, env = phases[particle].z;
-  for (uint a = env * per_env; a < (env + 1) * per_env && anchor_count < MAX_ANCHORS; ++a) {
-    const ParticleAttachment at = attachments[a];
-    if (at.ids.z != ATTACH_FREE && at.local.w == 0) anchors[anchor_count++] = at.ids.x;
-  }
-}
-
-float weight(uint p, float w) {
-  for (uint k = 0; k < anchor_count; ++k)
-    if (anchors[k] == p) return 0;
-  return w;
-}
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
 void main(uint3 id : SV_DispatchThreadID) {

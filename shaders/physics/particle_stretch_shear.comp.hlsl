@@ -11,38 +11,17 @@
 // 4 iterations, 1.18 at 64); solved along the strand the frames and segments agree after every
 // step. A particle held rigidly by an attachment is an anchor (weight 0); a cut record drops out.
 #include "particle_constraint.hlsli"
+#include "particle_anchors.hlsli"
 #include "cressim/quat.h"
 
 RWStructuredBuffer<float4> orientations;
 StructuredBuffer<float> orientation_weights;
-StructuredBuffer<uint4> phases;
-StructuredBuffer<ParticleAttachment> attachments;
 StructuredBuffer<uint2> chains;            // (first record, count)
 RWStructuredBuffer<float4> chain_scratch;  // per record: (d' xyz, c'), then (dl xyz, on)
 
 // the diagonal's particle part is scaled by 1 + REGULARISATION, as the stretch chain's (a frame
 // anchored between two fixed particles leaves a row with no weight otherwise)
 static const float REGULARISATION = 1e-3;
-
-static const uint MAX_ANCHORS = 8;
-static uint anchors[MAX_ANCHORS];
-static uint anchor_count;
-
-void find_anchors(uint particle) {
-  anchor_count = 0;  // set here: initialisers of static globals are not run per invocation everywhere
-  if (pc.has_rigid == 0 || pc.attachment_count == 0) return;
-  const uint per_env = pc.attachment_count / pc.env_count, env = phases[particle].z;
-  for (uint a = env * per_env; a < (env + 1) * per_env && anchor_count < MAX_ANCHORS; ++a) {
-    const ParticleAttachment at = attachments[a];
-    if (at.ids.z != ATTACH_FREE && at.local.w == 0) anchors[anchor_count++] = at.ids.x;
-  }
-}
-
-float weight(uint p, float w) {
-  for (uint k = 0; k < anchor_count; ++k)
-    if (anchors[k] == p) return 0;
-  return w;
-}
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
 void main(uint3 id : SV_DispatchThreadID) {

@@ -7,14 +7,15 @@
 // One thread per robot, its tendons one after the other (they share disks). item_offset 0: the
 // length constraint of tendons in displacement mode, C = L - (L0 - d) <= 0 (taut only, XPBD,
 // each solver iteration); 1: the force of tendons in tension mode, once a substep before the
-// iterations (a position change h^2 w F, as gravity is). A disk at a fixed particle does not
-// move, and one whose frame is clamped (its segment's two particles fixed) does not turn.
+// iterations (a turn h^2 W tau, as gravity's position change is). The pull acts on the disks'
+// frames alone (the torques r_k x F_k; docs/particles.md says why); a disk whose frame is clamped
+// (its segment's two particles fixed) does not turn.
 #include "cressim/layout.h"
 #include "cressim/particle.h"
 #include "cressim/quat.h"
 
 [[vk::push_constant]] ConstantBuffer<ParticleConstants> pc;
-RWStructuredBuffer<float4> positions;
+StructuredBuffer<float4> positions;
 RWStructuredBuffer<float4> orientations;
 StructuredBuffer<float> orientation_weights;
 StructuredBuffer<TendonRobot> tendon_robots;
@@ -33,8 +34,11 @@ float turn_weight(uint2 disk) {
   return 4 * orientation_weights[disk.y];
 }
 
-// length of the route and the generalized inverse mass sum_k w |g_k|^2 + W |r_k x g_k|^2
-float2 route(uint first, uint count, float2 o) {
+// One walk along the route, disk by disk: the route's length and its generalized inverse mass
+// sum_k W |r_k x g_k|^2 (only the frames turn: below), and, for a step, each disk's frame turned by
+// -step W (r_k x g_k). The gradient at a disk uses the spans' directions before it moves: the next
+// hole is taken before the disk turns, and a disk's own hole does not depend on the one before.
+float2 walk(uint first, uint count, float2 o, float step) {
   float length = 0, weight = 0;
   float3 u_prev = float3(0, 0, 0);
   float3 h = hole(tendon_disks[first], o);
@@ -48,36 +52,14 @@ float2 route(uint first, uint count, float2 o) {
       length += span;
       u = span > 1e-12 ? (next - h) / span : float3(0, 0, 0);
     }
-    const float3 g = u_prev - u;
-    const float3 r = h - positions[disk.x].xyz;
-    weight += turn_weight(disk) * dot(cross(r, g), cross(r, g));
+    const float3 rg = cross(h - positions[disk.x].xyz, u_prev - u);
+    const float W = turn_weight(disk);
+    weight += W * dot(rg, rg);
+    if (step != 0 && W > 0) orientations[disk.y] = quat_add_rotation(orientations[disk.y], -step * W * rg);
     u_prev = u;
     h = next;
   }
   return float2(length, weight);
-}
-
-// every disk moved along its share of -step * g (positions by w, frames by W)
-void move(uint first, uint count, float2 o, float step) {
-  // the spans' directions before anything moves: the step is linear in them
-  float3 u_prev = float3(0, 0, 0);
-  float3 h = hole(tendon_disks[first], o);
-  for (uint k = 0; k < count; ++k) {
-    const uint2 disk = tendon_disks[first + k];
-    float3 u = float3(0, 0, 0);
-    float3 next = h;
-    if (k + 1 < count) {
-      next = hole(tendon_disks[first + k + 1], o);
-      const float span = distance(next, h);
-      u = span > 1e-12 ? (next - h) / span : float3(0, 0, 0);
-    }
-    const float3 g = u_prev - u;
-    const float3 r = h - positions[disk.x].xyz;
-    if (turn_weight(disk) > 0)
-      orientations[disk.y] = quat_add_rotation(orientations[disk.y], -step * turn_weight(disk) * cross(r, g));
-    u_prev = u;
-    h = next;  // the next hole as it was: the disk just moved is behind
-  }
 }
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
@@ -89,11 +71,11 @@ void main(uint3 id : SV_DispatchThreadID) {
     const Tendon td = tendons[t];
     const float2 command = tendon_commands[t];
     const uint mode = uint(command.x);
-    const float2 lw = route(robot.x, robot.y, td.route.xy);
+    const float2 lw = walk(robot.x, robot.y, td.route.xy, 0);
     if (pc.item_offset == 1) {
       if (mode != TENDON_TENSION) continue;
       const float tension = max(command.y, 0.0);
-      move(robot.x, robot.y, td.route.xy, h2 * tension);
+      walk(robot.x, robot.y, td.route.xy, h2 * tension);
       tendon_states[t] = float4(lw.x, tension, 0, mode);
       continue;
     }
@@ -109,7 +91,7 @@ void main(uint3 id : SV_DispatchThreadID) {
     float dl = (-C - alpha * lambda) / max(lw.y + alpha, 1e-20);
     dl = min(lambda + dl, 0.0) - lambda;
     tendon_lambdas[t] = lambda + dl;
-    if (dl != 0) move(robot.x, robot.y, td.route.xy, -dl);
+    if (dl != 0) walk(robot.x, robot.y, td.route.xy, -dl);
     tendon_states[t] = float4(lw.x, -(lambda + dl) / h2, target, mode);
   }
 }
