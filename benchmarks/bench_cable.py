@@ -7,16 +7,14 @@ second. No rendering.
 """
 from __future__ import annotations
 
-import argparse
-import json
 import math
-import time
 
 import numpy as np
 
 import cressim
 from cressim.demos import cable as demo
 from cressim.tendons import TendonDrive
+from scene_throughput import main, timed
 
 
 def measure(envs: int, frames: int) -> dict:
@@ -37,35 +35,8 @@ def measure(envs: int, frames: int) -> dict:
         engine.step_physics()
         engine.end_frame()
 
-    for _ in range(20):
-        frame()
-    engine.buffer("particles.positions").read()  # waits for the GPU
-    t0 = time.perf_counter()
-    for _ in range(frames):
-        frame()
-    engine.buffer("particles.positions").read()
-    seconds = time.perf_counter() - t0
-    return {"envs": envs, "frames": frames, "seconds": seconds, "env_steps_per_s": envs * frames / seconds,
-            "particles_per_env": int(engine.buffer("particles.positions").shape[0]) // envs,
-            "device": engine.device["name"], "health_events": int(engine.health_events)}
-
-
-def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--envs", default="1,64,1024")
-    ap.add_argument("--frames", type=int, default=300)
-    ap.add_argument("--json")
-    args = ap.parse_args()
-    rows = []
-    for envs in map(int, args.envs.split(",")):
-        row = measure(envs, args.frames)
-        rows.append(row)
-        print(f"{envs:5d} envs: {row['env_steps_per_s']:,.0f} env-steps/s ({row['seconds'] / args.frames * 1e3:.2f} ms a "
-              f"step, health events {row['health_events']}) on {row['device']}", flush=True)
-        if args.json:
-            with open(args.json, "w") as f:
-                json.dump(rows, f, indent=2)
+    return timed(engine, frame, envs, frames)
 
 
 if __name__ == "__main__":
-    main()
+    main(__doc__, measure, frames=300)

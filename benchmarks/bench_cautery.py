@@ -7,16 +7,13 @@ second. No rendering (the cameras are authored but not drawn).
 """
 from __future__ import annotations
 
-import argparse
-import json
-import time
-
 import cressim
 from cressim.demos import cautery as demo
 from cressim.passes.cautery import Cautery
+from scene_throughput import main, timed
 
 
-def measure(envs: int, heat: bool, frames: int) -> dict:
+def measure(envs: int, frames: int, heat: bool) -> dict:
     world = cressim.World(cressim.SceneLayout(envs))
     table_mesh = world.add_mesh(cressim.Mesh.plane(0.1))
     hooks = [demo.author_env(world, env, table_mesh, 64, 48, heat=heat) for env in range(envs)]
@@ -35,36 +32,8 @@ def measure(envs: int, heat: bool, frames: int) -> dict:
         engine.step_physics()
         engine.end_frame()
 
-    for _ in range(20):
-        frame()
-    engine.buffer("particles.positions").read()  # waits for the GPU
-    t0 = time.perf_counter()
-    for _ in range(frames):
-        frame()
-    engine.buffer("particles.positions").read()
-    seconds = time.perf_counter() - t0
-    return {"envs": envs, "heat": heat, "frames": frames, "seconds": seconds, "env_steps_per_s": envs * frames / seconds,
-            "particles_per_env": int(engine.buffer("particles.positions").shape[0]) // envs,
-            "device": engine.device["name"], "health_events": int(engine.health_events)}
-
-
-def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--envs", default="1,64,1024")
-    ap.add_argument("--frames", type=int, default=200)
-    ap.add_argument("--json")
-    args = ap.parse_args()
-    rows = []
-    for envs in map(int, args.envs.split(",")):
-        for heat in (True, False):
-            row = measure(envs, heat, args.frames)
-            rows.append(row)
-            print(f"{envs:5d} envs, heat {'on ' if heat else 'off'}: {row['env_steps_per_s']:,.0f} env-steps/s "
-                  f"({row['seconds'] / args.frames * 1e3:.2f} ms a step) on {row['device']}", flush=True)
-            if args.json:
-                with open(args.json, "w") as f:
-                    json.dump(rows, f, indent=2)
+    return timed(engine, frame, envs, frames, heat=heat)
 
 
 if __name__ == "__main__":
-    main()
+    main(__doc__, measure, frames=200, variants=({"heat": True}, {"heat": False}))

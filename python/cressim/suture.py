@@ -7,7 +7,6 @@ import numpy as np
 import cressim
 
 FREE, INDENTING, PUNCTURED = 0, 1, 2
-STATES = {FREE: "free", INDENTING: "indenting", PUNCTURED: "punctured"}
 
 
 def punctures(engine) -> list[list[dict]]:
