@@ -11,7 +11,8 @@ Two figures per row:
 - unpaced: ticks back to back without cameras (the tick's own cost), ticks/s and env-ticks/s.
 
 `--scene psm_retraction.yaml` runs the twin over tissue (a world file: the engine steps every
-tick, the flap's particles with it); `--physics-rate 800` as a dynamic arm holding tissue needs.
+tick, the flap's particles with it); `--physics-rate 800` as a dynamic arm holding tissue needs,
+`--particle-rate 200` the flap's particles at 200 Hz meanwhile.
 
 Usage (GPU machine, after benchmarks/gpu_build.sh; needs yourdfpy, pytorch-kinematics, trimesh):
     PYTHONPATH=python python3 benchmarks/bench_twin.py --envs 1,64,1024 --json benchmarks/results/twin_<gpu>.json
@@ -47,13 +48,15 @@ def _ready(arms):
 
 
 def run(envs: int, dynamics: str, width: int, height: int, camera_rate: float, seconds: float, scene: str = "",
-        physics_rate: float | None = None) -> dict:
+        physics_rate: float | None = None, particle_rate: float | None = None) -> dict:
     t0 = time.perf_counter()
     arms = TwinArms(TwinConfig(scene=load_scene(scene) if scene else Scene(), num_envs=envs, dynamics=dynamics, camera_width=width,
-                               camera_height=height, cameras=width > 0, physics_rate=physics_rate))
+                               camera_height=height, cameras=width > 0, physics_rate=physics_rate,
+                               particle_rate=particle_rate))
     build_s = time.perf_counter() - t0
     _ready(arms)
-    row = {"envs": envs, "dynamics": dynamics, "scene": scene or "default", "physics_rate": arms.physics_rate, "camera": f"{width}x{height}" if width else "none",
+    row = {"envs": envs, "dynamics": dynamics, "scene": scene or "default", "physics_rate": arms.physics_rate,
+           "particle_rate": arms.particle_rate, "camera": f"{width}x{height}" if width else "none",
            "camera_rate": camera_rate, "build_s": build_s, "device": arms.bodies.engine.device["name"],
            "engine_torch_device": str(arms.bodies.device)}
 
@@ -108,6 +111,7 @@ def main() -> None:
     ap.add_argument("--seconds", type=float, default=10.0, help="paced run length")
     ap.add_argument("--scene", default="", help="a twin file (e.g. psm_retraction.yaml); default: the built-in scene")
     ap.add_argument("--physics-rate", type=float, help="engine rate in Hz (default: the scene's)")
+    ap.add_argument("--particle-rate", type=float, help="the particles' rate in Hz (default: the scene's)")
     ap.add_argument("--json")
     args = ap.parse_args()
     torch.set_num_threads(1)  # as the node: (N, 6) tensors gain nothing from threads
@@ -115,12 +119,14 @@ def main() -> None:
     rows = []
     for dynamics in args.dynamics.split(","):
         for envs in map(int, args.envs.split(",")):
-            row = run(envs, dynamics, width, height, args.camera_rate, args.seconds, args.scene, args.physics_rate)
+            row = run(envs, dynamics, width, height, args.camera_rate, args.seconds, args.scene, args.physics_rate,
+                      args.particle_rate)
             rows.append(row)
             paced = (f"paced: {row['paced_ticks_per_s']:.1f} ticks/s, tick {row['paced_tick_mean_ms']:.2f} ms "
                      f"(max {row['paced_tick_max_ms']:.1f}), camera {row['camera_frames_per_s']:.1f} frames/s "
                      f"({row['camera_frames_skipped']} skipped); " if width else "")
-            print(f"{dynamics:9s} {envs:5d} envs, {row['physics_rate']:.0f} Hz physics: {paced}unpaced {row['unpaced_ticks_per_s']:,.0f} ticks/s = "
+            print(f"{dynamics:9s} {envs:5d} envs, {row['physics_rate']:.0f} Hz physics "
+                  f"({row['particle_rate']:.0f} Hz particles): {paced}unpaced {row['unpaced_ticks_per_s']:,.0f} ticks/s = "
                   f"{row['unpaced_env_ticks_per_s']:,.0f} env-ticks/s; built in {row['build_s']:.1f} s; "
                   f"unhealthy {row['unhealthy_envs']}", flush=True)
             if args.json:  # after every row: a later crash keeps the rows before it

@@ -387,7 +387,7 @@ void ParticleSystem::set_settings(const PhysicsSettings& s) {
 // 4 from 10 kPa to 100 MPa). It slows only bending faster than the substep resolves.
 void ParticleSystem::frame_weights(const PhysicsSettings& s) {
   if (model_.orientation_weights.empty()) return;
-  const double h = double(s.dt) / s.substeps;
+  const double h = double(s.dt) / s.particle_substep_count();
   std::vector<float> w = model_.orientation_weights;
   for (size_t e = 0; e < w.size(); ++e)
     if (model_.frame_bend_compliances[e] > 0) w[e] = float(std::min<double>(w[e], model_.frame_bend_compliances[e] / (h * h)));
@@ -461,8 +461,8 @@ uint32_t ParticleSystem::heat_cycles(const PhysicsSettings& s) const {
 void ParticleSystem::set_constants(const PhysicsSettings& s) {
   for (auto& p : all_) {
     shader::ParticleConstants c{};
-    c.gravity = {s.gravity[0], s.gravity[1], s.gravity[2], s.dt / float(s.substeps)};
-    c.grid = {model_.cell_size, 1, s.max_speed, float(s.substeps)};
+    c.gravity = {s.gravity[0], s.gravity[1], s.gravity[2], s.dt / float(s.particle_substep_count())};
+    c.grid = {model_.cell_size, 1, s.max_speed, float(s.particle_substep_count())};
     c.particle_count = uint32_t(model_.size());
     c.table_size = table_size_;
     c.env_count = uint32_t(model_.env_ranges.size());
@@ -493,7 +493,7 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
       gpu::compute_barrier(cmd);
     }
   };
-  const uint32_t substeps = settings_.substeps;
+  const uint32_t substeps = settings_.particle_substep_count();
   run(remove_);
   run(emit_);
   if (rigid_forces_) {

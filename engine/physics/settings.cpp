@@ -24,6 +24,7 @@ void PhysicsSettings::validate() const {
                                             "); 0 means all of them");
   if (particle_solver != "auto" && particle_solver != "dispatch" && particle_solver != "workgroup")
     fail("particle_solver", "'" + particle_solver + "' is not one of auto, dispatch, workgroup");
+  if (particle_substeps > 256) fail("particle_substeps", "must be 0..256 (0: the same as substeps)");
   if (max_particle_attachments_per_env > 4096) fail("max_particle_attachments_per_env", "must be at most 4096");
 }
 

@@ -23,7 +23,12 @@ struct PhysicsSettings {
   // solves all colours in group memory; envs of at most PARTICLE_BLOCK_CAPACITY particles), or
   // "auto" (workgroup where every env fits)
   std::string particle_solver = "auto";
+  // particle substeps per frame (0: `substeps`). Fewer than the bodies' when only the bodies need
+  // the short step (a jointed arm of gram-light wrist links holding tissue): the particles then
+  // see the bodies where they are at the end of each of their own substeps.
+  uint32_t particle_substeps = 0;
 
+  uint32_t particle_substep_count() const { return particle_substeps ? particle_substeps : substeps; }
   void validate() const;
 };
 

@@ -59,10 +59,11 @@ void bind_physics_settings(py::module_& m) {
   py::class_<PhysicsSettings>(m, "PhysicsSettings")
       .def(py::init([](float dt, uint32_t substeps, uint32_t iterations, std::array<float, 3> gravity,
                        uint32_t max_contacts, float max_speed, float max_penetration, uint32_t particle_iterations,
-                       uint32_t max_attachments, uint32_t particle_contact_iterations, std::string particle_solver) {
+                       uint32_t max_attachments, uint32_t particle_contact_iterations, std::string particle_solver,
+                       uint32_t particle_substeps) {
              PhysicsSettings s{dt, substeps, iterations, gravity, max_contacts, max_speed, max_penetration,
                                particle_iterations, max_attachments, particle_contact_iterations,
-                               std::move(particle_solver)};
+                               std::move(particle_solver), particle_substeps};
              s.validate();
              return s;
            }),
@@ -70,7 +71,7 @@ void bind_physics_settings(py::module_& m) {
            py::arg("gravity") = std::array<float, 3>{0, 0, -9.81f}, py::arg("max_contacts_per_env") = 64u,
            py::arg("max_speed") = 100.f, py::arg("max_penetration") = 0.25f, py::arg("particle_iterations") = 4u,
            py::arg("max_particle_attachments_per_env") = 4u, py::arg("particle_contact_iterations") = 0u,
-           py::arg("particle_solver") = "auto")
+           py::arg("particle_solver") = "auto", py::arg("particle_substeps") = 0u)
       .def_readwrite("dt", &PhysicsSettings::dt)
       .def_readwrite("substeps", &PhysicsSettings::substeps)
       .def_readwrite("iterations", &PhysicsSettings::iterations)
@@ -82,6 +83,7 @@ void bind_physics_settings(py::module_& m) {
       .def_readwrite("max_particle_attachments_per_env", &PhysicsSettings::max_particle_attachments_per_env)
       .def_readwrite("particle_contact_iterations", &PhysicsSettings::particle_contact_iterations)
       .def_readwrite("particle_solver", &PhysicsSettings::particle_solver)
+      .def_readwrite("particle_substeps", &PhysicsSettings::particle_substeps)
       .def("__repr__", [](const PhysicsSettings& s) {
         return py::str("PhysicsSettings(dt={}, substeps={}, iterations={}, gravity={})")
             .format(s.dt, s.substeps, s.iterations, py::cast(s.gravity));

@@ -113,6 +113,26 @@ def test_a_shut_valve_removes_nothing_and_each_env_resets_alone():
     assert obs[1, ELAPSED] == 0 and obs[0, ELAPSED] == pytest.approx(10 / 40)
 
 
+def test_the_episode_succeeds_once_the_field_is_clear():
+    """Success (terminated) when clear_fraction of the blood is gone: here 5 %, 31 of 605 particles;
+    the finished env starts afresh, the other (valve shut) goes on."""
+    env = BloodSuction(2, clear_fraction=0.05)
+    assert env.clear_count == 31 and BloodSuction(1).clear_count == 575  # the default: 95 %
+    obs, _ = on_host(env.reset())
+    for step in range(60):
+        before = env.removed().clone()
+        obs, reward, terminated, truncated, info = on_host(env.step(toward_blood(obs[:, :13], [[1.0], [-1.0]])))
+        if terminated.any():
+            break
+    assert terminated.tolist() == [True, False] and not truncated.any(), step
+    assert before[0] < 31 and float(info["finished_length"][0]) == step + 1
+    assert obs[0, REMOVED] == 0 and torch.allclose(obs[0, JOINTS], torch.tensor(START_Q))  # afresh
+    assert env.removed()[1] == 0 and obs[1, ELAPSED] > 0
+    for bad in (0.0, 1.01, math.nan, "all"):
+        with pytest.raises(ValueError, match="clear_fraction"):
+            BloodSuction(1, clear_fraction=bad)
+
+
 def test_ppo_smoke(tmp_path):
     out = train("BloodSuction", num_envs=2, iterations=2, out_dir=tmp_path, rollout=8, minibatch=8, progress=False,
                 save_every=1)

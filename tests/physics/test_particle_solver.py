@@ -82,11 +82,32 @@ def test_contacts_in_fewer_iterations_keep_a_resting_cube_up(make_engine):
     assert abs(tops[4] - tops[0]) < 3e-3, tops
 
 
+def test_particles_substep_at_their_own_rate(make_engine):
+    """particle_substeps = 2 under substeps = 8: the particles step exactly as with 2 substeps, a
+    falling body exactly as with 8 (they do not touch here)."""
+    def run(**settings):
+        world, mesh = _soft_scene(envs=1)
+        box = world.create_entity(env=0, name="box")
+        box.add(cressim.Transform(position=(-0.6, 0, 2.0)))
+        box.add(cressim.RigidBody(mass=1.0, inertia=(0.01, 0.01, 0.01)))
+        engine = start(world, make_engine, **settings)
+        step(engine, 20)
+        return positions(engine), engine.buffer("rigid.positions").read()[:, :3].copy()
+
+    split, particles_2, bodies_8 = run(substeps=8, particle_substeps=2), run(substeps=2), run(substeps=8)
+    np.testing.assert_array_equal(split[0], particles_2[0])
+    np.testing.assert_array_equal(split[1], bodies_8[1])
+    assert np.abs(bodies_8[1] - particles_2[1]).max() > 1e-4  # the body's fall depends on its substep
+    assert np.abs(split[0] - run(substeps=8)[0]).max() > 1e-5  # and the particles' on theirs
+
+
 def test_solver_settings_are_checked(make_engine):
     with pytest.raises(ValueError, match="particle_contact_iterations"):
         cressim.PhysicsSettings(particle_iterations=4, particle_contact_iterations=5)
     with pytest.raises(ValueError, match="'gpu' is not one of auto, dispatch, workgroup"):
         cressim.PhysicsSettings(particle_solver="gpu")
+    with pytest.raises(ValueError, match="particle_substeps: must be 0..256"):
+        cressim.PhysicsSettings(particle_substeps=257)
     world = cressim.World(cressim.SceneLayout(1))
     big = world.create_entity(env=0, name="big")
     big.add(cressim.Transform(position=(0, 0, 1)))

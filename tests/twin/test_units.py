@@ -21,7 +21,8 @@ UPPER[2] = 0.24
 def test_default_scene_parses():
     scene = load_scene(str(REPO / "scenes" / "psm_twin.yaml"))
     assert (scene.arm, scene.robot, scene.num_envs) == ("PSM1", "psm_lnd", 1)
-    assert scene.publish_rate == 100.0 and scene.physics_rate == 200.0
+    assert scene.publish_rate == 100.0 and scene.physics_rate == 200.0 and scene.particle_rate == 0.0  # the same
+    assert parse_scene("rates:\n  physics: 800\n  particles: 200\n").particle_rate == 200.0
     assert parse_scene("").num_envs == 1  # an empty file: defaults
 
 
@@ -29,6 +30,8 @@ def test_default_scene_parses():
     ("arm:\n  base:\n    position: [1, 2]\n", "x.yaml:3:15", "expected 3 numbers"),
     ("num_env: 3\n", "x.yaml:1:1", "unknown field"),
     ("rates:\n  publish: 100\n  physics: 150\n", "x.yaml:3:12", "integer multiple"),
+    ("rates:\n  physics: 800\n  particles: 250\n", "x.yaml:3:14", "integer multiple"),
+    ("rates:\n  physics: 200\n  particles: 400\n", "x.yaml:3:14", "above the physics rate"),
     ("arm:\n  robot: psm_foo\n", "x.yaml:2:10", "not one of"),
     ("num_envs: two\n", "x.yaml:1:11", "an integer expected"),
     ("arm:\n  base:\n    rotation: [0, 0, 0, 2]\n", "x.yaml:3:15", "norm"),

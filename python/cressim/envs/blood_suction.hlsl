@@ -13,6 +13,7 @@ struct Params {
   uint reset_all;
   uint fluid_offset;     // env-relative index of the first blood particle
   uint fluid_count;      // blood particles per env
+  uint clear_count;      // removed particles that clear the field (success)
   float removal_reward;  // per particle removed
   float length_scale;    // m: the progress reward's distance unit (one unit of the paper's scene)
   uint row;              // observation values per env (NUMBERS + image)
@@ -88,7 +89,7 @@ void evaluate(uint3 id : SV_DispatchThreadID) {
   const float reward = pc.removal_reward * float(removed - task_state[env]) + progress / pc.length_scale;
   rewards[env] = pc.reset_all != 0 ? 0.0 : reward;
   task_state[env] = removed;
-  const bool cleared = removed >= pc.fluid_count, failed = reset_mask[env] != 0;  // flagged unhealthy
+  const bool cleared = removed >= pc.clear_count, failed = reset_mask[env] != 0;  // flagged unhealthy
   if (!end_step(env, cleared || failed)) return;
   reset_mask[env] = 1;  // the engine puts the blood, the basin and the arm's bodies back
   for (uint k = 0; k < 4; ++k) arm_joints[4 * env + k] = arm_start[k];

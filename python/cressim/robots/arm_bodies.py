@@ -144,8 +144,9 @@ class ArmBodies:
     def __init__(self, urdf_path, num_envs: int, *, base_position, base_rotation, publish_rate: float,
                  physics_rate: float, initial_q: np.ndarray, initial_jaw: float, dof: int, device=None,
                  dynamics: str = "kinematic", gravity=(0.0, 0.0, -9.81), scenery=None,
-                 world: cressim.World | None = None, needle: dict | None = None):
-        """`world`: author the arm into this world (a task's, beside its own entities) instead of
+                 world: cressim.World | None = None, needle: dict | None = None, particle_rate: float = 0.0):
+        """`particle_rate`: the scenery's particles (tissue, blood, thread) substep at this rate
+        (Hz; 0: physics_rate), the bodies at physics_rate. `world`: author the arm into this world (a task's, beside its own entities) instead of
         one of its own; the caller then creates the engine with its own physics settings (a dynamic
         arm wants `iterations=SOLVER_ITERATIONS`) and calls `bind(engine)` after `upload_world()`.
         `needle`: a suture needle held in the jaws (twin scene's arm.needle), with its thread."""
@@ -266,6 +267,7 @@ class ArmBodies:
         engine = cressim.Engine(world, device=device)
         substeps = int(round(physics_rate / publish_rate))
         engine.physics = cressim.PhysicsSettings(dt=1.0 / publish_rate, substeps=substeps,
+                                                 particle_substeps=int(round(particle_rate / publish_rate)),
                                                  iterations=SOLVER_ITERATIONS if self.dynamic else 1,
                                                  gravity=tuple(float(g) for g in self.gravity),
                                                  **(plan.physics_settings() if plan is not None else {}))
@@ -633,10 +635,10 @@ class ArmBodies:
         arm = origin - point.to(**self._on)[:, None, :]
         return torch.cat([force.sum(1), (torque + torch.linalg.cross(arm, force)).sum(1)], dim=1)
 
-    def set_rate(self, dt: float, substeps: int):
-        """Frame time (one publish period) and substeps of the engine."""
+    def set_rate(self, dt: float, substeps: int, particle_substeps: int = 0):
+        """Frame time (one publish period), substeps of the engine and of its particles (0: the same)."""
         physics = self.engine.physics
-        physics.dt, physics.substeps = dt, substeps
+        physics.dt, physics.substeps, physics.particle_substeps = dt, substeps, particle_substeps
         self.engine.physics = physics
         self.dt = dt
 

@@ -67,6 +67,20 @@ def dh_transform(alpha, a, theta, d):
     return torch.stack([torch.stack(r, dim=-1) for r in rows], dim=-2)
 
 
+def _fixed_parts() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Per joint: Rx(alpha) Tx(a) (6, 4, 4), whether it slides, and theta and d at q = 0."""
+    zero = torch.zeros((), dtype=torch.float64)
+    fixed = np.stack([dh_transform(r.alpha, r.a, zero, zero).numpy() for r in PSM_DH])
+    prismatic = np.array([r.type == "prismatic" for r in PSM_DH])
+    theta0 = np.array([0.0 if r.type == "prismatic" else r.offset for r in PSM_DH])
+    d0 = np.array([r.d + (r.offset if r.type == "prismatic" else 0.0) for r in PSM_DH])
+    return fixed, prismatic, theta0, d0
+
+
+_FIXED, _PRISMATIC, _THETA0, _D0 = _fixed_parts()
+_ON = {}  # (dtype, device) -> the fixed parts as tensors there
+
+
 def dh_forward_kinematics(q, *, tool_tip=TOOL_TIP_OFFSET, all_frames=False):
     """Reference FK of the PSM: tool-tip pose in PSM1_base (the RCM frame).
 
@@ -74,28 +88,35 @@ def dh_forward_kinematics(q, *, tool_tip=TOOL_TIP_OFFSET, all_frames=False):
     (a wrist-less tool) leaves the missing joints at 0. tool_tip: 4x4 applied after frame 6
     (None for frame 6 itself). Returns (..., 4, 4), or with all_frames (..., 6, 4, 4) for
     frames 1..6 (no tool tip); numpy in gives numpy out (float64), torch keeps dtype/device.
+    Every joint's Rz(theta) Tz(d) at once, then one product down the chain: the twin calls this a
+    few times a tick, and a link at a time cost a hundred small tensor ops.
     """
     is_numpy = not torch.is_tensor(q)
     qt = torch.as_tensor(np.asarray(q, dtype=np.float64)) if is_numpy else q
-    if qt.shape[-1] < len(PSM_DH):
-        pad = qt.new_zeros(*qt.shape[:-1], len(PSM_DH) - qt.shape[-1])
-        qt = torch.cat([qt, pad], dim=-1)
-    T = torch.eye(4, dtype=qt.dtype, device=qt.device).expand(*qt.shape[:-1], 4, 4)
-    frames = []
-    for i, row in enumerate(PSM_DH):
-        qi = qt[..., i]
-        if row.type == "revolute":
-            Ti = dh_transform(row.alpha, row.a, qi + row.offset, torch.full_like(qi, row.d))
-        else:
-            Ti = dh_transform(row.alpha, row.a, torch.zeros_like(qi), qi + row.offset + row.d)
-        T = T @ Ti
-        frames.append(T)
+    n = len(PSM_DH)
+    if qt.shape[-1] < n:
+        qt = torch.cat([qt, qt.new_zeros(*qt.shape[:-1], n - qt.shape[-1])], dim=-1)
+    key = (qt.dtype, qt.device)
+    if key not in _ON:
+        _ON[key] = tuple(torch.as_tensor(a, device=qt.device).to(qt.dtype if a.dtype == np.float64 else torch.bool)
+                         for a in (_FIXED, _PRISMATIC, _THETA0, _D0))
+    fixed, prismatic, theta0, d0 = _ON[key]
+    theta = theta0 + torch.where(prismatic, torch.zeros_like(qt), qt)
+    d = d0 + torch.where(prismatic, qt, torch.zeros_like(qt))
+    c, s = torch.cos(theta), torch.sin(theta)
+    moving = qt.new_zeros(*qt.shape, 4, 4)  # Rz(theta) Tz(d) per joint
+    moving[..., 0, 0], moving[..., 0, 1], moving[..., 1, 0], moving[..., 1, 1] = c, -s, s, c
+    moving[..., 2, 2], moving[..., 3, 3], moving[..., 2, 3] = 1.0, 1.0, d
+    links = fixed @ moving  # (..., 6, 4, 4)
+    frames = [links[..., 0, :, :]]
+    for i in range(1, n):
+        frames.append(frames[-1] @ links[..., i, :, :])
     if all_frames:
         out = torch.stack(frames, dim=-3)
     elif tool_tip is not None:
-        out = T @ torch.as_tensor(np.asarray(tool_tip), dtype=T.dtype, device=T.device)
+        out = frames[-1] @ torch.as_tensor(np.asarray(tool_tip), dtype=qt.dtype, device=qt.device)
     else:
-        out = T
+        out = frames[-1]
     return out.numpy() if is_numpy else out
 
 

@@ -55,7 +55,7 @@ from cressim.robots.kinematics import INTERFACE_DOF, ArmKinematics, body_jacobia
 
 from .arm_state import FAULT, ArmState
 from .command_checks import joint_values, limit_refusal, pose_matrix, ratio_value
-from .scene import Scene
+from .scene import Scene, rates_problem
 from .scenery import CameraSpec, SceneryPlan, UltrasoundSpec
 from .sensor_loop import process_threads
 from .trajectory import BatchedTrajectory
@@ -99,6 +99,7 @@ class TwinConfig:
     dynamics: str | None = None
     arm: str | None = None
     physics_rate: float | None = None
+    particle_rate: float | None = None  # 0: physics_rate
     publish_rate: float | None = None
     camera_width: int | None = None
     camera_height: int | None = None
@@ -117,6 +118,10 @@ class TwinArms:
         self.scene = scene
         self.num_envs, self.arm, self.robot = config.value("num_envs"), config.value("arm"), config.value("robot")
         self.publish_rate, self.physics_rate = config.value("publish_rate"), config.value("physics_rate")
+        self.particle_rate = config.value("particle_rate") or self.physics_rate
+        problem = rates_problem(self.physics_rate, self.publish_rate, self.particle_rate)
+        if problem:
+            raise ConfigError(f"{problem[0]}: {problem[1]}")
         urdf = robot_dir() / f"{self.robot}.urdf"
         self.psm = PSM(urdf, dtype=torch.float64)
         initial = np.zeros(INTERFACE_DOF)
@@ -135,7 +140,8 @@ class TwinArms:
         before = process_threads()
         self.bodies = ArmBodies(urdf, self.num_envs, base_position=scene.base_position,
                                 base_rotation=scene.base_rotation, publish_rate=self.publish_rate,
-                                physics_rate=self.physics_rate, initial_q=initial, initial_jaw=jaw0,
+                                physics_rate=self.physics_rate, particle_rate=self.particle_rate,
+                                initial_q=initial, initial_jaw=jaw0,
                                 dof=self.psm.dof, dynamics=config.value("dynamics"), scenery=plan,
                                 device=config.device, needle=scene.needle if self.psm.has_jaw and plan else None)
         self.engine_threads = process_threads() - before  # the Vulkan driver's (SensorLoop.lower_priority)
@@ -221,7 +227,7 @@ class TwinArms:
         self.publish_rate = publish_rate
         self.period_ns = int(round(1e9 / publish_rate))
         substeps = int(round(self.physics_rate / publish_rate))
-        self.bodies.set_rate(1.0 / publish_rate, substeps)
+        self.bodies.set_rate(1.0 / publish_rate, substeps, int(round(self.particle_rate / publish_rate)))
 
     def label(self, env: int) -> str:
         return self.arm if self.num_envs == 1 else f"env{env}/{self.arm}"

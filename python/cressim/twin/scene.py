@@ -42,6 +42,7 @@ class Scene:
     stale_command_after: float = 1.0
     num_envs: int = 1
     physics_rate: float = 200.0
+    particle_rate: float = 0.0  # the world's particles substep at this rate; 0: physics_rate
     publish_rate: float = 100.0
     tf_rate: float = 50.0
     camera_rate: float = 30.0
@@ -178,11 +179,13 @@ def parse_scene(text: str, path: str = "<string>") -> Scene:
     if "num_envs" in top:
         scene.num_envs = p.integer(top["num_envs"], "num_envs", low=1, high=4096)
     if "rates" in top:
-        rates = p.mapping(top["rates"], "rates", {"physics", "publish", "tf", "camera", "ultrasound"})
-        for key in ("physics", "publish", "tf", "camera", "ultrasound"):
+        keys = ("physics", "particles", "publish", "tf", "camera", "ultrasound")
+        rates = p.mapping(top["rates"], "rates", set(keys))
+        for key in keys:
             if key in rates:
-                setattr(scene, f"{key}_rate", p.number(rates[key], f"rates.{key}", low=0.1, high=10000.0))
-                scene.lines[f"{key}_rate"] = p.where(rates[key])
+                name = "particle_rate" if key == "particles" else f"{key}_rate"
+                setattr(scene, name, p.number(rates[key], f"rates.{key}", low=0.1, high=10000.0))
+                scene.lines[name] = p.where(rates[key])
     if "camera" in top:
         cam = p.mapping(top["camera"], "camera", {"width", "height", "fov_y", "position", "look_at"})
         if "width" in cam:
@@ -214,12 +217,28 @@ def parse_scene(text: str, path: str = "<string>") -> Scene:
             p.fail(top["world"], "world", f"no scene file {name!r} (beside {path} or in scenes/)")
         scene.world = str(found)
     # a check across fields, reported at the line of the one to change
-    ratio = scene.physics_rate / scene.publish_rate
-    if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
-        line = scene.lines.get("physics_rate", path)
-        raise SceneError(f"{line}: rates.physics: {scene.physics_rate:g} Hz is not an integer multiple of "
-                         f"rates.publish {scene.publish_rate:g} Hz")
+    problem = rates_problem(scene.physics_rate, scene.publish_rate, scene.particle_rate)
+    if problem:
+        name, why = problem
+        raise SceneError(f"{scene.lines.get(name, path)}: rates.{RATE_KEYS[name]}: {why}")
     return scene
+
+
+RATE_KEYS = {"physics_rate": "physics", "particle_rate": "particles"}
+
+
+def rates_problem(physics_rate: float, publish_rate: float, particle_rate: float = 0.0) -> tuple[str, str] | None:
+    """(the field to change, why) when the engine cannot run these rates, else None: it runs whole
+    substeps of the bodies (physics_rate) and of the particles (particle_rate; 0: physics_rate)
+    in every published tick, the particles no more often than the bodies."""
+    for name, rate in (("physics_rate", physics_rate), ("particle_rate", particle_rate or physics_rate)):
+        ratio = rate / publish_rate
+        if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+            return name, f"{rate:g} Hz is not an integer multiple of the publish rate {publish_rate:g} Hz"
+    if particle_rate > physics_rate:
+        return "particle_rate", (f"{particle_rate:g} Hz is above the physics rate {physics_rate:g} Hz (the particles "
+                                 "substep at most as often as the bodies)")
+    return None
 
 
 def _is_null(node) -> bool:

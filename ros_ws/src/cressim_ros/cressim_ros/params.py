@@ -4,7 +4,7 @@
 the reason before anything is built) and in the set-parameters callback (a bad change is
 refused with the reason, returned in SetParametersResult.reason, and the node keeps running
 with its old values). Structural parameters (scene, robot, dynamics, arm, num_envs,
-physics_rate) size or build the engine and the topic graph, so they cannot change while the
+physics_rate, particle_rate) size or build the engine and the topic graph, so they cannot change while the
 node runs.
 """
 from __future__ import annotations
@@ -13,7 +13,7 @@ import math
 import os
 from dataclasses import dataclass
 
-from cressim.twin.scene import DYNAMICS, ROBOTS, SENSORS, Scene
+from cressim.twin.scene import DYNAMICS, ROBOTS, SENSORS, Scene, rates_problem
 
 
 @dataclass(frozen=True)
@@ -32,6 +32,8 @@ SPECS = (
     Spec("arm", str, "arm name: ROS namespace (/PSM1) and frame prefix (PSM1_base)", False),
     Spec("num_envs", int, "number of twins in one engine; >1 puts env i under /env{i}/ARM", False),
     Spec("physics_rate", float, "engine rate in Hz; an integer multiple of publish_rate", False),
+    Spec("particle_rate", float, "rate of the world's particles (tissue, blood, thread) in Hz; 0: physics_rate; "
+                                 "an integer multiple of publish_rate, at most physics_rate", False),
     Spec("publish_rate", float, "rate of the periodic topics and of /clock, Hz (the dVRK's is 100)", True),
     Spec("tf_rate", float, "rate of the base -> tip transforms on /tf, Hz", True),
     Spec("camera_rate", float, "rate of the camera topics (color, depth, segmentation), Hz", True),
@@ -47,7 +49,8 @@ MAX_RATE = 2000.0
 
 def defaults(scene: Scene) -> dict:
     return {"scene": scene.path, "robot": scene.robot, "dynamics": scene.dynamics, "arm": scene.arm, "num_envs": scene.num_envs,
-            "physics_rate": scene.physics_rate, "publish_rate": scene.publish_rate, "tf_rate": scene.tf_rate,
+            "physics_rate": scene.physics_rate, "particle_rate": scene.particle_rate,
+            "publish_rate": scene.publish_rate, "tf_rate": scene.tf_rate,
             "camera_rate": scene.camera_rate, "ultrasound_rate": scene.ultrasound_rate, "camera_width": scene.camera_width,
             "camera_height": scene.camera_height, "sensors": list(scene.sensors), "record": scene.record}
 
@@ -68,19 +71,19 @@ def check(changes: dict, current: dict, *, running: bool) -> str | None:
         problem = _check_one(spec, value)
         if problem:
             return f"{name}: {problem}"
-    ratio = merged["physics_rate"] / merged["publish_rate"]
-    if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
-        return (f"physics_rate {merged['physics_rate']:g} Hz must be an integer multiple of publish_rate "
-                f"{merged['publish_rate']:g} Hz (the engine runs whole substeps per published tick)")
-    return None
+    problem = rates_problem(merged["physics_rate"], merged["publish_rate"], merged["particle_rate"])
+    return f"{problem[0]}: {problem[1]} (the engine runs whole substeps per published tick)" if problem else None
 
 
 def _check_one(spec: Spec, value) -> str | None:
     if spec.kind is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             return f"a finite number expected, got {value!r}"
-        if not 0.0 < value <= MAX_RATE * (10 if spec.name == "physics_rate" else 1):
-            return f"{value:g} Hz is outside (0, {MAX_RATE * (10 if spec.name == 'physics_rate' else 1):g}]"
+        high = MAX_RATE * (10 if spec.name in ("physics_rate", "particle_rate") else 1)
+        if spec.name == "particle_rate" and value == 0:
+            return None  # the physics rate
+        if not 0.0 < value <= high:
+            return f"{value:g} Hz is outside (0, {high:g}]"
     elif spec.kind is int:
         if isinstance(value, bool) or not isinstance(value, int):
             return f"an integer expected, got {value!r}"

@@ -146,7 +146,8 @@ class TwinNode(Node):
         self._threads_before_engine = process_threads()
         self.arms = TwinArms(TwinConfig(
             scene=self.scene, num_envs=cfg["num_envs"], robot=cfg["robot"], dynamics=cfg["dynamics"],
-            arm=cfg["arm"], physics_rate=cfg["physics_rate"], publish_rate=cfg["publish_rate"],
+            arm=cfg["arm"], physics_rate=cfg["physics_rate"], particle_rate=cfg["particle_rate"],
+            publish_rate=cfg["publish_rate"],
             camera_width=cfg["camera_width"], camera_height=cfg["camera_height"],
             # the probe and its scatterers exist when the node starts with the group
             ultrasound="ultrasound" in cfg["sensors"]))
