@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
 
 
 def _info(args: argparse.Namespace) -> int:
@@ -90,6 +91,20 @@ def _train(args: argparse.Namespace) -> int:
     return 0
 
 
+def _eval(args: argparse.Namespace) -> int:
+    from cressim.learn import evaluate
+
+    result = evaluate(args.checkpoint, num_envs=args.envs, episodes=args.episodes, device=args.device, seed=args.seed,
+                      task_options=_task_options(args.task_option))
+    print(f"{result['task']}: {result['episodes']} episodes of the mean policy ({result['vulkan_device']}): "
+          f"return {result['mean_return']:.2f}, length {result['mean_length']:.1f}, "
+          f"terminated {result['terminated']:.3f}")
+    if args.json:
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.json).write_text(json.dumps(result, indent=1))
+    return 0
+
+
 def _bench(args: argparse.Namespace) -> int:
     from cressim.learn.bench import run
 
@@ -138,6 +153,16 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--task-option", action="append", metavar="KEY=VALUE",
                    help="a keyword of the task's constructor, e.g. observation=crtk (repeatable)")
     p.set_defaults(run=_train)
+    p = sub.add_parser("eval", help="a trained policy's mean actions on its task: return, length, success share")
+    p.add_argument("checkpoint", help="`cressim train`'s policy.pt or model_<k>.pt (built-in learner)")
+    p.add_argument("--envs", type=int, default=64)
+    p.add_argument("--episodes", type=int, default=1, help="episodes per env")
+    p.add_argument("--device", help="torch device of env and policy (default: what the env picks)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--task-option", action="append", metavar="KEY=VALUE",
+                   help="override a keyword the task was trained with (repeatable)")
+    p.add_argument("--json", help="write the result (every episode's return, length, ending) here")
+    p.set_defaults(run=_eval)
     p = sub.add_parser("bench", help="stepping and PPO throughput (TASKS.md protocol)")
     p.add_argument("task", nargs="?", default="CartPole")
     p.add_argument("--envs", help="comma-separated counts (default: TASKS.md's sweep for the task, "

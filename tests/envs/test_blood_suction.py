@@ -131,6 +131,28 @@ def test_the_episode_succeeds_once_the_field_is_clear():
     for bad in (0.0, 1.01, math.nan, "all"):
         with pytest.raises(ValueError, match="clear_fraction"):
             BloodSuction(1, clear_fraction=bad)
+    with pytest.raises(ValueError, match="absorbing_success"):
+        BloodSuction(1, absorbing_success=1)
+
+
+def test_absorbing_success_pays_the_blood_left():
+    """The same run with absorbing_success: the success step pays 0.03 for each particle left."""
+    totals = []
+    for absorbing in (False, True):
+        env = BloodSuction(1, clear_fraction=0.05, absorbing_success=absorbing)
+        obs, _ = on_host(env.reset())
+        total = 0.0
+        for step in range(60):
+            obs, reward, terminated, _, _ = on_host(env.step(toward_blood(obs[:, :13], 1.0)))
+            total += float(reward[0])
+            if terminated[0]:
+                break
+        assert terminated[0]
+        totals.append((total, step))
+    (plain, s0), (absorbed, s1) = totals
+    assert s0 == s1  # the physics is the same
+    # success came with 31 to 60 particles removed: 545 to 574 left
+    assert 0.03 * (605 - 60) < absorbed - plain < 0.03 * (605 - 31) + 1e-3, (plain, absorbed)
 
 
 def test_ppo_smoke(tmp_path):

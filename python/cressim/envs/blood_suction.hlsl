@@ -14,6 +14,7 @@ struct Params {
   uint fluid_offset;     // env-relative index of the first blood particle
   uint fluid_count;      // blood particles per env
   uint clear_count;      // removed particles that clear the field (success)
+  uint absorbing_success;  // success also pays for the blood left (blood_suction.py)
   float removal_reward;  // per particle removed
   float length_scale;    // m: the progress reward's distance unit (one unit of the paper's scene)
   uint row;              // observation values per env (NUMBERS + image)
@@ -86,10 +87,12 @@ void evaluate(uint3 id : SV_DispatchThreadID) {
   const float4 target = task_aim[2 * env];
   const float3 before = task_aim[2 * env + 1].xyz;
   const float progress = target.w == 0 ? 0.0 : length(target.xyz - before) - length(target.xyz - tip_position(env));
-  const float reward = pc.removal_reward * float(removed - task_state[env]) + progress / pc.length_scale;
+  const bool cleared = removed >= pc.clear_count, failed = reset_mask[env] != 0;  // flagged unhealthy
+  // absorbing success: the blood still in the basin is paid as if it were removed too
+  const float left = cleared && pc.absorbing_success != 0 ? float(pc.fluid_count - min(removed, pc.fluid_count)) : 0.0;
+  const float reward = pc.removal_reward * (float(removed - task_state[env]) + left) + progress / pc.length_scale;
   rewards[env] = pc.reset_all != 0 ? 0.0 : reward;
   task_state[env] = removed;
-  const bool cleared = removed >= pc.clear_count, failed = reset_mask[env] != 0;  // flagged unhealthy
   if (!end_step(env, cleared || failed)) return;
   reset_mask[env] = 1;  // the engine puts the blood, the basin and the arm's bodies back
   for (uint k = 0; k < 4; ++k) arm_joints[4 * env + k] = arm_start[k];

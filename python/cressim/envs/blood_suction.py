@@ -51,7 +51,10 @@ much nearer the tip came to where that particle was at the last observation, / o
 costs (a plain nearest distance jumps up when the nearest particle is removed, punishing the
 removal, and moves as the pool settles); a still tip earns no progress. Terminated when
 the field is clear (`clear_fraction`, 95 % of the blood removed: success; the paper gives no
-success, only the 240-step truncation) or the solver flags the env; truncated at 240 steps. Every episode starts
+success, only the 240-step truncation) or the solver flags the env; truncated at 240 steps.
+Success ends the episode before the last 5 % of the blood pays; `absorbing_success=True` also pays
+the removal reward of the blood left when the field clears (as if it were removed), so that
+clearing is never worth less than lingering over the last drops; the paper's reward is the default. Every episode starts
 alike (arm at q0, the block of blood); a finished env's arm, blood and counters are reset on the
 GPU (`evaluate`) by the engine's per-env reset.
 
@@ -147,11 +150,12 @@ class BloodSuction(VectorEnv):
 
     def __init__(self, num_envs: int, *, image_size: int = 64, suction_radius: float = 0.005,
                  flow_rate: float = FLOW_RATE, youngs_modulus: float = 15e3, poisson_ratio: float = 0.45,
-                 density: float = 1000.0, clear_fraction: float = CLEAR_FRACTION, **kwargs):
+                 density: float = 1000.0, clear_fraction: float = CLEAR_FRACTION, absorbing_success: bool = False,
+                 **kwargs):
         """The camera image's side (pixels), the suction's removal radius (m; it draws the blood
         within 4 radii in) and flow rate (m^3/s), the basin's material (Pa, -, kg/m^3) and the share
-        of the blood whose removal clears the field (success, the episode ends); other keywords go
-        to VectorEnv."""
+        of the blood whose removal clears the field (success, the episode ends); `absorbing_success`
+        (module docstring); other keywords go to VectorEnv."""
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"BloodSuction: num_envs must be a positive integer, got {num_envs!r}")
         # at least 32: the CNN's three strided convolutions leave a 2 x 2 map of it
@@ -166,6 +170,9 @@ class BloodSuction(VectorEnv):
         self.clear_fraction = checked_number("BloodSuction", "clear_fraction", clear_fraction, 0.0, 1.5)
         if self.clear_fraction > 1:
             raise ValueError(f"BloodSuction: clear_fraction must be a number in (0, 1], got {clear_fraction!r}")
+        if not isinstance(absorbing_success, bool):
+            raise ValueError(f"BloodSuction: absorbing_success must be True or False, got {absorbing_success!r}")
+        self.absorbing_success = absorbing_success
         self.observation_space = Space((NUMBERS + 3 * self.image_size ** 2,))
         super().__init__(num_envs, **kwargs)
         self.joints = tensor_view(self.buffers.extra["arm_joints"], self.device)  # (N, 4)
@@ -292,6 +299,7 @@ class BloodSuction(VectorEnv):
     def task_constants(self, reset_all: bool) -> dict:
         return {"envs": self.num_envs, "max_steps": self.max_episode_steps, "reset_all": int(reset_all),
                 "fluid_offset": self.fluid_offset, "fluid_count": self.fluid_count, "clear_count": self.clear_count,
+                "absorbing_success": int(self.absorbing_success),
                 "removal_reward": self.removal_reward, "length_scale": LENGTH_SCALE,
                 "row": self.observation_space.shape[0], "first_env": 0, "group_envs": self.num_envs,
                 "pixels": self.image_size ** 2}

@@ -74,7 +74,11 @@ def train(task: str = "CartPole", num_envs: int = 4096, iterations: int = 200, d
 
     def save(it: int) -> Path:
         path = out / f"model_{it}.pt"
-        torch.save({**alg.save(), "iteration": it, "env_steps": it * num_envs * cfg.rollout, **meta}, path)
+        state = {**alg.save(), "iteration": it, "env_steps": it * num_envs * cfg.rollout, **meta}
+        torch.save(state, path)
+        if "actor_state_dict" in state:  # the actor alone (policy.pt): what load_policy and `cressim eval` read
+            torch.save({k: v for k, v in state.items() if k not in ("critic_state_dict", "optimizer_state_dict")},
+                       out / "policy.pt")
         return path
 
     history, bar, start = [], _progress(iterations, progress), time.perf_counter()
