@@ -49,8 +49,8 @@ def blood_state(env: BloodSuction, k: int):
 
 
 def test_observation_layout_and_values_checked():
-    env = cressim.envs.make("BloodSuction", num_envs=2, validation=True)
-    obs, _ = on_host(env.reset(seed=3))  # recorded; every episode starts alike
+    env = cressim.envs.make("BloodSuction", num_envs=2, validation=True, start_spread=0)
+    obs, _ = on_host(env.reset(seed=3))  # start_spread=0: every episode starts alike
     assert env.seed == 3 and obs.shape == (2, 13 + 64 * 64 * 3) and obs.dtype == torch.float32
     assert env.action_space.shape == (5,)
     numbers, image = env.split_observation(obs)
@@ -62,7 +62,8 @@ def test_observation_layout_and_values_checked():
     assert image.min() >= 0 and image.max() <= 1 and torch.equal(image[0], image[1])
     assert torch.all(blood_pixels(image) > 300)  # the pool fills the middle of the picture
     assert env.particles_per_env == 458 + 605 and env.fluid_count == 605
-    for bad in (dict(suction_radius=0), dict(youngs_modulus=-1), dict(poisson_ratio=0.5), dict(image_size=4)):
+    for bad in (dict(suction_radius=0), dict(youngs_modulus=-1), dict(poisson_ratio=0.5), dict(image_size=4),
+                dict(start_spread=-0.1), dict(start_spread=0.4)):
         with pytest.raises(ValueError):
             BloodSuction(1, **bad)
     assert env.engine.validation_messages == []
@@ -95,7 +96,7 @@ def test_a_shut_valve_removes_nothing_and_each_env_resets_alone():
     class Short(BloodSuction):
         max_episode_steps = 40
 
-    env = Short(2)
+    env = Short(2, start_spread=0)
     obs, _ = on_host(env.reset())
     env.episode_length[0] = 10  # env 0's episode ends 10 steps before env 1's
     for step in range(1, 41):
@@ -113,10 +114,30 @@ def test_a_shut_valve_removes_nothing_and_each_env_resets_alone():
     assert obs[1, ELAPSED] == 0 and obs[0, ELAPSED] == pytest.approx(10 / 40)
 
 
+def test_each_episode_draws_its_start():
+    """Yaw and pitch within start_spread of the start pose, per env and per episode, from the seed;
+    the tip observed where the drawn joints put it."""
+    env = BloodSuction(4, start_spread=0.1, seed=5)
+    first = on_host(env.reset())[0].clone()  # the observations' own buffer: copies
+    again = on_host(env.reset(seed=5))[0].clone()
+    other = on_host(env.reset(seed=6))[0].clone()
+    joints = first[:, JOINTS]
+    assert torch.equal(joints, again[:, JOINTS]) and not torch.equal(joints, other[:, JOINTS])
+    assert (joints[:, :2].abs() <= 0.1).all() and len(set(joints[:, 0].tolist())) == 4
+    assert torch.allclose(joints[:, 2:], torch.tensor(START_Q)[2:].expand(4, 2))
+    tip = torch.tensor(RCM) + (first[:, TIP] - torch.tensor(RCM)).norm(dim=1, keepdim=True) * torch.stack(
+        [torch.sin(joints[:, 0]) * torch.cos(joints[:, 1]), -torch.sin(joints[:, 1]),
+         -torch.cos(joints[:, 0]) * torch.cos(joints[:, 1])], 1)
+    torch.testing.assert_close(first[:, TIP], tip, atol=2e-4, rtol=0)  # on the shaft's line through the RCM
+    env.episode_length[:] = env.max_episode_steps - 1  # every env's episode ends with the next step
+    nxt, *_ = on_host(env.step(torch.zeros(4, 5)))
+    assert not torch.equal(nxt[:, JOINTS], joints) and (nxt[:, JOINTS][:, :2].abs() <= 0.1).all()
+
+
 def test_the_episode_succeeds_once_the_field_is_clear():
     """Success (terminated) when clear_fraction of the blood is gone: here 5 %, 31 of 605 particles;
     the finished env starts afresh, the other (valve shut) goes on."""
-    env = BloodSuction(2, clear_fraction=0.05)
+    env = BloodSuction(2, clear_fraction=0.05, start_spread=0)
     assert env.clear_count == 31 and BloodSuction(1).clear_count == 575  # the default: 95 %
     obs, _ = on_host(env.reset())
     for step in range(60):
@@ -139,7 +160,7 @@ def test_absorbing_success_pays_the_blood_left():
     """The same run with absorbing_success: the success step pays 0.03 for each particle left."""
     totals = []
     for absorbing in (False, True):
-        env = BloodSuction(1, clear_fraction=0.05, absorbing_success=absorbing)
+        env = BloodSuction(1, clear_fraction=0.05, absorbing_success=absorbing, start_spread=0)
         obs, _ = on_host(env.reset())
         total = 0.0
         for step in range(60):

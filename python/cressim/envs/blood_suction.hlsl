@@ -15,6 +15,8 @@ struct Params {
   uint fluid_count;      // blood particles per env
   uint clear_count;      // removed particles that clear the field (success)
   uint absorbing_success;  // success also pays for the blood left (blood_suction.py)
+  uint seed;             // the start draws' seed
+  float start_spread;    // rad: each episode's start yaw and pitch within +- this of arm_start's
   float removal_reward;  // per particle removed
   float length_scale;    // m: the progress reward's distance unit (one unit of the paper's scene)
   uint row;              // observation values per env (NUMBERS + image)
@@ -27,8 +29,10 @@ struct Params {
 StructuredBuffer<float4> particle_positions;   // particles.positions
 StructuredBuffer<uint4> particle_phases;       // particles.phases: w flags (PARTICLE_ACTIVE)
 StructuredBuffer<uint4> particle_env_ranges;   // particles.env_ranges: x first, y count
-StructuredBuffer<float4> body_positions;       // rigid.positions
-StructuredBuffer<float4> body_rotations;       // rigid.rotations (xyzw)
+// the arm's kinematic bodies where the FK pass put them (control.body_target_*): where they are
+// after a step, and after a reset where the episode's drawn start puts them
+StructuredBuffer<float4> body_positions;
+StructuredBuffer<float4> body_rotations;       // xyzw
 StructuredBuffer<uint> tip_bodies;             // per env: the suction tube's body row
 StructuredBuffer<float4> suction_tips;         // per env: xyz the tip in that body, w the radius
 RWStructuredBuffer<int4> suctions;             // the Suction's commands: x on, y body, w removed so far
@@ -40,7 +44,7 @@ StructuredBuffer<float> actions;               // (envs, 5)
 // (envs, 2): the aim at the last observation: the nearest active blood particle's position (w 1;
 // 0: none left) and the tip's
 RWStructuredBuffer<float4> task_aim;
-RWStructuredBuffer<uint> task_state;           // (envs): removals already rewarded
+RWStructuredBuffer<uint2> task_state;          // (envs): x removals already rewarded, y episodes begun
 RWStructuredBuffer<uint> reset_mask;
 RWStructuredBuffer<float> observations;        // (envs, row)
 RWStructuredBuffer<float> rewards;
@@ -54,6 +58,17 @@ StructuredBuffer<uint> rgb;                    // observe_image: camera{g}.rgb a
 #include "arm_action.hlsli"
 
 static const uint NUMBERS = 13;
+
+uint pcg_hash(uint v) {
+  const uint state = v * 747796405u + 2891336453u;
+  const uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+  return (word >> 22u) ^ word;
+}
+
+// in [-1, 1): the draw `k` of the env's episode `episode`
+float start_draw(uint env, uint episode, uint k) {
+  return float(pcg_hash(pc.seed ^ pcg_hash(env) ^ pcg_hash(episode * 7919u + 17u + k * 104729u)) >> 8) / 8388608.0 - 1.0;
+}
 
 float3 tip_position(uint env) {
   const uint b = tip_bodies[env];
@@ -90,14 +105,18 @@ void evaluate(uint3 id : SV_DispatchThreadID) {
   const bool cleared = removed >= pc.clear_count, failed = reset_mask[env] != 0;  // flagged unhealthy
   // absorbing success: the blood still in the basin is paid as if it were removed too
   const float left = cleared && pc.absorbing_success != 0 ? float(pc.fluid_count - min(removed, pc.fluid_count)) : 0.0;
-  const float reward = pc.removal_reward * (float(removed - task_state[env]) + left) + progress / pc.length_scale;
+  const float reward = pc.removal_reward * (float(removed - task_state[env].x) + left) + progress / pc.length_scale;
   rewards[env] = pc.reset_all != 0 ? 0.0 : reward;
-  task_state[env] = removed;
+  task_state[env].x = removed;
   if (!end_step(env, cleared || failed)) return;
   reset_mask[env] = 1;  // the engine puts the blood, the basin and the arm's bodies back
+  const uint episode = pc.reset_all != 0 ? 0 : task_state[env].y + 1;
   for (uint k = 0; k < 4; ++k) arm_joints[4 * env + k] = arm_start[k];
+  arm_joints[4 * env] += pc.start_spread * start_draw(env, episode, 0);  // yaw
+  arm_joints[4 * env + 1] += pc.start_spread * start_draw(env, episode, 1);  // pitch
+  for (uint k = 0; k < 4; ++k) arm_joint_values[5 * env + k] = arm_joints[4 * env + k];  // sense() poses it
   suctions[env].w = 0;
-  task_state[env] = 0;
+  task_state[env] = uint2(0, episode);
 }
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]

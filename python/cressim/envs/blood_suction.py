@@ -54,9 +54,14 @@ the field is clear (`clear_fraction`, 95 % of the blood removed: success; the pa
 success, only the 240-step truncation) or the solver flags the env; truncated at 240 steps.
 Success ends the episode before the last 5 % of the blood pays; `absorbing_success=True` also pays
 the removal reward of the blood left when the field clears (as if it were removed), so that
-clearing is never worth less than lingering over the last drops; the paper's reward is the default. Every episode starts
-alike (arm at q0, the block of blood); a finished env's arm, blood and counters are reset on the
-GPU (`evaluate`) by the engine's per-env reset.
+clearing is never worth less than lingering over the last drops; the paper's reward is the default.
+
+Each episode starts with the same block of blood and the arm at q0 but for its yaw and pitch,
+drawn uniformly within +-`start_spread` (0.1 rad: the tip up to 11 mm off the pool's centre,
+still out of reach above it) from a hash of the seed, the env and its episode count, so that
+episodes differ and a trained policy is evaluated over many starts (`start_spread=0`: every
+episode alike). A finished env's arm, blood and counters are reset on the GPU (`evaluate`) by the
+engine's per-env reset.
 
 A step is one frame, all on the GPU: `apply_action` (the actions move the joint targets in the
 shared buffer `arm_joints` and the valve, the Suction's `commands`), the arm's FK pass
@@ -96,6 +101,8 @@ JOINTS = ("yaw", "pitch", "insertion", "roll")
 START_Q = (0.0, 0.0, 0.115, 0.0)
 ACTION_SCALE = (0.01, 0.01, 0.001, 0.02)  # rad or m per step per unit action
 TASK_LIMITS = {"yaw": (-0.35, 0.35), "pitch": (-0.35, 0.35), "insertion": (0.08, 0.1395)}
+YAW_PITCH_LIMIT = TASK_LIMITS["yaw"][1]
+START_SPREAD = 0.1  # rad: the start yaw and pitch are drawn within this of START_Q's
 TUBE = "PSM1_suction_tube_link"
 TIP = (0.0, 0.0, 0.0091)  # m, in TUBE's frame: the nozzle's open end
 SHOWN_LINKS = ("PSM1_shaft_link", TUBE)  # the links the camera sees
@@ -151,11 +158,11 @@ class BloodSuction(VectorEnv):
     def __init__(self, num_envs: int, *, image_size: int = 64, suction_radius: float = 0.005,
                  flow_rate: float = FLOW_RATE, youngs_modulus: float = 15e3, poisson_ratio: float = 0.45,
                  density: float = 1000.0, clear_fraction: float = CLEAR_FRACTION, absorbing_success: bool = False,
-                 **kwargs):
+                 start_spread: float = START_SPREAD, **kwargs):
         """The camera image's side (pixels), the suction's removal radius (m; it draws the blood
         within 4 radii in) and flow rate (m^3/s), the basin's material (Pa, -, kg/m^3) and the share
         of the blood whose removal clears the field (success, the episode ends); `absorbing_success`
-        (module docstring); other keywords go to VectorEnv."""
+        and `start_spread` (rad; module docstring); other keywords go to VectorEnv."""
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"BloodSuction: num_envs must be a positive integer, got {num_envs!r}")
         # at least 32: the CNN's three strided convolutions leave a 2 x 2 map of it
@@ -173,6 +180,8 @@ class BloodSuction(VectorEnv):
         if not isinstance(absorbing_success, bool):
             raise ValueError(f"BloodSuction: absorbing_success must be True or False, got {absorbing_success!r}")
         self.absorbing_success = absorbing_success
+        self.start_spread = 0.0 if start_spread == 0 else checked_number("BloodSuction", "start_spread", start_spread,
+                                                                         0.0, YAW_PITCH_LIMIT)
         self.observation_space = Space((NUMBERS + 3 * self.image_size ** 2,))
         super().__init__(num_envs, **kwargs)
         self.joints = tensor_view(self.buffers.extra["arm_joints"], self.device)  # (N, 4)
@@ -260,7 +269,7 @@ class BloodSuction(VectorEnv):
                  "arm_limits": e.create_shared_buffer("arm_limits", (3, len(JOINTS)), "float32"),
                  "tip_bodies": e.create_shared_buffer("tip_bodies", n, "uint32"),
                  "task_aim": e.create_shared_buffer("task_aim", (n, 2, 4), "float32"),
-                 "task_state": e.create_shared_buffer("task_state", n, "uint32")}
+                 "task_state": e.create_shared_buffer("task_state", (n, 2), "uint32")}
         extra["arm_start"].write(np.asarray(START_Q, np.float32))
         limits = {j.name: j.limit for j in self.arm.urdf.robot.joints}
         bounds = [TASK_LIMITS.get(n, (limits[n].lower, limits[n].upper)) for n in JOINTS]
@@ -293,13 +302,14 @@ class BloodSuction(VectorEnv):
         return {**self.buffers.extra, "suctions": self.suction.commands, "suction_tips": self.suction.tips,
                 "arm_joint_values": self.arm.link_poses.joint_values,
                 "particle_positions": "particles.positions", "particle_phases": "particles.phases",
-                "particle_env_ranges": "particles.env_ranges", "body_positions": "rigid.positions",
-                "body_rotations": "rigid.rotations"}
+                "particle_env_ranges": "particles.env_ranges",
+                "body_positions": "control.body_target_positions", "body_rotations": "control.body_target_rotations"}
 
     def task_constants(self, reset_all: bool) -> dict:
         return {"envs": self.num_envs, "max_steps": self.max_episode_steps, "reset_all": int(reset_all),
                 "fluid_offset": self.fluid_offset, "fluid_count": self.fluid_count, "clear_count": self.clear_count,
-                "absorbing_success": int(self.absorbing_success),
+                "absorbing_success": int(self.absorbing_success), "seed": self.seed,
+                "start_spread": self.start_spread,
                 "removal_reward": self.removal_reward, "length_scale": LENGTH_SCALE,
                 "row": self.observation_space.shape[0], "first_env": 0, "group_envs": self.num_envs,
                 "pixels": self.image_size ** 2}
@@ -312,18 +322,12 @@ class BloodSuction(VectorEnv):
         self.suction.execute()
 
     def sense(self):
-        """The cameras, and their images into the observations (beside the numbers `observe` writes)."""
+        """The arm posed at its joint targets (a reset env's drawn start; idempotent otherwise), the
+        cameras, and their images into the observations (beside the numbers `observe` writes)."""
+        self.arm.pose()
         self.engine.step_visual_sensors()
         for observe_image in self.passes["observe_image"]:
             self.engine.execute_compute_pass(observe_image)
-
-    def reset(self, *, seed: int | None = None):
-        """Starts a new episode in every env; returns (obs, info). Every episode starts alike (no
-        random draws), so `seed` is only recorded."""
-        if seed is not None:
-            self.seed = seed
-        self._frame(reset_all=True)
-        return self.obs, self._info()
 
     def split_observation(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """(numbers (N, 13), image (N, H, W, 3)) views of observations (N, 13 + H W 3)."""
