@@ -82,7 +82,8 @@ def _train(args: argparse.Namespace) -> int:
 
     result = train(args.task, num_envs=args.envs, iterations=args.iterations, device=args.device, seed=args.seed,
                    out_dir=args.out or f"runs/{args.task.lower()}", rollout=args.rollout, save_every=args.save_every,
-                   backend=args.backend, minibatch=args.minibatch, task_options=_task_options(args.task_option))
+                   backend=args.backend, minibatch=args.minibatch, task_options=_task_options(args.task_option),
+                   obs_normalization=args.obs_normalization or None)
     last = result["history"][-1]
     print(f"done in {result['wall_s']:.1f} s ({result['backend']}): {last['env_steps']:,} env steps, "
           f"mean episode length {last['mean_length']:.1f}, return {last['mean_return']:.1f}, "
@@ -152,6 +153,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--minibatch", type=int, help="samples per minibatch (default: the paper's, 2048 for CartPole)")
     p.add_argument("--task-option", action="append", metavar="KEY=VALUE",
                    help="a keyword of the task's constructor, e.g. observation=crtk (repeatable)")
+    p.add_argument("--obs-normalization", action="store_true",
+                   help="the observation's numbers by their running mean and std (PPOConfig.obs_normalization)")
     p.set_defaults(run=_train)
     p = sub.add_parser("eval", help="a trained policy's mean actions on its task: return, length, success share")
     p.add_argument("checkpoint", help="`cressim train`'s policy.pt or model_<k>.pt (built-in learner)")

@@ -13,6 +13,9 @@ pytestmark = pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA d
 CASES = {  # (config, observation shape, observation dtype)
     "mlp": (PPOConfig(rollout=16, minibatch=32, hidden=(32, 32)), (6,), torch.float32),
     "cnn": (PPOConfig(rollout=16, minibatch=32, hidden=(64,), network="cnn"), (32, 32, 3), torch.uint8),
+    # the normalisers' statistics change in place after each update: the replayed graphs must see them
+    "mlp_normalized": (PPOConfig(rollout=16, minibatch=32, hidden=(32, 32), obs_normalization=True), (6,),
+                       torch.float32),
 }
 
 

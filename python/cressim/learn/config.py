@@ -1,8 +1,9 @@
 """PPO settings from the paper's protocol (../shared/TASKS.md), shared by both learners.
 
 Not published, chosen here: an unclipped value loss (plain MSE), a fixed learning rate (no KL
-schedule), advantages normalised over the whole rollout, no observation normalisation, and the
-rollout split into round(num_envs * rollout / minibatch) minibatches (at least one).
+schedule), advantages normalised over the whole rollout, no observation normalisation unless
+asked for (`obs_normalization`), and the rollout split into round(num_envs * rollout / minibatch)
+minibatches (at least one).
 """
 from __future__ import annotations
 
@@ -27,6 +28,9 @@ class PPOConfig:
     network: str = "mlp"        # "cnn": conv32 k5 s2, conv64 k3 s2, conv64 k3 s2, ReLU, linear hidden[0];
                                 # "hybrid": that CNN on the observation's trailing image, the MLP on the rest
     image: tuple = ()           # hybrid: the (H, W, C) image at the observation's end
+    # the numbers of the observation (not an image) by their running mean and std over the
+    # rollouts so far, for actor and critic (rsl-rl's empirical normalisation)
+    obs_normalization: bool = False
 
     def num_mini_batches(self, num_envs: int) -> int:
         return max(1, round(num_envs * self.rollout / self.minibatch))

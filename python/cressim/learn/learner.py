@@ -22,7 +22,8 @@ def rsl_rl_available() -> bool:
 
 def rsl_rl_train_cfg(venv: CressimVecEnv, cfg: PPOConfig) -> dict:
     """The rsl-rl (>= 5) runner configuration for `cfg`."""
-    net = {"class_name": "MLPModel", "hidden_dims": list(cfg.hidden), "activation": "tanh", "obs_normalization": False}
+    net = {"class_name": "MLPModel", "hidden_dims": list(cfg.hidden), "activation": "tanh",
+           "obs_normalization": cfg.obs_normalization}
     return {
         "num_steps_per_env": cfg.rollout,
         "obs_groups": {"actor": ["policy"], "critic": ["policy"]},

@@ -36,13 +36,14 @@ def load_policy(path, device="cpu") -> Policy:
         raise ValueError(f"{path}: not a checkpoint of cressim's built-in learner (train with --backend torch)")
     cfg = PPOConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in saved["ppo"].items()})
     weights = saved["actor_state_dict"]
+    core = {k[len("net."):]: v for k, v in weights.items() if k.startswith("net.")} if cfg.obs_normalization else weights
     if cfg.network == "mlp":
-        layers = sorted(k for k in weights if k.endswith(".weight"))
-        num_obs = weights[layers[0]].shape[1]
-        num_actions = weights[max(layers, key=lambda k: int(k.split(".")[0]))].shape[0]
+        layers = sorted(k for k in core if k.endswith(".weight"))
+        num_obs = core[layers[0]].shape[1]
+        num_actions = core[max(layers, key=lambda k: int(k.split(".")[0]))].shape[0]
     elif cfg.network == "hybrid":  # the numbers, then the image (H x W x C), one row
-        num_obs = weights["vector_features.0.weight"].shape[1] + math.prod(cfg.image)
-        num_actions = weights["head.weight"].shape[0]
+        num_obs = core["vector_features.0.weight"].shape[1] + math.prod(cfg.image)
+        num_actions = core["head.weight"].shape[0]
     else:
         raise ValueError(f"{path}: a {cfg.network!r} policy; load_policy reads MLP and hybrid policies")
     actor = network(cfg, num_obs, None, num_actions).to(device)

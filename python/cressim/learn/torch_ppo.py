@@ -88,7 +88,52 @@ class HybridNet(nn.Module):
         return self.head(torch.cat(features, -1))
 
 
+class ObsNormalizer(nn.Module):
+    """The first `count` observation values by their running mean and std (clipped to +-10 std);
+    the rest (an image) as they come. `update` merges a batch's statistics (Chan et al.'s parallel
+    variance), in place: a CUDA graph that reads the buffers sees the new values."""
+
+    def __init__(self, num_obs: int, count: int):
+        super().__init__()
+        self.count = count
+        self.register_buffer("mean", torch.zeros(count))
+        self.register_buffer("var", torch.ones(count))
+        self.register_buffer("samples", torch.zeros(()))
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        numbers = ((x[:, :self.count].float() - self.mean) / (self.var + 1e-8).sqrt()).clamp(-10.0, 10.0)
+        return torch.cat([numbers, x[:, self.count:].to(numbers.dtype)], 1) if x.shape[1] > self.count else numbers
+
+    @torch.no_grad()
+    def update(self, batch: torch.Tensor) -> None:
+        x = batch[:, :self.count].float()
+        n, mean, var = float(x.shape[0]), x.mean(0), x.var(0, unbiased=False)
+        total = self.samples + n
+        delta = mean - self.mean
+        self.var.copy_((self.var * self.samples + var * n + delta.square() * self.samples * n / total) / total)
+        self.mean.add_(delta * n / total)
+        self.samples.copy_(total)
+
+
+class Normalized(nn.Module):
+    def __init__(self, normalizer: ObsNormalizer, net: nn.Module):
+        super().__init__()
+        self.normalizer, self.net = normalizer, net
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.net(self.normalizer(x))
+
+
 def network(cfg: PPOConfig, num_obs: int, obs_shape: tuple | None, outputs: int) -> nn.Module:
+    net = _network(cfg, num_obs, obs_shape, outputs)
+    if not cfg.obs_normalization:
+        return net
+    if cfg.network == "cnn":
+        raise ValueError("PPOConfig.obs_normalization: a 'cnn' policy sees only an image; nothing to normalise")
+    return Normalized(ObsNormalizer(num_obs, net.vector if cfg.network == "hybrid" else num_obs), net)
+
+
+def _network(cfg: PPOConfig, num_obs: int, obs_shape: tuple | None, outputs: int) -> nn.Module:
     if cfg.network == "mlp":
         return mlp(num_obs, cfg.hidden, outputs)
     if cfg.network == "cnn":
@@ -194,6 +239,10 @@ class TorchPPO:
             for i in range(n):
                 self._minibatch.copy_(order[i * size:(i + 1) * size])
                 self._learn_step()
+        if c.obs_normalization:  # after the update: the rollout and its update saw the same statistics
+            seen = self.obs[:self.step].flatten(0, 1)
+            self.actor.normalizer.update(seen)
+            self.critic.normalizer.update(seen)
         self.step = 0
         value, surrogate, entropy = (self._loss_sums / (c.epochs * n)).tolist()
         return {"value": value, "surrogate": surrogate, "entropy": entropy}
