@@ -154,13 +154,17 @@ def test_the_episode_succeeds_once_the_field_is_clear():
             BloodSuction(1, clear_fraction=bad)
     with pytest.raises(ValueError, match="absorbing_success"):
         BloodSuction(1, absorbing_success=1)
+    with pytest.raises(ValueError, match="success_reward"):
+        BloodSuction(1, success_reward=-1)
 
 
-def test_absorbing_success_pays_the_blood_left():
-    """The same run with absorbing_success: the success step pays 0.03 for each particle left."""
+def test_absorbing_success_pays_the_blood_left_and_a_bonus():
+    """The same run with absorbing_success and a success_reward of 2: the success step pays 0.03 for
+    each particle left, and 2."""
     totals = []
     for absorbing in (False, True):
-        env = BloodSuction(1, clear_fraction=0.05, absorbing_success=absorbing, start_spread=0)
+        env = BloodSuction(1, clear_fraction=0.05, absorbing_success=absorbing, start_spread=0,
+                           success_reward=2.0 if absorbing else 0.0)
         obs, _ = on_host(env.reset())
         total = 0.0
         for step in range(60):
@@ -173,7 +177,7 @@ def test_absorbing_success_pays_the_blood_left():
     (plain, s0), (absorbed, s1) = totals
     assert s0 == s1  # the physics is the same
     # success came with 31 to 60 particles removed: 545 to 574 left
-    assert 0.03 * (605 - 60) < absorbed - plain < 0.03 * (605 - 31) + 1e-3, (plain, absorbed)
+    assert 2 + 0.03 * (605 - 60) < absorbed - plain < 2 + 0.03 * (605 - 31) + 1e-3, (plain, absorbed)
 
 
 def test_ppo_smoke(tmp_path):

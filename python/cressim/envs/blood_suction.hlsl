@@ -15,6 +15,7 @@ struct Params {
   uint fluid_count;      // blood particles per env
   uint clear_count;      // removed particles that clear the field (success)
   uint absorbing_success;  // success also pays for the blood left (blood_suction.py)
+  float success_reward;  // paid on the step the field clears
   uint seed;             // the start draws' seed
   float start_spread;    // rad: each episode's start yaw and pitch within +- this of arm_start's
   float removal_reward;  // per particle removed
@@ -105,7 +106,8 @@ void evaluate(uint3 id : SV_DispatchThreadID) {
   const bool cleared = removed >= pc.clear_count, failed = reset_mask[env] != 0;  // flagged unhealthy
   // absorbing success: the blood still in the basin is paid as if it were removed too
   const float left = cleared && pc.absorbing_success != 0 ? float(pc.fluid_count - min(removed, pc.fluid_count)) : 0.0;
-  const float reward = pc.removal_reward * (float(removed - task_state[env].x) + left) + progress / pc.length_scale;
+  const float reward = pc.removal_reward * (float(removed - task_state[env].x) + left) + progress / pc.length_scale +
+                       (cleared ? pc.success_reward : 0.0);
   rewards[env] = pc.reset_all != 0 ? 0.0 : reward;
   task_state[env].x = removed;
   if (!end_step(env, cleared || failed)) return;

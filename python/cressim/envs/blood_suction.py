@@ -54,7 +54,9 @@ the field is clear (`clear_fraction`, 95 % of the blood removed: success; the pa
 success, only the 240-step truncation) or the solver flags the env; truncated at 240 steps.
 Success ends the episode before the last 5 % of the blood pays; `absorbing_success=True` also pays
 the removal reward of the blood left when the field clears (as if it were removed), so that
-clearing is never worth less than lingering over the last drops; the paper's reward is the default.
+clearing is never worth less than lingering over the last drops; `success_reward` adds a bonus on
+the step the field clears (as TargetCenter's +1; 0 by default), so that clearing in time is worth
+more than nearly clearing. The paper's reward is the default.
 
 Each episode starts with the same block of blood and the arm at q0 but for its yaw and pitch,
 drawn uniformly within +-`start_spread` (0.1 rad: the tip up to 11 mm off the pool's centre,
@@ -158,11 +160,11 @@ class BloodSuction(VectorEnv):
     def __init__(self, num_envs: int, *, image_size: int = 64, suction_radius: float = 0.005,
                  flow_rate: float = FLOW_RATE, youngs_modulus: float = 15e3, poisson_ratio: float = 0.45,
                  density: float = 1000.0, clear_fraction: float = CLEAR_FRACTION, absorbing_success: bool = False,
-                 start_spread: float = START_SPREAD, **kwargs):
+                 start_spread: float = START_SPREAD, success_reward: float = 0.0, **kwargs):
         """The camera image's side (pixels), the suction's removal radius (m; it draws the blood
         within 4 radii in) and flow rate (m^3/s), the basin's material (Pa, -, kg/m^3) and the share
         of the blood whose removal clears the field (success, the episode ends); `absorbing_success`
-        and `start_spread` (rad; module docstring); other keywords go to VectorEnv."""
+        `start_spread` (rad) and `success_reward` (module docstring); other keywords go to VectorEnv."""
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"BloodSuction: num_envs must be a positive integer, got {num_envs!r}")
         # at least 32: the CNN's three strided convolutions leave a 2 x 2 map of it
@@ -180,6 +182,8 @@ class BloodSuction(VectorEnv):
         if not isinstance(absorbing_success, bool):
             raise ValueError(f"BloodSuction: absorbing_success must be True or False, got {absorbing_success!r}")
         self.absorbing_success = absorbing_success
+        self.success_reward = 0.0 if success_reward == 0 else checked_number("BloodSuction", "success_reward",
+                                                                             success_reward, 0.0, 1e3)
         self.start_spread = 0.0 if start_spread == 0 else checked_number("BloodSuction", "start_spread", start_spread,
                                                                          0.0, YAW_PITCH_LIMIT)
         self.observation_space = Space((NUMBERS + 3 * self.image_size ** 2,))
@@ -308,7 +312,8 @@ class BloodSuction(VectorEnv):
     def task_constants(self, reset_all: bool) -> dict:
         return {"envs": self.num_envs, "max_steps": self.max_episode_steps, "reset_all": int(reset_all),
                 "fluid_offset": self.fluid_offset, "fluid_count": self.fluid_count, "clear_count": self.clear_count,
-                "absorbing_success": int(self.absorbing_success), "seed": self.seed,
+                "absorbing_success": int(self.absorbing_success), "success_reward": self.success_reward,
+                "seed": self.seed,
                 "start_spread": self.start_spread,
                 "removal_reward": self.removal_reward, "length_scale": LENGTH_SCALE,
                 "row": self.observation_space.shape[0], "first_env": 0, "group_envs": self.num_envs,
