@@ -184,7 +184,8 @@ def parse_scene(text: str, path: str = "<string>") -> Scene:
         for key in keys:
             if key in rates:
                 name = "particle_rate" if key == "particles" else f"{key}_rate"
-                setattr(scene, name, p.number(rates[key], f"rates.{key}", low=0.1, high=10000.0))
+                low = 0.0 if key == "particles" else 0.1  # particles 0: as physics
+                setattr(scene, name, p.number(rates[key], f"rates.{key}", low=low, high=10000.0))
                 scene.lines[name] = p.where(rates[key])
     if "camera" in top:
         cam = p.mapping(top["camera"], "camera", {"width", "height", "fov_y", "position", "look_at"})
