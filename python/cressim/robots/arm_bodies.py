@@ -49,14 +49,15 @@ import numpy as np
 import pytorch_kinematics as pk
 import torch
 import yourdfpy
+from pytorch_kinematics.transforms import quaternion_to_matrix
 
 import cressim
 from .arm_visuals import ArmVisuals
 from .dh import PSM_DH, dh_forward_kinematics
-from .kinematics import rotation_xyzw
+from .kinematics import matrix_to_pose7, rotation_xyzw
 from .link_poses import LinkPoses
 from .psm import JAW_GRASP_POINT, JAW_LINK
-from ..suture import needle_arrays
+from ..suture import needle_mesh
 
 ARM_GROUP = 2  # collision group of arm links; they do not collide with each other (mask below)
 DYNAMICS = ("kinematic", "dynamic")
@@ -202,19 +203,21 @@ class ArmBodies:
         own_world = world is None
         if plan is not None:
             limits = plan.layout_limits(len(bodies))
-            limits["max_renderables_per_env"] += 1 if needle else 0  # the thread
+            limits["max_renderables_per_env"] += 2 if needle else 0  # the needle and its thread
             world = cressim.World(cressim.SceneLayout(num_envs, **limits))
         elif own_world:
             world = cressim.World(cressim.SceneLayout(num_envs))
         scenery = None
         if plan is not None:  # what surrounds the arm (cameras, lights, props), from the caller's plan
             visuals = ArmVisuals(urdf, Path(urdf_path).parent, bodies, poses)
-            if needle:  # drawn with the jaws that hold it
-                k, centre, frame, _ = self._needle_frame(needle, bodies, poses)
-                pos, tri, nrm = needle_arrays(needle["arc_radius"], needle["arc_angle"], 0.00035)
-                visuals.add_part(k, pos @ frame.T + centre, tri, nrm @ frame.T)
             scenery = plan.build(world, visuals)
         self.scenery = scenery
+        needle_drawn = None
+        if needle:  # its own kinematic body, drawn with the jaws' segmentation id
+            needle_drawn = (world.add_mesh(needle_mesh(needle["arc_radius"], needle["arc_angle"], 0.00035)),
+                            self._needle_frame(needle, bodies, poses)[0] + 1)
+        self.needle_pose0 = self._needle_pose(needle, bodies, poses) if needle else None
+        needle_ids = np.zeros(num_envs, dtype=np.int64)
         body_ids = np.zeros((num_envs, len(bodies)), dtype=np.int64)
         joint_ids = np.zeros((num_envs, len(joint_specs)), dtype=np.int64)
         for env in range(num_envs):
@@ -238,7 +241,7 @@ class ArmBodies:
             if scenery is not None:
                 scenery.add_env(world, env)
             if needle:
-                self._add_needle(world, env, needle, bodies, entities, poses)
+                needle_ids[env] = self._add_needle(world, env, needle, bodies, poses, needle_drawn if scenery else None)
             for k, spec in enumerate(joint_specs):
                 parent = None if spec["parent"] is None else entities[spec["parent"]]
                 e = world.create_entity(env=env, name=spec["name"])
@@ -251,6 +254,7 @@ class ArmBodies:
         self._body_frames = {link.name: (k, np.linalg.solve(b.pose, poses[link.name])) for k, b in enumerate(bodies)
                              for link in b.links}
         self.body_entity_ids = body_ids  # (N, B): the entity of each body in each env
+        self.needle_entity_ids = needle_ids if needle else None  # (N,): each env's needle body
         body_of_link = {link.name: k for k, b in enumerate(bodies) for link in b.links}
         self.link_entity_ids = body_ids[:, [body_of_link[n] for n in self.link_names]]  # (N, L)
         self.joint_names = [spec["name"] for spec in joint_specs]
@@ -292,23 +296,39 @@ class ArmBodies:
         return k, centre, frame, in_body
 
     @staticmethod
-    def _add_needle(world, env, spec, bodies, entities, poses):
-        """The needle (cressim.Needle on the jaws' body, _needle_frame) and its thread, a 2-0 braid
-        in 2 mm segments trailing from the tail back along the jaws."""
-        k, centre, frame, in_body = ArmBodies._needle_frame(spec, bodies, poses)
+    def _needle_pose(spec, bodies, poses) -> np.ndarray:
+        """The held needle's arc frame in the world at the authored joints (4x4)."""
+        k, centre, frame, _ = ArmBodies._needle_frame(spec, bodies, poses)
+        local = np.eye(4)
+        local[:3, :3], local[:3, 3] = frame, centre
+        return bodies[k].pose @ local
+
+    @staticmethod
+    def _add_needle(world, env, spec, bodies, poses, drawn) -> int:
+        """The needle (cressim.Needle on a kinematic body of its own, which the jaws carry while they
+        hold it: TwinArms) and its thread, a 2-0 braid in 2 mm segments trailing from the tail back
+        along the jaws. Returns the needle body's entity id."""
+        k, _, _, in_body = ArmBodies._needle_frame(spec, bodies, poses)
         R, A = spec["arc_radius"], spec["arc_angle"]
-        pose = bodies[k].pose
-        tail = (pose @ np.append(centre + R * frame[:, 0], 1.0))[:3]
-        back = pose[:3, :3] @ -in_body[:3, 1]
+        pose = ArmBodies._needle_pose(spec, bodies, poses)
+        tail = pose[:3, 3] + R * pose[:3, 0]
+        back = bodies[k].pose[:3, :3] @ -in_body[:3, 1]
         count = int(round(spec["thread_length"] / 0.002)) + 1
         pts = tail + np.linspace(0.0, spec["thread_length"], count)[:, None] * back
         thread = world.create_entity(env=env, name="suture_thread")
         thread.add(cressim.Strand(pts.astype(np.float32), radius=0.00015, youngs_modulus=5e7, poisson_ratio=0.4,
                                   density=1140, damping=2.0))
         thread.add(cressim.Material(color=(0.25, 0.2, 0.7, 1), roughness=0.6))
-        entities[k].add(cressim.Needle(thread=thread, arc_radius=R, arc_angle=A, center=tuple(float(v) for v in centre),
-                                       rotation=rotation_xyzw(frame), puncture_force=spec["puncture_force"],
-                                       puncture_depth=spec["puncture_depth"], friction=spec["friction"]))
+        body = world.create_entity(env=env, name="suture_needle")
+        body.add(cressim.Transform(position=tuple(float(v) for v in pose[:3, 3]), rotation=rotation_xyzw(pose[:3, :3])))
+        body.add(cressim.RigidBody(kinematic=True, mass=0.001, inertia=(1e-9, 1e-9, 1e-9)))
+        body.add(cressim.Needle(thread=thread, arc_radius=R, arc_angle=A, puncture_force=spec["puncture_force"],
+                                puncture_depth=spec["puncture_depth"], friction=spec["friction"]))
+        if drawn is not None:
+            mesh, label = drawn
+            body.add(cressim.Renderable(mesh, color=(0.75, 0.75, 0.78, 1.0), metallic=0.9, roughness=0.3,
+                                        segmentation_id=label))
+        return body.id
 
     def bind(self, engine: cressim.Engine, *, cuda_stream: bool = False):
         """Binds the arm to the engine of its world (prepared and uploaded): body and joint rows,
@@ -319,7 +339,9 @@ class ArmBodies:
         bodies, joint_specs, initial_q, initial_jaw = self._authored
         body_ids, joint_ids, num_envs = self.body_entity_ids, self.joint_entity_ids, self.num_envs
         self.engine = engine
-        self.device = torch.from_dlpack(self.engine.buffer("control.body_target_positions")).device
+        self.target_positions = torch.from_dlpack(self.engine.buffer("control.body_target_positions"))
+        self.target_rotations = torch.from_dlpack(self.engine.buffer("control.body_target_rotations"))
+        self.device = self.target_positions.device
         if cuda_stream and self.device.type == "cuda":  # frames wait for targets written on torch's stream
             self.engine.set_cuda_stream(torch.cuda.current_stream(self.device).cuda_stream)
         body_entity = np.asarray(self.engine.buffer("rigid.body_entity").read()).astype(np.int64)
@@ -333,6 +355,8 @@ class ArmBodies:
         self.joint_values = torch.from_dlpack(self.link_poses.joint_values)  # (N, dof + 1) float32
         self.body_rows = torch.as_tensor(np.vectorize(row_of_entity.get)(body_ids), device=self.device,
                                          dtype=torch.long).reshape(num_envs, len(bodies))
+        self.needle_rows = None if self.needle_entity_ids is None else torch.as_tensor(
+            np.vectorize(row_of_entity.get)(self.needle_entity_ids), device=self.device, dtype=torch.long)
         self.health = torch.from_dlpack(self.engine.buffer("env.health"))
         self.reset_velocities = torch.from_dlpack(self.engine.buffer("control.body_reset_velocities"))
         self.reset_angular_velocities = torch.from_dlpack(
@@ -616,6 +640,24 @@ class ArmBodies:
         here = torch.where(torch.isfinite(measured), measured, coords)
         target = torch.where(self._hinge, here + (target - here).clamp(-MAX_HINGE_STEP, MAX_HINGE_STEP), target)
         self.joint_targets[rows.reshape(-1), 0] = target.reshape(-1).to(self.joint_targets)
+
+    def place_needle(self, envs: torch.Tensor, poses: torch.Tensor):
+        """Where the needles of `envs` (long tensor) go over the next frame: poses (M, 4, 4) of their
+        arc frames in the world (kinematic targets)."""
+        rows = self.needle_rows[envs.to(self.device)]
+        p7 = matrix_to_pose7(poses.to(torch.float64))
+        self.target_positions[rows, :3] = p7[:, :3].to(self.target_positions)
+        self.target_rotations[rows] = p7[:, 3:].to(self.target_rotations)
+
+    def needle_poses(self) -> torch.Tensor:
+        """(N, 4, 4) float64 on the CPU: every env's needle arc frame in the world now."""
+        rows = self.needle_rows
+        p = torch.from_dlpack(self.engine.buffer("rigid.positions"))[rows, :3].to(torch.float64).cpu()
+        q = torch.from_dlpack(self.engine.buffer("rigid.rotations"))[rows].to(torch.float64).cpu()
+        T = torch.eye(4, dtype=torch.float64).repeat(len(rows), 1, 1)
+        T[:, :3, :3] = quaternion_to_matrix(q[:, [3, 0, 1, 2]])  # the engine's xyzw as w, x, y, z
+        T[:, :3, 3] = p
+        return T
 
     def link_point(self, link: str, point) -> tuple[np.ndarray, np.ndarray]:
         """Where a point given in `link`'s frame sits on the body that carries the link: (each env's

@@ -56,11 +56,5 @@ class ArmVisuals:
             self.colors.append(color or (0.6, 0.6, 0.6, 1.0))
             self.names.append(b.name)
 
-    def add_part(self, body_index: int, positions, triangles, normals):
-        """Merges a mesh given in the body's frame (a held needle, say) into that body's visual."""
-        part = trimesh.Trimesh(positions, triangles, vertex_normals=normals, process=False)
-        have = self.meshes[body_index]
-        self.meshes[body_index] = part if have is None else trimesh.util.concatenate([have, part])
-
 
 __all__ = ["ArmVisuals"]

@@ -212,6 +212,16 @@ class TwinArms:
         self.a_limit = self.v_limit * scene.acceleration_ratio
         jaw_v = joints["jaw"].limit.velocity if self.psm.has_jaw else 1.0
         self.jaw_v_limit = np.array([jaw_v * scene.velocity_ratio])
+        self.needle_offset = None  # (N, 4, 4): a held needle's arc frame in the tool-tip frame
+        if self.bodies.needle_rows is not None:  # held as authored, at the initial joints
+            tip0 = self.bodies.base.to(torch.float64) @ self.kin.forward(self.setpoint[:1])[0]
+            self._needle_offset0 = torch.linalg.solve(tip0, torch.as_tensor(self.bodies.needle_pose0))
+            A, R = scene.needle["arc_angle"], scene.needle["arc_radius"]
+            self._needle_grip = self._needle_offset0 @ torch.tensor([R * math.cos(A / 3), R * math.sin(A / 3), 0.0, 1.0],
+                                                                    dtype=torch.float64)  # the jaws' middle
+            self.needle_offset = self._needle_offset0.repeat(N, 1, 1)
+            self.needle_held = np.ones(N, dtype=bool)
+            self._jaws_were_closed = np.ones(N, dtype=bool)
         self.jaw_a_limit = self.jaw_v_limit * scene.acceleration_ratio
 
         self.period_ns = 0
@@ -527,6 +537,7 @@ class TwinArms:
                 self.bodies.set_targets(self.setpoint, self.jaw_sp)
                 self.bodies.write(self.measured, self.jaw_meas)
                 self._grasp()
+                self._carry_needle()
                 self._suck()
                 self._energize()
                 self.bodies.step()
@@ -548,6 +559,7 @@ class TwinArms:
                 with self.engine_lock:
                     self.bodies.write(self.measured, self.jaw_meas)
                     self._grasp()
+                    self._carry_needle()
                     self._suck()
                     self._energize()
                     self.bodies.step()
@@ -583,6 +595,41 @@ class TwinArms:
             self.grasp.set(closed)
             self._grasp_closed = closed
         self.grasp.execute()
+
+    def _carry_needle(self):
+        """A held needle moves with the jaws (its arc frame fixed in the tool-tip frame). Opened past
+        `grasp_closed_below`, the jaws let go and it stays where it is (in the tissue, say); closed
+        again with its arc within `grasp.reach` of their middle, they take it where they hold it."""
+        if self.needle_offset is None:
+            return
+        closed = (self.jaw_meas[:, 0] < self.scene.grasp_closed_below).numpy()
+        tip = self.bodies.base.to(torch.float64) @ self.kin.forward(self.measured)  # (N, 4, 4) world
+        self.needle_held &= closed
+        take = np.flatnonzero(closed & ~self._jaws_were_closed & ~self.needle_held)
+        self._jaws_were_closed = closed
+        if take.size:  # a host read of the needles only when jaws close on none
+            needles = self.bodies.needle_poses()[take]
+            local = torch.linalg.solve(needles, tip[take] @ self._needle_grip)[:, :3]  # the jaws' middle, arc frame
+            A, R = self.scene.needle["arc_angle"], self.scene.needle["arc_radius"]
+            phi = torch.atan2(local[:, 1], local[:, 0])
+            phi = torch.where(phi < -0.5 * (2 * math.pi - A), phi + 2 * math.pi, phi).clamp(0.0, A)
+            on_arc = torch.stack([R * torch.cos(phi), R * torch.sin(phi), torch.zeros_like(phi)], 1)
+            near = ((local - on_arc).norm(dim=1) <= self.scene.grasp_reach).numpy()
+            for k, env in enumerate(take):
+                if near[k]:
+                    self.needle_held[env] = True
+                    self.needle_offset[env] = torch.linalg.solve(tip[env], needles[k])
+        held = np.flatnonzero(self.needle_held)
+        if held.size:
+            held_t = torch.as_tensor(held)
+            self.bodies.place_needle(held_t, tip[held_t] @ self.needle_offset[held_t])
+
+    def _regrip_needle(self, envs: torch.Tensor):
+        """Reset envs: the needle as authored, held in the jaws."""
+        if self.needle_offset is not None:
+            self.needle_offset[envs] = self._needle_offset0
+            self.needle_held[envs.numpy()] = True
+            self._jaws_were_closed[envs.numpy()] = True
 
     def _suck(self):
         """The suction follows the valve: open, the GPU pass removes the fluid at the tip and draws
@@ -661,6 +708,7 @@ class TwinArms:
         self.jaw_meas[envs] = self.jaw_sp[envs]
         self.jaw_meas_v[envs] = 0.0
         self.bodies.prepare_reset(envs, self.setpoint[envs], self.jaw_sp[envs])
+        self._regrip_needle(envs)
         with self._faults_lock:
             self._faults += list(zip(envs.tolist(), flags[envs].tolist()))
 
@@ -733,6 +781,7 @@ class TwinArms:
             getattr(self, name)[envs] = 0.0
         with self.engine_lock:
             self.bodies.prepare_reset(envs, q, jaw)
+            self._regrip_needle(envs)
             self.bodies.engine.reset_envs(envs.tolist())
 
     # ------------------------------------------------------------------ what a tick publishes
