@@ -38,6 +38,8 @@ snapshot gives it in the base frame (`spatial_cf`) and the tip frame (`body_cf`)
 tool (psm_suction) removes the world's fluid within `arm.suction.radius` of its tube's end while
 its valve (`suction_servo_jp`, 0 shut .. 1 open) is open, and draws the fluid within
 `arm.suction.reach` in at the valve's share of `arm.suction.flow_rate` (cressim.passes.Suction).
+A suture needle (`arm.needle`) is held by the same jaw angle: closed, the jaws carry it; opened,
+they let it go where it is; closed again over it, they pick it up (`_carry_needle`).
 """
 from __future__ import annotations
 
