@@ -21,12 +21,18 @@ def _tip(arms, env):
     return arms.bodies.engine.buffer("particles.needle_states").read()[env, :3]
 
 
-def test_the_needle_in_the_jaws_punctures_the_pad_where_the_arm_pushes_it(make_arms):
+def _homed(make_arms):
+    """Two envs of the sewing twin, enabled and at home."""
     arms = make_arms(scene=load_scene("psm_suture.yaml"), num_envs=2)
     for env in range(2):
         arms.state_command(env, "enable")
         arms.state_command(env, "home")
     settle(arms)
+    return arms
+
+
+def test_the_needle_in_the_jaws_punctures_the_pad_where_the_arm_pushes_it(make_arms):
+    arms = _homed(make_arms)
     assert punctures(arms.bodies.engine) == [[], []]
     above = _tip(arms, 0)[2] - TOP[2]
     assert above > 0.005  # home: the needle clear of the pad
@@ -58,11 +64,7 @@ def _jaws(arms, env, angle):
 
 
 def test_the_jaws_let_the_needle_go_and_pick_it_up_again(make_arms):
-    arms = make_arms(scene=load_scene("psm_suture.yaml"), num_envs=2)
-    for env in range(2):
-        arms.state_command(env, "enable")
-        arms.state_command(env, "home")
-    settle(arms)
+    arms = _homed(make_arms)
     tip = lambda: (arms.bodies.base @ arms.kin.forward(arms.measured))[:, :3, 3].clone()  # noqa: E731
     start, tips = arms.bodies.needle_poses(), tip()
     assert arms.needle_held.tolist() == [True, True]

@@ -24,8 +24,8 @@ import numpy as np
 
 import cressim
 from cressim import io
-from cressim.scene_file import _quat_look_at
 from cressim.tendons import TendonDrive
+from .stage import add_camera_and_sun
 
 LENGTH, COUNT, EVERY = 0.1, 21, 2  # m, backbone particles, a disk every other one
 OFFSET, DISK_RADIUS, HEIGHT = 0.004, 0.005, 0.08  # m
@@ -58,13 +58,8 @@ def author_env(world, env, meshes, width, height, visuals=False):
     robot.add(cressim.Material(color=(0.7, 0.7, 0.72, 1), metallic=0.9, roughness=0.3))
     if not visuals:
         return None
-    eye, target = (0.075, -0.105, 0.125), (0.055, 0.0, HEIGHT - 0.015)
-    cam = world.create_entity(env=env, name="camera")
-    cam.add(cressim.Transform(position=eye, rotation=_quat_look_at(eye, target)))
-    cam.add(cressim.Camera(width=width, height=height, fov_y=45))
-    sun = world.create_entity(env=env, name="sun")
-    sun.add(cressim.Transform(position=(0.05, -0.05, 0.4), rotation=_quat_look_at((0.05, -0.05, 0.4), (0.05, 0, 0))))
-    sun.add(cressim.Light(intensity=2.5, shadows=True, shadow_extent=0.15, shadow_resolution=512))
+    add_camera_and_sun(world, env, eye=(0.075, -0.105, 0.125), target=(0.055, 0.0, HEIGHT - 0.015),
+                       sun=(0.05, -0.05, 0.4), sun_target=(0.05, 0, 0), width=width, height=height, shadow_extent=0.15)
     plates = []
     for k in range(len(disks())):
         d = world.create_entity(env=env, name=f"disk{k}")

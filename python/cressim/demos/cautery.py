@@ -16,7 +16,7 @@ import numpy as np
 import cressim
 from cressim import io
 from cressim.passes.cautery import Cautery
-from cressim.scene_file import _quat_look_at
+from .stage import add_camera_and_sun
 
 HALF = (0.03, 0.02, 0.005)  # m
 CELLS = (24, 16, 4)
@@ -42,13 +42,9 @@ def author_env(world, env, table_mesh, width, height, heat=True):
     hook.add(cressim.RigidBody(kinematic=True, mass=0.01, inertia=(1e-6, 1e-6, 1e-6)))
     hook.add(cressim.Renderable(world.add_mesh(cressim.Mesh.capsule(0.0012, 0.02)), color=(0.8, 0.8, 0.85, 1),
                                 metallic=0.9, roughness=0.3))
-    eye, target = (0.0, -0.07, 0.08), (0.0, 0.0, TOP)
-    cam = world.create_entity(env=env, name="camera")
-    cam.add(cressim.Transform(position=eye, rotation=_quat_look_at(eye, target)))
-    cam.add(cressim.Camera(width=width, height=height, fov_y=50))
-    sun = world.create_entity(env=env, name="sun")
-    sun.add(cressim.Transform(position=(0, 0, 0.3), rotation=_quat_look_at((0, 0, 0.3), (0.05, 0.03, 0))))
-    sun.add(cressim.Light(intensity=2.0, shadows=True, shadow_extent=0.1, shadow_resolution=256))
+    add_camera_and_sun(world, env, eye=(0.0, -0.07, 0.08), target=(0.0, 0.0, TOP), sun=(0, 0, 0.3),
+                       sun_target=(0.05, 0.03, 0), width=width, height=height, fov_y=50, intensity=2.0,
+                       shadow_resolution=256)
     return hook
 
 

@@ -13,7 +13,7 @@ import numpy as np
 
 import cressim
 from cressim import io
-from cressim.scene_file import _quat_look_at
+from .stage import add_camera_and_sun
 
 
 def _lattice(counts, spacing, origin):
@@ -36,12 +36,8 @@ VIEWS = {"soft": ((-0.7, -0.8, 0.6), (0.05, 0, 0.15)), "fluid": ((0.8, -0.9, 0.8
 
 def _camera_and_light(world, env, name, width, height):
     eye, target = VIEWS[name]
-    cam = world.create_entity(env=env, name="camera")
-    cam.add(cressim.Transform(position=eye, rotation=_quat_look_at(eye, target)))
-    cam.add(cressim.Camera(width=width, height=height, fov_y=50))
-    sun = world.create_entity(env=env, name="sun")
-    sun.add(cressim.Transform(position=(0, 0, 1), rotation=_quat_look_at((0, 0, 1), (0.4, 0.3, 0))))
-    sun.add(cressim.Light(intensity=2.0, shadows=True, shadow_extent=0.8, shadow_resolution=256))
+    add_camera_and_sun(world, env, eye=eye, target=target, sun=(0, 0, 1), sun_target=(0.4, 0.3, 0), width=width,
+                       height=height, fov_y=50, intensity=2.0, shadow_extent=0.8, shadow_resolution=256)
 
 
 def soft(world, env, floor):

@@ -21,8 +21,8 @@ import numpy as np
 
 import cressim
 from cressim import io
-from cressim.scene_file import _quat_look_at
 from cressim.suture import PUNCTURED, needle_mesh, punctures
+from .stage import add_camera_and_sun
 
 FLAP = (0.012, 0.015, 0.004)  # m: half extents of each flap
 CELLS = (8, 10, 3)
@@ -89,13 +89,8 @@ def author_env(world, env, meshes, width, height, camera=True):
                               puncture_depth=0.001, friction=0.0, max_punctures=8))
     needle.add(cressim.Renderable(meshes["needle"], color=(0.85, 0.85, 0.9, 1), metallic=0.9, roughness=0.25))
     if camera:
-        eye, target = (0.035, -0.06, 0.06), (0.0, 0.0, top)
-        cam = world.create_entity(env=env, name="camera")
-        cam.add(cressim.Transform(position=eye, rotation=_quat_look_at(eye, target)))
-        cam.add(cressim.Camera(width=width, height=height, fov_y=45))
-        sun = world.create_entity(env=env, name="sun")
-        sun.add(cressim.Transform(position=(0.02, -0.03, 0.3), rotation=_quat_look_at((0.02, -0.03, 0.3), (0, 0, 0))))
-        sun.add(cressim.Light(intensity=2.5, shadows=True, shadow_extent=0.08, shadow_resolution=512))
+        add_camera_and_sun(world, env, eye=(0.035, -0.06, 0.06), target=(0.0, 0.0, top), sun=(0.02, -0.03, 0.3),
+                           sun_target=(0, 0, 0), width=width, height=height, shadow_extent=0.08)
     return needle
 
 

@@ -176,16 +176,13 @@ class BloodSuction(VectorEnv):
         self.youngs_modulus = checked_number("BloodSuction", "youngs_modulus", youngs_modulus)
         self.poisson_ratio = checked_number("BloodSuction", "poisson_ratio", poisson_ratio, 0.0, 0.5)
         self.density = checked_number("BloodSuction", "density", density)
-        self.clear_fraction = checked_number("BloodSuction", "clear_fraction", clear_fraction, 0.0, 1.5)
-        if self.clear_fraction > 1:
-            raise ValueError(f"BloodSuction: clear_fraction must be a number in (0, 1], got {clear_fraction!r}")
+        self.clear_fraction = checked_number("BloodSuction", "clear_fraction", clear_fraction, 0.0, 1.0, with_high=True)
         if not isinstance(absorbing_success, bool):
             raise ValueError(f"BloodSuction: absorbing_success must be True or False, got {absorbing_success!r}")
         self.absorbing_success = absorbing_success
-        self.success_reward = 0.0 if success_reward == 0 else checked_number("BloodSuction", "success_reward",
-                                                                             success_reward, 0.0, 1e3)
-        self.start_spread = 0.0 if start_spread == 0 else checked_number("BloodSuction", "start_spread", start_spread,
-                                                                         0.0, YAW_PITCH_LIMIT)
+        self.success_reward = checked_number("BloodSuction", "success_reward", success_reward, 0.0, 1e3, with_low=True)
+        self.start_spread = checked_number("BloodSuction", "start_spread", start_spread, 0.0, YAW_PITCH_LIMIT,
+                                           with_low=True)
         self.observation_space = Space((NUMBERS + 3 * self.image_size ** 2,))
         super().__init__(num_envs, **kwargs)
         self.joints = tensor_view(self.buffers.extra["arm_joints"], self.device)  # (N, 4)

@@ -194,15 +194,19 @@ class VectorEnv:
         e.end_frame()
 
 
-def checked_number(task: str, name: str, value, low: float = 0.0, high: float = math.inf) -> float:
-    """`value` as a float strictly between low and high (a task's constructor argument); raises
-    naming the task and the argument otherwise."""
+def checked_number(task: str, name: str, value, low: float = 0.0, high: float = math.inf, *,
+                   with_low: bool = False, with_high: bool = False) -> float:
+    """`value` as a float between low and high, those ends excluded unless `with_low` / `with_high`
+    (a task's constructor argument); raises naming the task and the argument otherwise."""
     try:
         x = float(value)
     except (TypeError, ValueError):
         x = math.nan
-    if not low < x < high:
-        raise ValueError(f"{task}: {name} must be a number in ({low}, {high}), got {value!r}")
+    above = low <= x if with_low else low < x
+    below = x <= high if with_high else x < high
+    if not (above and below):
+        raise ValueError(f"{task}: {name} must be a number in {'[' if with_low else '('}{low}, {high}"
+                         f"{']' if with_high else ')'}, got {value!r}")
     return x
 
 

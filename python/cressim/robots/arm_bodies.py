@@ -212,11 +212,15 @@ class ArmBodies:
             visuals = ArmVisuals(urdf, Path(urdf_path).parent, bodies, poses)
             scenery = plan.build(world, visuals)
         self.scenery = scenery
-        needle_drawn = None
-        if needle:  # its own kinematic body, drawn with the jaws' segmentation id
-            needle_drawn = (world.add_mesh(needle_mesh(needle["arc_radius"], needle["arc_angle"], 0.00035)),
-                            self._needle_frame(needle, bodies, poses)[0] + 1)
-        self.needle_pose0 = self._needle_pose(needle, bodies, poses) if needle else None
+        self.needle_pose0 = None  # the held needle's arc frame in the world at the authored joints
+        if needle:
+            k, centre, frame, in_body = self._needle_frame(needle, bodies, poses)
+            local = np.eye(4)
+            local[:3, :3], local[:3, 3] = frame, centre
+            self.needle_pose0 = bodies[k].pose @ local
+            thread_way = bodies[k].pose[:3, :3] @ -in_body[:3, 1]  # back along the jaws
+            # its own kinematic body, drawn with the jaws' segmentation id
+            needle_drawn = (world.add_mesh(needle_mesh(needle["arc_radius"], needle["arc_angle"], 0.00035)), k + 1)
         needle_ids = np.zeros(num_envs, dtype=np.int64)
         body_ids = np.zeros((num_envs, len(bodies)), dtype=np.int64)
         joint_ids = np.zeros((num_envs, len(joint_specs)), dtype=np.int64)
@@ -241,7 +245,8 @@ class ArmBodies:
             if scenery is not None:
                 scenery.add_env(world, env)
             if needle:
-                needle_ids[env] = self._add_needle(world, env, needle, bodies, poses, needle_drawn if scenery else None)
+                needle_ids[env] = self._add_needle(world, env, needle, self.needle_pose0, thread_way,
+                                                   needle_drawn if scenery else None)
             for k, spec in enumerate(joint_specs):
                 parent = None if spec["parent"] is None else entities[spec["parent"]]
                 e = world.create_entity(env=env, name=spec["name"])
@@ -296,25 +301,14 @@ class ArmBodies:
         return k, centre, frame, in_body
 
     @staticmethod
-    def _needle_pose(spec, bodies, poses) -> np.ndarray:
-        """The held needle's arc frame in the world at the authored joints (4x4)."""
-        k, centre, frame, _ = ArmBodies._needle_frame(spec, bodies, poses)
-        local = np.eye(4)
-        local[:3, :3], local[:3, 3] = frame, centre
-        return bodies[k].pose @ local
-
-    @staticmethod
-    def _add_needle(world, env, spec, bodies, poses, drawn) -> int:
-        """The needle (cressim.Needle on a kinematic body of its own, which the jaws carry while they
-        hold it: TwinArms) and its thread, a 2-0 braid in 2 mm segments trailing from the tail back
-        along the jaws. Returns the needle body's entity id."""
-        k, _, _, in_body = ArmBodies._needle_frame(spec, bodies, poses)
+    def _add_needle(world, env, spec, pose, thread_way, drawn) -> int:
+        """The needle (cressim.Needle on a kinematic body of its own at `pose`, which the jaws carry
+        while they hold it: TwinArms) and its thread, a 2-0 braid in 2 mm segments trailing from the
+        tail along `thread_way`. Returns the needle body's entity id."""
         R, A = spec["arc_radius"], spec["arc_angle"]
-        pose = ArmBodies._needle_pose(spec, bodies, poses)
         tail = pose[:3, 3] + R * pose[:3, 0]
-        back = bodies[k].pose[:3, :3] @ -in_body[:3, 1]
         count = int(round(spec["thread_length"] / 0.002)) + 1
-        pts = tail + np.linspace(0.0, spec["thread_length"], count)[:, None] * back
+        pts = tail + np.linspace(0.0, spec["thread_length"], count)[:, None] * thread_way
         thread = world.create_entity(env=env, name="suture_thread")
         thread.add(cressim.Strand(pts.astype(np.float32), radius=0.00015, youngs_modulus=5e7, poisson_ratio=0.4,
                                   density=1140, damping=2.0))
@@ -649,9 +643,10 @@ class ArmBodies:
         self.target_positions[rows, :3] = p7[:, :3].to(self.target_positions)
         self.target_rotations[rows] = p7[:, 3:].to(self.target_rotations)
 
-    def needle_poses(self) -> torch.Tensor:
-        """(N, 4, 4) float64 on the CPU: every env's needle arc frame in the world now."""
-        rows = self.needle_rows
+    def needle_poses(self, envs: torch.Tensor | None = None) -> torch.Tensor:
+        """(M, 4, 4) float64 on the CPU: the needle arc frames of `envs` (long tensor; default every
+        env) in the world now."""
+        rows = self.needle_rows if envs is None else self.needle_rows[envs.to(self.device)]
         p = torch.from_dlpack(self.engine.buffer("rigid.positions"))[rows, :3].to(torch.float64).cpu()
         q = torch.from_dlpack(self.engine.buffer("rigid.rotations"))[rows].to(torch.float64).cpu()
         T = torch.eye(4, dtype=torch.float64).repeat(len(rows), 1, 1)

@@ -609,8 +609,8 @@ class TwinArms:
         self.needle_held &= closed
         take = np.flatnonzero(closed & ~self._jaws_were_closed & ~self.needle_held)
         self._jaws_were_closed = closed
-        if take.size:  # a host read of the needles only when jaws close on none
-            needles = self.bodies.needle_poses()[take]
+        if take.size:  # a host read of those needles only when jaws close on none
+            needles = self.bodies.needle_poses(torch.as_tensor(take))
             local = torch.linalg.solve(needles, tip[take] @ self._needle_grip)[:, :3]  # the jaws' middle, arc frame
             A, R = self.scene.needle["arc_angle"], self.scene.needle["arc_radius"]
             phi = torch.atan2(local[:, 1], local[:, 0])

@@ -22,18 +22,22 @@ class Spec:
     kind: type  # bool, int, float, str, list (of str)
     description: str
     runtime: bool  # may change while the node runs
+    high: float = 0.0  # numbers: the largest value (0: MAX_RATE for rates, 8192 for integers)
+    zero: bool = False  # rates: 0 is a value too (particle_rate 0: the physics rate)
 
 
+MAX_RATE = 2000.0
 SPECS = (
     Spec("scene", str, "scene file (path, or a name in scenes/): arm variant, base pose, rates, ...", False),
     Spec("robot", str, f"instrument/arm variant: {', '.join(ROBOTS)} (robots/dvrk_psm/<robot>.urdf)", False),
     Spec("dynamics", str, f"arm simulation: {', '.join(DYNAMICS)} (links follow the twin's joints, or "
                           "jointed dynamic bodies driven to the setpoint)", False),
     Spec("arm", str, "arm name: ROS namespace (/PSM1) and frame prefix (PSM1_base)", False),
-    Spec("num_envs", int, "number of twins in one engine; >1 puts env i under /env{i}/ARM", False),
-    Spec("physics_rate", float, "engine rate in Hz; an integer multiple of publish_rate", False),
+    Spec("num_envs", int, "number of twins in one engine; >1 puts env i under /env{i}/ARM", False, high=4096),
+    Spec("physics_rate", float, "engine rate in Hz; an integer multiple of publish_rate", False, high=10 * MAX_RATE),
     Spec("particle_rate", float, "rate of the world's particles (tissue, blood, thread) in Hz; 0: physics_rate; "
-                                 "an integer multiple of publish_rate, at most physics_rate", False),
+                                 "an integer multiple of publish_rate, at most physics_rate", False,
+         high=10 * MAX_RATE, zero=True),
     Spec("publish_rate", float, "rate of the periodic topics and of /clock, Hz (the dVRK's is 100)", True),
     Spec("tf_rate", float, "rate of the base -> tip transforms on /tf, Hz", True),
     Spec("camera_rate", float, "rate of the camera topics (color, depth, segmentation), Hz", True),
@@ -44,7 +48,6 @@ SPECS = (
     Spec("record", str, "MCAP recording (rosbag2 folder) path; empty: not recording", True),
 )
 BY_NAME = {s.name: s for s in SPECS}
-MAX_RATE = 2000.0
 
 
 def defaults(scene: Scene) -> dict:
@@ -79,15 +82,15 @@ def _check_one(spec: Spec, value) -> str | None:
     if spec.kind is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             return f"a finite number expected, got {value!r}"
-        high = MAX_RATE * (10 if spec.name in ("physics_rate", "particle_rate") else 1)
-        if spec.name == "particle_rate" and value == 0:
-            return None  # the physics rate
+        high = spec.high or MAX_RATE
+        if spec.zero and value == 0:
+            return None
         if not 0.0 < value <= high:
             return f"{value:g} Hz is outside (0, {high:g}]"
     elif spec.kind is int:
         if isinstance(value, bool) or not isinstance(value, int):
             return f"an integer expected, got {value!r}"
-        high = 4096 if spec.name == "num_envs" else 8192
+        high = int(spec.high) or 8192
         if not 1 <= value <= high:
             return f"{value} is outside [1, {high}]"
     elif spec.kind is list:
