@@ -23,6 +23,7 @@ struct Params {
   uint first_env;        // observe: the group's first env (layer 0)
   uint group_envs;       // observe: its envs (layers)
   uint pixels;           // observe: H W
+  uint env_offset;      // env 0's index in the whole batch: a shard draws that batch's numbers (vector_env.py)
 };
 [[vk::push_constant]] ConstantBuffer<Params> pc;
 
@@ -47,7 +48,7 @@ uint pcg_hash(uint v) {
   return (word >> 22u) ^ word;
 }
 float uniform01(uint env, uint episode, uint k) {
-  return float(pcg_hash(pc.seed ^ pcg_hash(env * 8u + k) ^ pcg_hash(episode * 7919u + 17u))) / 4294967295.0;
+  return float(pcg_hash(pc.seed ^ pcg_hash((env + pc.env_offset) * 8u + k) ^ pcg_hash(episode * 7919u + 17u))) / 4294967295.0;
 }
 
 // the camera looks along +y at yaw = pitch = 0 (optical x = world x, optical y = world -z);

@@ -68,8 +68,14 @@ class VectorEnv:
     max_episode_steps: int
 
     def __init__(self, num_envs: int, *, device: str | torch.device | None = None, seed: int = 0,
-                 validation: bool | None = None, vulkan_device: str | None = None, cuda_sync: str = "semaphore"):
-        self.num_envs = num_envs
+                 validation: bool | None = None, vulkan_device: str | None = None, cuda_sync: str = "semaphore",
+                 env_offset: int = 0):
+        """`env_offset`: where env 0 sits in a larger batch that this one is a shard of (one process's
+        part under torch.distributed): env k draws the random numbers of env env_offset + k there,
+        so the shards together run exactly the envs of the one large batch."""
+        if isinstance(env_offset, bool) or not isinstance(env_offset, (int, np.integer)) or env_offset < 0:
+            raise ValueError(f"{type(self).__name__}: env_offset must be an integer >= 0, got {env_offset!r}")
+        self.num_envs, self.env_offset = num_envs, int(env_offset)
         world = self.build_world(num_envs)
         self.engine = cressim.Engine(world, validation=validation, device=vulkan_device)
         self.engine.physics = self.physics_settings()
@@ -167,17 +173,19 @@ class VectorEnv:
                   "finished_length": b.finished_length, "reset_mask": "env.reset_mask"}
         common.update(self.task_bindings())
         source = self.hlsl.read_text()
+        declared = _declared(source)
+        shard = {"env_offset": self.env_offset} if "env_offset" in declared else {}
         passes = {}
         # named by the file: compiler errors give its path and line, and "episode.hlsli" beside it resolves
         for entry in self.entries:
             passes[entry] = self.engine.create_compute_pass(
                 source, name=str(self.hlsl), entry=entry, threads=self.num_envs,
-                bindings={k: v for k, v in common.items() if k in _declared(source)},
-                constants=self.task_constants(reset_all=False))
+                bindings={k: v for k, v in common.items() if k in declared},
+                constants={**self.task_constants(reset_all=False), **shard})
         passes["evaluate_reset_all"] = self.engine.create_compute_pass(
             source, name=str(self.hlsl), entry="evaluate", threads=self.num_envs,
-            bindings={k: v for k, v in common.items() if k in _declared(source)},
-            constants=self.task_constants(reset_all=True))
+            bindings={k: v for k, v in common.items() if k in declared},
+            constants={**self.task_constants(reset_all=True), **shard})
         return passes
 
     def _frame(self, reset_all: bool):

@@ -17,6 +17,7 @@ from torch.distributions import Normal
 
 from .config import PPOConfig
 from .cuda_graph import Captured
+from .distributed import active, all_sum
 
 
 def tanh_layers(inputs: int, hidden: tuple) -> list:
@@ -106,8 +107,12 @@ class ObsNormalizer(nn.Module):
 
     @torch.no_grad()
     def update(self, batch: torch.Tensor) -> None:
+        """Merges `batch`, and under torch.distributed every process's batch (the same statistics
+        on each process: mean, then spread about it, summed over the processes)."""
         x = batch[:, :self.count].float()
-        n, mean, var = float(x.shape[0]), x.mean(0), x.var(0, unbiased=False)
+        sums = all_sum(torch.cat([x.sum(0), x.new_tensor([x.shape[0]])]))
+        n, mean = sums[-1], sums[:-1] / sums[-1]
+        var = all_sum((x - mean).square().sum(0)) / n
         total = self.samples + n
         delta = mean - self.mean
         self.var.copy_((self.var * self.samples + var * n + delta.square() * self.samples * n / total) / total)
@@ -145,6 +150,19 @@ def _network(cfg: PPOConfig, num_obs: int, obs_shape: tuple | None, outputs: int
     raise ValueError(f"PPOConfig.network {cfg.network!r}: use 'mlp', 'cnn' or 'hybrid'")
 
 
+class ActorCritic(nn.Module):
+    """The learned parts in one module, as DistributedDataParallel wraps them: its forward gives
+    what the loss needs (the mean action, its log std, the value)."""
+
+    def __init__(self, actor: nn.Module, critic: nn.Module, log_std: nn.Parameter):
+        super().__init__()
+        self.actor, self.critic, self.log_std = actor, critic, log_std
+
+    def forward(self, x: torch.Tensor):
+        mean = self.actor(x)
+        return mean, self.log_std.expand_as(mean), self.critic(x).squeeze(-1)
+
+
 class TorchPPO:
     def __init__(self, num_obs: int, num_actions: int, num_envs: int, cfg: PPOConfig, device,
                  obs_shape: tuple | None = None, obs_dtype: torch.dtype = torch.float32):
@@ -153,11 +171,23 @@ class TorchPPO:
         self.critic = network(cfg, num_obs, obs_shape, 1).to(self.device)
         self.log_std = nn.Parameter(torch.full((num_actions,), cfg.init_log_std, device=self.device))
         self.actor_params = [*self.actor.parameters(), self.log_std]
+        # under torch.distributed: this process's envs are rows [rank N, (rank + 1) N) of the whole
+        # batch, gradients are averaged by DDP (the whole batch's, for equal shards) and minibatches
+        # are the whole batch's minibatch count, each process taking its share of every one
+        self.world = torch.distributed.get_world_size() if active() else 1
+        self.rank = torch.distributed.get_rank() if active() else 0
+        model = ActorCritic(self.actor, self.critic, self.log_std)
+        # (the normalisers' buffers are equal on every process already: ObsNormalizer.update reduces)
+        self.model = nn.parallel.DistributedDataParallel(model) if active() else model
+        # the shuffles draw from a generator of their own: the default one draws the action noise,
+        # whose stream must not depend on how large a process's share of the batch is
+        self._shuffle = torch.Generator(self.device)
+        self._shuffle.manual_seed(torch.initial_seed() + 1)
         # capturable: the step count stays on the device, so the update can be a CUDA graph
         self.optimizer = torch.optim.Adam(chain(self.actor_params, self.critic.parameters()), lr=cfg.lr,
                                           capturable=self.device.type == "cuda")
         self.learning_rate = cfg.lr
-        self.num_mini_batches = cfg.num_mini_batches(num_envs)
+        self.num_mini_batches = cfg.num_mini_batches(num_envs * self.world)
         T, N = cfg.rollout, num_envs
         z = lambda *shape, dtype=torch.float32: torch.zeros(T, N, *shape, device=self.device, dtype=dtype)  # noqa: E731
         # observations are stored as they come: a float rollout of uint8 images would be 4x larger
@@ -171,17 +201,19 @@ class TorchPPO:
         self._minibatch = torch.zeros(T * N // self.num_mini_batches, device=self.device, dtype=torch.long)
         self._loss_sums = torch.zeros(3, device=self.device)  # value, surrogate, entropy; read once per update
         self._policy_step = Captured(self._sample_policy, self.device)
-        self._learn_step = Captured(self._learn_minibatch, self.device)
-
-    def _dist(self, x: torch.Tensor) -> Normal:
-        # no argument checks: they read values back to the host, a sync per call (and no graph)
-        return Normal(self.actor(x), self.log_std.exp(), validate_args=False)
+        # DDP's gradient all-reduce runs outside a graph
+        self._learn_step = Captured(self._learn_minibatch, self.device, enabled=not active())
 
     def _sample_policy(self):
         x = self._act_obs
-        dist = self._dist(x)
-        a = dist.rsample()  # loc + scale * N(0, 1): the same draws as sample(), without its check of scale
-        return a, dist.log_prob(a).sum(-1), self.critic(x).squeeze(-1)
+        mean, log_std, value = self.model(x) if self.world == 1 else self.model.module(x)
+        # every process draws the whole batch's noise and takes its rows: the actions one process
+        # with every env would take, whatever the split
+        n = mean.shape[0]
+        noise = torch.randn(self.world * n, *mean.shape[1:], device=mean.device)[self.rank * n:(self.rank + 1) * n]
+        a = mean + log_std.exp() * noise
+        # no argument checks: they read values back to the host, a sync per call (and no graph)
+        return a, Normal(mean, log_std.exp(), validate_args=False).log_prob(a).sum(-1), value
 
     def act(self, obs) -> torch.Tensor:
         x, t = obs["policy"], self.step
@@ -209,8 +241,12 @@ class TorchPPO:
             adv = delta + live * c.gamma * c.lam * adv
             self.returns[t] = adv + self.values[t]
             next_values = self.values[t]
+        # normalised over the whole batch, every process's rollout
         a = self.returns - self.values
-        self.advantages.copy_((a - a.mean()) / (a.std() + 1e-8))
+        sums = all_sum(torch.stack([a.sum(), a.new_tensor(a.numel())]))
+        mean = sums[0] / sums[1]
+        std = (all_sum((a - mean).square().sum()) / (sums[1] - 1)).sqrt()
+        self.advantages.copy_((a - mean) / (std + 1e-8))
 
     def _learn_minibatch(self) -> None:
         """One optimizer step on the samples indexed by self._minibatch."""
@@ -218,10 +254,11 @@ class TorchPPO:
         flat = lambda x: x.flatten(0, 1)[b]  # noqa: E731
         obs, actions, old_logp = flat(self.obs), flat(self.actions), flat(self.log_prob)
         returns, advantages = flat(self.returns), flat(self.advantages)
-        dist = self._dist(obs)
+        mean, log_std, values = self.model(obs)
+        dist = Normal(mean, log_std.exp(), validate_args=False)
         ratio = torch.exp(dist.log_prob(actions).sum(-1) - old_logp)
         surrogate = torch.max(-advantages * ratio, -advantages * ratio.clamp(1 - c.clip, 1 + c.clip)).mean()
-        value = (returns - self.critic(obs).squeeze(-1)).pow(2).mean()
+        value = (returns - values).pow(2).mean()
         entropy = dist.entropy().sum(-1).mean()
         loss = surrogate + c.value_coef * value - c.entropy_coef * entropy
         self.optimizer.zero_grad()
@@ -233,7 +270,7 @@ class TorchPPO:
 
     def update(self) -> dict:
         c, n, size = self.cfg, self.num_mini_batches, self._minibatch.numel()
-        order = torch.randperm(n * size, device=self.device)
+        order = torch.randperm(n * size, device=self.device, generator=self._shuffle)
         self._loss_sums.zero_()
         for _ in range(c.epochs):
             for i in range(n):
@@ -244,7 +281,7 @@ class TorchPPO:
             self.actor.normalizer.update(seen)
             self.critic.normalizer.update(seen)
         self.step = 0
-        value, surrogate, entropy = (self._loss_sums / (c.epochs * n)).tolist()
+        value, surrogate, entropy = (all_sum(self._loss_sums) / (c.epochs * n * self.world)).tolist()
         return {"value": value, "surrogate": surrogate, "entropy": entropy}
 
     def train_mode(self) -> None:
