@@ -65,6 +65,18 @@ def start(device: str | None = None) -> tuple[Shard, torch.device]:
     return shard, torch_device
 
 
+def place(device: str | None = None) -> tuple[Shard, torch.device | None, str | None]:
+    """Where this process runs its envs: (shard, torch device, Vulkan device). Launched: `start`'s
+    shard and device, and the Vulkan device of that CUDA device; alone: the whole batch on
+    `device` (None: the env picks) and the default Vulkan device."""
+    if not launched():
+        from .rollout import resolve_device
+
+        return Shard(), resolve_device(device), None
+    shard, d = start(device)
+    return shard, d, vulkan_device_of(d.index) if d.type == "cuda" else None
+
+
 def stop() -> None:
     if dist.is_initialized():
         dist.destroy_process_group()
@@ -79,6 +91,30 @@ def all_sum(t: torch.Tensor) -> torch.Tensor:
     if active():
         dist.all_reduce(t)
     return t
+
+
+def broadcast(tensors) -> None:
+    """Rank 0's values of `tensors` on every process, in place."""
+    if active():
+        for t in tensors:
+            dist.broadcast(t.data, 0)
+
+
+def average_gradients(params) -> None:
+    """The gradients of `params` averaged over the processes, in place: one all-reduce of them
+    all, flattened. Not DistributedDataParallel: the learner replays its minibatch step as a CUDA
+    graph (cuda_graph.py), and an NCCL all-reduce can be captured in one where DDP's reducer
+    (autograd hooks, buckets rebuilt after the first step) cannot be relied on to."""
+    if not active():
+        return
+    grads = [p.grad for p in params if p.grad is not None]
+    flat = torch.cat([g.reshape(-1) for g in grads])
+    dist.all_reduce(flat)
+    flat /= dist.get_world_size()
+    offset = 0
+    for g in grads:
+        g.copy_(flat[offset:offset + g.numel()].view_as(g))
+        offset += g.numel()
 
 
 def barrier() -> None:

@@ -37,7 +37,7 @@ def rsl_rl_train_cfg(venv: CressimVecEnv, cfg: PPOConfig) -> dict:
                       "world_size": world} if world > 1 else None,
         "algorithm": {
             "class_name": "PPO", "num_learning_epochs": cfg.epochs,
-            "num_mini_batches": cfg.num_mini_batches(venv.num_envs * world), "clip_param": cfg.clip, "gamma": cfg.gamma,
+            "num_mini_batches": cfg.num_mini_batches(venv.num_envs), "clip_param": cfg.clip, "gamma": cfg.gamma,
             "lam": cfg.lam, "value_loss_coef": cfg.value_coef, "entropy_coef": cfg.entropy_coef,
             "learning_rate": cfg.lr, "max_grad_norm": cfg.max_grad_norm, "optimizer": "adam",
             "use_clipped_value_loss": False, "schedule": "fixed", "desired_kl": None,

@@ -17,7 +17,7 @@ from torch.distributions import Normal
 
 from .config import PPOConfig
 from .cuda_graph import Captured
-from .distributed import active, all_sum
+from .distributed import active, all_sum, average_gradients, broadcast
 
 
 def tanh_layers(inputs: int, hidden: tuple) -> list:
@@ -150,19 +150,6 @@ def _network(cfg: PPOConfig, num_obs: int, obs_shape: tuple | None, outputs: int
     raise ValueError(f"PPOConfig.network {cfg.network!r}: use 'mlp', 'cnn' or 'hybrid'")
 
 
-class ActorCritic(nn.Module):
-    """The learned parts in one module, as DistributedDataParallel wraps them: its forward gives
-    what the loss needs (the mean action, its log std, the value)."""
-
-    def __init__(self, actor: nn.Module, critic: nn.Module, log_std: nn.Parameter):
-        super().__init__()
-        self.actor, self.critic, self.log_std = actor, critic, log_std
-
-    def forward(self, x: torch.Tensor):
-        mean = self.actor(x)
-        return mean, self.log_std.expand_as(mean), self.critic(x).squeeze(-1)
-
-
 class TorchPPO:
     def __init__(self, num_obs: int, num_actions: int, num_envs: int, cfg: PPOConfig, device,
                  obs_shape: tuple | None = None, obs_dtype: torch.dtype = torch.float32):
@@ -171,14 +158,13 @@ class TorchPPO:
         self.critic = network(cfg, num_obs, obs_shape, 1).to(self.device)
         self.log_std = nn.Parameter(torch.full((num_actions,), cfg.init_log_std, device=self.device))
         self.actor_params = [*self.actor.parameters(), self.log_std]
-        # under torch.distributed: this process's envs are rows [rank N, (rank + 1) N) of the whole
-        # batch, gradients are averaged by DDP (the whole batch's, for equal shards) and minibatches
-        # are the whole batch's minibatch count, each process taking its share of every one
+        # under torch.distributed this process's envs are rows [rank N, (rank + 1) N) of the whole
+        # batch; every process starts from rank 0's weights and steps with the gradients averaged
+        # over the processes (distributed.average_gradients), so the weights stay equal
         self.world = torch.distributed.get_world_size() if active() else 1
         self.rank = torch.distributed.get_rank() if active() else 0
-        model = ActorCritic(self.actor, self.critic, self.log_std)
-        # (the normalisers' buffers are equal on every process already: ObsNormalizer.update reduces)
-        self.model = nn.parallel.DistributedDataParallel(model) if active() else model
+        self.learned = [*self.actor_params, *self.critic.parameters()]
+        broadcast([*self.learned, *self.actor.buffers(), *self.critic.buffers()])
         # the shuffles draw from a generator of their own: the default one draws the action noise,
         # whose stream must not depend on how large a process's share of the batch is
         self._shuffle = torch.Generator(self.device)
@@ -187,7 +173,7 @@ class TorchPPO:
         self.optimizer = torch.optim.Adam(chain(self.actor_params, self.critic.parameters()), lr=cfg.lr,
                                           capturable=self.device.type == "cuda")
         self.learning_rate = cfg.lr
-        self.num_mini_batches = cfg.num_mini_batches(num_envs * self.world)
+        self.num_mini_batches = cfg.num_mini_batches(num_envs)  # per process, as DDP's batch size is
         T, N = cfg.rollout, num_envs
         z = lambda *shape, dtype=torch.float32: torch.zeros(T, N, *shape, device=self.device, dtype=dtype)  # noqa: E731
         # observations are stored as they come: a float rollout of uint8 images would be 4x larger
@@ -201,19 +187,21 @@ class TorchPPO:
         self._minibatch = torch.zeros(T * N // self.num_mini_batches, device=self.device, dtype=torch.long)
         self._loss_sums = torch.zeros(3, device=self.device)  # value, surrogate, entropy; read once per update
         self._policy_step = Captured(self._sample_policy, self.device)
-        # DDP's gradient all-reduce runs outside a graph
-        self._learn_step = Captured(self._learn_minibatch, self.device, enabled=not active())
+        self._learn_step = Captured(self._learn_minibatch, self.device)
+
+    def _dist(self, x: torch.Tensor) -> Normal:
+        # no argument checks: they read values back to the host, a sync per call (and no graph)
+        return Normal(self.actor(x), self.log_std.exp(), validate_args=False)
 
     def _sample_policy(self):
         x = self._act_obs
-        mean, log_std, value = self.model(x) if self.world == 1 else self.model.module(x)
-        # every process draws the whole batch's noise and takes its rows: the actions one process
-        # with every env would take, whatever the split
-        n = mean.shape[0]
-        noise = torch.randn(self.world * n, *mean.shape[1:], device=mean.device)[self.rank * n:(self.rank + 1) * n]
-        a = mean + log_std.exp() * noise
-        # no argument checks: they read values back to the host, a sync per call (and no graph)
-        return a, Normal(mean, log_std.exp(), validate_args=False).log_prob(a).sum(-1), value
+        dist = self._dist(x)
+        # loc + scale * N(0, 1), the noise drawn for the whole batch and this process's rows taken:
+        # the actions one process with every env would take, whatever the split
+        n = x.shape[0]
+        noise = torch.randn(self.world * n, *dist.loc.shape[1:], device=x.device)[self.rank * n:(self.rank + 1) * n]
+        a = dist.loc + dist.scale * noise
+        return a, dist.log_prob(a).sum(-1), self.critic(x).squeeze(-1)
 
     def act(self, obs) -> torch.Tensor:
         x, t = obs["policy"], self.step
@@ -254,15 +242,15 @@ class TorchPPO:
         flat = lambda x: x.flatten(0, 1)[b]  # noqa: E731
         obs, actions, old_logp = flat(self.obs), flat(self.actions), flat(self.log_prob)
         returns, advantages = flat(self.returns), flat(self.advantages)
-        mean, log_std, values = self.model(obs)
-        dist = Normal(mean, log_std.exp(), validate_args=False)
+        dist = self._dist(obs)
         ratio = torch.exp(dist.log_prob(actions).sum(-1) - old_logp)
         surrogate = torch.max(-advantages * ratio, -advantages * ratio.clamp(1 - c.clip, 1 + c.clip)).mean()
-        value = (returns - values).pow(2).mean()
+        value = (returns - self.critic(obs).squeeze(-1)).pow(2).mean()
         entropy = dist.entropy().sum(-1).mean()
         loss = surrogate + c.value_coef * value - c.entropy_coef * entropy
         self.optimizer.zero_grad()
         loss.backward()
+        average_gradients(self.learned)
         nn.utils.clip_grad_norm_(self.actor_params, c.max_grad_norm)
         nn.utils.clip_grad_norm_(self.critic.parameters(), c.max_grad_norm)
         self.optimizer.step()

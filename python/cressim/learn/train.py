@@ -13,7 +13,7 @@ from . import distributed
 from .config import ppo_config
 from .learner import make_learner
 from .plot import plot_training
-from .rollout import EpisodeStats, collect_rollout, resolve_device, sync
+from .rollout import EpisodeStats, collect_rollout, sync
 from .vec_env import CressimVecEnv
 
 
@@ -64,13 +64,8 @@ def train(task: str = "CartPole", num_envs: int = 4096, iterations: int = 200, d
     """
     from cressim import envs
 
-    shard, env_device = distributed.start(device) if distributed.launched() else (distributed.Shard(), None)
+    shard, env_device, vulkan = distributed.place(device)
     local_envs, offset = shard.envs(num_envs)
-    vulkan = None
-    if env_device is None:
-        env_device = resolve_device(device)
-    elif env_device.type == "cuda":
-        vulkan = distributed.vulkan_device_of(env_device.index)
     out = Path(out_dir)
     if shard.leader:
         out.mkdir(parents=True, exist_ok=True)
@@ -90,7 +85,8 @@ def train(task: str = "CartPole", num_envs: int = 4096, iterations: int = 200, d
     if progress:
         where = f"{local_envs} envs on each of {shard.world} processes" if shard.world > 1 else f"{num_envs} envs"
         print(f"PPO ({backend}) on {task}: {where} on {env.device} ({meta['vulkan_device']}), "
-              f"{cfg.num_mini_batches(num_envs)} minibatches x {cfg.epochs} epochs, rollout {cfg.rollout}")
+              f"{cfg.num_mini_batches(local_envs)} minibatches{' a process' if shard.world > 1 else ''} x {cfg.epochs} epochs, "
+              f"rollout {cfg.rollout}")
 
     def save(it: int) -> Path:  # the leader's: every process holds the same weights
         path = out / f"model_{it}.pt"

@@ -54,9 +54,8 @@ def generate(task: str, num_envs: int, steps: int, out_dir, *, policy=None, seed
 
     if steps < 1:
         raise ValueError(f"steps must be >= 1, got {steps}")
-    shard, env_device = distributed.start(device) if distributed.launched() else (distributed.Shard(), None)
+    shard, env_device, vulkan = distributed.place(device)
     count, offset = shard.envs(num_envs)
-    vulkan = distributed.vulkan_device_of(env_device.index) if env_device is not None and env_device.type == "cuda" else None
     out = Path(out_dir)
     bag_dir = out / f"shard_{shard.rank:03d}"
     if bag_dir.exists():
