@@ -22,7 +22,8 @@ struct UltrasoundModel {
   std::vector<float> tissue_attenuation;         // per tissue, dB/cm/MHz
   std::vector<shader::uint4> tets;               // global particle indices of carrier tets
   std::vector<std::array<uint32_t, 2>> env_scatterers;  // per env: first, count
-  uint32_t lines = 0, samples = 0, width = 0, height = 0, max_env_scatterers = 0;
+  uint32_t lines = 0, samples = 0, width = 0, height = 0;
+  uint32_t bins = 0;  // accumulator bins per scanline (shaders/common/ultrasound.h)
   uint32_t rf_factor = 0;  // RF samples per IQ sample (the decimation) when RF is asked for, else 0
 
   bool empty() const { return probes.empty(); }

@@ -5,9 +5,11 @@
 // "ultrasound0.iq" (probes, lines, samples, 2) float32; with UltrasoundProbe.rf_output also
 // "ultrasound0.rf" (probes, lines, samples x radial_decimation) float32).
 #pragma once
+#include <array>
 #include <map>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "compute/compute_pass.h"
 #include "sensors/ultrasound_model.h"
@@ -15,6 +17,18 @@
 namespace cressim::sensors {
 
 using BufferMap = compute::BufferMap;
+
+// A run of scatterers [first, end) that one storage binding holds, and the probes that image
+// some of them: ranges[i] is probe probe_first + i's (first relative to the run, count).
+struct ScattererChunk {
+  uint64_t first = 0, end = 0;
+  uint32_t probe_first = 0, probe_count = 0;
+  std::vector<std::array<uint32_t, 2>> ranges;
+};
+
+// The scatterers split into runs of at most max_binding_bytes of float4 each (an env's may
+// span several runs); one run, for every probe, when there are none.
+std::vector<ScattererChunk> split_scatterers(const UltrasoundModel& model, uint64_t max_binding_bytes);
 
 class UltrasoundSensor {
  public:
@@ -27,7 +41,8 @@ class UltrasoundSensor {
  private:
   UltrasoundModel model_;
   std::shared_ptr<compute::TypedBuffer> accumulator_;
-  std::shared_ptr<compute::ComputePass> project_, demodulate_, scan_convert_, modulate_;  // modulate_: RF, on request
+  std::vector<std::shared_ptr<compute::ComputePass>> project_;  // one per ScattererChunk
+  std::shared_ptr<compute::ComputePass> demodulate_, scan_convert_, modulate_;  // modulate_: RF, on request
 };
 
 }  // namespace cressim::sensors

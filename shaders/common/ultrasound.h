@@ -24,8 +24,12 @@ static const uint ULTRASOUND_TET_CARRIER = 0x80000000u;
 struct UltrasoundProbeData {
   uint4 ids;        // x entity row, y env, z kind, w output layer
   float4 geometry;  // x line step (units or rad), y apex radius, z line length, w first line (offset or angle)
-  float4 pulse;     // x sample spacing along a line, y axial sigma of the envelope, z two-way wavenumber (rad/unit), w kernel radius (samples)
-  float4 beam;      // x lateral sigma, y elevational sigma (at the focus; cut at 3 sigma)
+  // x IQ sample spacing along a line, y axial sigma of the envelope, z two-way wavenumber
+  // (rad/unit), w pulse kernel radius in bins (cut at 4 sigma)
+  float4 pulse;
+  // x lateral sigma, y elevational sigma (at the focus; cut at 3 sigma), z bin spacing (a
+  // scatterer's envelope sits at its bin's centre, its phase at its exact depth), w bins per IQ sample
+  float4 beam;
   float4 image;     // x left edge, y top edge, z pixel width, w pixel height
   float4 display;   // x dynamic range (dB), y gain (dB), z time-gain compensation (dB per unit of depth)
   // depth dependence: x focal depth (0: no focus, the beam keeps its width), y lateral and
@@ -38,10 +42,15 @@ struct UltrasoundConstants {
   uint probe_count;
   uint lines;     // scanlines per probe
   uint samples;   // IQ samples per scanline
+  uint bins;      // accumulator bins per scanline (the most of any probe: samples x its bins per sample)
   uint width;     // output image
   uint height;
-  uint max_env_scatterers;
   uint rf_factor;  // RF samples per IQ sample ("ultrasound0.rf"), 0: no RF
+  // projection, one pass per chunk (a run of scatterers that one storage binding holds; an env's
+  // may span several): the chunk's first probe (probe_count probes from there), and the threads
+  // along x (each takes every scatterer_stride-th of its probe's scatterers: any count per env)
+  uint probe_first;
+  uint scatterer_stride;
 };
 
 CRESSIM_SHADER_END

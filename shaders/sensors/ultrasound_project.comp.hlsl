@@ -1,11 +1,12 @@
 // COLE step 1: every scatterer of a probe's env, posed by its carrier (an entity's pose, or a
 // tet's four particles by barycentric weights), is projected onto the scanlines within 3 beam
 // sigmas: a complex (IQ) contribution of amplitude x two-way attenuation x lateral and
-// elevational Gaussian beam weights x exp(-i 2k depth) is added to the IQ sample nearest its
-// depth. A focused beam's sigmas grow away from the focal depth as a Gaussian beam's
+// elevational Gaussian beam weights x exp(-i 2k depth) is added to the accumulator bin that
+// holds its depth (bins finer than IQ samples where the pulse needs it, so the binning does not
+// alias the carrier: ultrasound_model.cpp). A focused beam's sigmas grow away from the focal depth as a Gaussian beam's
 // (sqrt(1 + (distance / z_R)^2)), its on-axis amplitude falling by the same factor per axis.
 // The phase carries the exact depth; the pulse envelope is applied by ultrasound_iq.
-// Threads: (scatterer of the env, probe).
+// Threads: (scatterer of the env, strided, probe of the chunk).
 #include "cressim/layout.h"
 #include "cressim/quat.h"
 #include "cressim/ultrasound.h"
@@ -14,20 +15,20 @@
 StructuredBuffer<UltrasoundProbeData> probes;
 StructuredBuffer<float4> scatterers;         // xyz in the carrier frame (or barycentric weights 1-3), w amplitude
 StructuredBuffer<uint2> scatterer_carrier;   // x entity row or tet | ULTRASOUND_TET_CARRIER, y tissue
-StructuredBuffer<uint2> env_scatterers;      // first, count
+StructuredBuffer<uint2> probe_scatterers;    // per probe of the chunk: first in this chunk's tables, count
 StructuredBuffer<float> tissue_attenuation;  // dB/cm/MHz
 StructuredBuffer<uint4> tets;                // particle indices
 StructuredBuffer<float4> particle_positions; // particles.positions
 StructuredBuffer<float4> positions;          // transform.* rows
 StructuredBuffer<float4> rotations;
-RWStructuredBuffer<int> accumulator;         // (probes, lines, samples, 2) fixed point
+RWStructuredBuffer<int> accumulator;         // (probes, lines, bins, 2) fixed point
 
 void deposit(UltrasoundProbeData p, uint probe, uint scanline, float lateral, float depth, float weight, float sigma) {
-  const float at = depth / p.pulse.x;
-  if (at < 0 || at >= float(pc.samples)) return;
+  const float at = depth / p.beam.z;
+  if (at < 0 || at >= float(pc.samples) * p.beam.w) return;
   const float w = weight * exp(-0.5 * lateral * lateral / (sigma * sigma));
   const float phase = -p.pulse.z * depth;
-  const uint i = 2 * ((probe * pc.lines + scanline) * pc.samples + uint(at));
+  const uint i = 2 * ((probe * pc.lines + scanline) * pc.bins + uint(at));
   InterlockedAdd(accumulator[i], int(round(w * cos(phase) * ULTRASOUND_FIXED_POINT)));
   InterlockedAdd(accumulator[i + 1], int(round(w * sin(phase) * ULTRASOUND_FIXED_POINT)));
 }
@@ -48,14 +49,7 @@ float2 widening(UltrasoundProbeData p, float depth) {
   return sqrt(1.0 + d * d / (p.depth.yz * p.depth.yz));
 }
 
-[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
-void main(uint3 id : SV_DispatchThreadID) {
-  const uint probe = id.y;
-  if (probe >= pc.probe_count) return;
-  const UltrasoundProbeData p = probes[probe];
-  const uint2 range = env_scatterers[p.ids.y];
-  if (id.x >= range.y) return;
-  const uint s = range.x + id.x;
+void project(UltrasoundProbeData p, uint probe, uint s) {
   const float4 sa = scatterers[s];
   const uint2 carrier = scatterer_carrier[s];
   const uint eye = p.ids.x;
@@ -85,4 +79,13 @@ void main(uint3 id : SV_DispatchThreadID) {
       deposit(p, probe, uint(l), r * sin(d), r * cos(d) - R, weight, sigma.x);
     }
   }
+}
+
+[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
+void main(uint3 id : SV_DispatchThreadID) {
+  if (id.y >= pc.probe_count) return;
+  const uint probe = pc.probe_first + id.y;
+  const UltrasoundProbeData p = probes[probe];
+  const uint2 range = probe_scatterers[id.y];
+  for (uint i = id.x; i < range.y; i += pc.scatterer_stride) project(p, probe, range.x + i);
 }
