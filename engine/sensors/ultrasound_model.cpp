@@ -360,7 +360,9 @@ UltrasoundModel build_ultrasound_model(const scene::World& world, const scene::L
       m.probe_entity.push_back(e);
     }
     const uint64_t count = m.scatterers.size() - first;
-    if (m.scatterers.size() > UINT32_MAX) throw std::invalid_argument("more than 2^32 ultrasound scatterers");
+    if (m.scatterers.size() > UINT32_MAX)
+      throw std::invalid_argument("env " + std::to_string(env) + ": the world's ultrasound tissues reach " +
+                                  std::to_string(m.scatterers.size()) + " scatterers (at most 2^32 - 1 in all envs)");
     m.env_scatterers[env] = {first, uint32_t(count)};
   }
   return m;
