@@ -77,6 +77,7 @@ shader::UltrasoundProbeData probe_data(const scene::World& world, scene::EntityI
   const float pi = std::numbers::pi_v<float>;
   d.depth = {p.focal_depth, pi * 4 * sl * sl / wavelength, pi * 4 * se * se / wavelength,
              2 * p.center_frequency * 1e-6f * cm_per_unit};
+  d.specular = {p.specular_amplitude, p.coupling_impedance, 0, 0};
   d.ids = {row, env, uint32_t(p.kind), 0};
   return d;
 }
@@ -327,16 +328,23 @@ UltrasoundModel build_ultrasound_model(const scene::World& world, const scene::L
                                        const physics::ParticleModel& particles) {
   UltrasoundModel m;
   m.env_scatterers.assign(mapping.num_envs, {0, 0});
+  static_assert(uint32_t(scene::RegionKind::BOX) == shader::ULTRASOUND_BOX &&
+                uint32_t(scene::RegionKind::SPHERE) == shader::ULTRASOUND_SPHERE &&
+                uint32_t(scene::RegionKind::CYLINDER) == shader::ULTRASOUND_CYLINDER);
   for (uint32_t env = 0; env < mapping.num_envs; ++env) {
     const uint32_t first = uint32_t(m.scatterers.size());
+    const uint32_t env_media = uint32_t(m.media.size()), env_probes = uint32_t(m.probes.size());
     for (uint32_t row = mapping.env_offset[env]; row < mapping.env_offset[env] + mapping.env_count[env]; ++row) {
       const scene::EntityId e = mapping.row_entity[row];
       if (world.has<scene::UltrasoundTissue>(e)) {
         const auto& t = world.get<scene::UltrasoundTissue>(e);
         const uint32_t tissue = uint32_t(m.tissue_attenuation.size());
         m.tissue_attenuation.push_back(t.attenuation);
-        if (!world.has<scene::SoftBody>(e)) generate(world, e, row, tissue, m);
-        else if (world.get<scene::SoftBody>(e).tets.empty()) generate_in_particles(world, e, particles, tissue, m);
+        if (!world.has<scene::SoftBody>(e)) {
+          generate(world, e, row, tissue, m);
+          m.media.push_back({{row, uint32_t(t.region), 0, 0}, {t.center[0], t.center[1], t.center[2], t.impedance},
+                             {t.size[0], t.size[1], t.size[2], t.attenuation}});
+        } else if (world.get<scene::SoftBody>(e).tets.empty()) generate_in_particles(world, e, particles, tissue, m);
         else generate_in_tets(world, e, particles, tissue, m);
       }
       if (!world.has<scene::UltrasoundProbe>(e)) continue;
@@ -359,6 +367,8 @@ UltrasoundModel build_ultrasound_model(const scene::World& world, const scene::L
       m.probes.push_back(d);
       m.probe_entity.push_back(e);
     }
+    for (uint32_t probe = env_probes; probe < m.probes.size(); ++probe)
+      m.probes[probe].media = {env_media, uint32_t(m.media.size()) - env_media, 0, 0};
     const uint64_t count = m.scatterers.size() - first;
     if (m.scatterers.size() > UINT32_MAX)
       throw std::invalid_argument("env " + std::to_string(env) + ": the world's ultrasound tissues reach " +

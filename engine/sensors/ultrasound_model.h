@@ -20,6 +20,7 @@ struct UltrasoundModel {
   std::vector<shader::float4> scatterers;  // xyz in the carrier's frame (or barycentric weights 1-3), w amplitude
   std::vector<std::array<uint32_t, 2>> scatterer_carrier;  // x entity row or tet | ULTRASOUND_TET_CARRIER, y tissue
   std::vector<float> tissue_attenuation;         // per tissue, dB/cm/MHz
+  std::vector<shader::UltrasoundMedium> media;   // rigid tissues' regions, envs and entities in order
   std::vector<shader::uint4> tets;               // global particle indices of carrier tets
   std::vector<std::array<uint32_t, 2>> env_scatterers;  // per env: first, count
   uint32_t lines = 0, samples = 0, width = 0, height = 0;

@@ -54,8 +54,12 @@ UltrasoundSensor::UltrasoundSensor(std::shared_ptr<gpu::Context> ctx, Ultrasound
   // tables padded to one row: a binding needs a buffer even when no tissue is soft
   auto attenuation = m.tissue_attenuation.empty() ? std::vector<float>{0.f} : m.tissue_attenuation;
   auto tets = m.tets.empty() ? std::vector<shader::uint4>{{0, 0, 0, 0}} : m.tets;
+  auto media = m.media.empty() ? std::vector<shader::UltrasoundMedium>(1) : m.media;
   auto tissues = make(ctx, internal, "ultrasound.tissue_attenuation", attenuation, {int64_t(attenuation.size())},
                       DType::FLOAT32, generation);
+  auto media_table = make(ctx, internal, "ultrasound.media", media,
+                          {int64_t(media.size()), int64_t(sizeof(shader::UltrasoundMedium) / 4)}, DType::UINT32,
+                          generation);
   auto tet_table = make(ctx, internal, "ultrasound.tets", tets, {int64_t(tets.size()), 4}, DType::UINT32, generation);
   auto particles = scene.count("particles.positions")
                        ? scene.at("particles.positions")
@@ -64,6 +68,8 @@ UltrasoundSensor::UltrasoundSensor(std::shared_ptr<gpu::Context> ctx, Ultrasound
   make(ctx, internal, "ultrasound.env_scatterers", ranges, {E, 2}, DType::UINT32, generation);
   accumulator_ = make(ctx, internal, "ultrasound0.accumulator", std::vector<int32_t>{}, {P, lines, int64_t(m.bins), 2},
                       DType::INT32, generation);
+  auto path = make(ctx, internal, "ultrasound0.path", std::vector<float>{}, {P, lines, int64_t(m.bins)},
+                   DType::FLOAT32, generation);
   auto iq = make(ctx, internal, "ultrasound0.iq", std::vector<float>{}, {P, lines, samples, 2}, DType::FLOAT32,
                  generation, exportable);
   auto image = make(ctx, internal, "ultrasound0.image", std::vector<float>{},
@@ -76,6 +82,12 @@ UltrasoundSensor::UltrasoundSensor(std::shared_ptr<gpu::Context> ctx, Ultrasound
     std::memcpy(pass.constants.data(), &values, sizeof(values));
     ++pass.version;
   };
+  medium_ = compute::create_builtin_pass(
+      ctx, "sensors/ultrasound_medium",
+      {{"probes", probes}, {"media", media_table}, {"positions", scene.at("transform.positions")},
+       {"rotations", scene.at("transform.rotations")}, {"path", path}, {"accumulator", accumulator_}});
+  constants(*medium_, c);
+  medium_->set_threads({uint64_t(lines), uint64_t(P), 1});
   // projection: one pass per chunk of scatterers that fits the device's storage binding range
   // (an env's may span several); x strides over the chunk's scatterers of a probe's env
   const uint64_t x_groups = ctx->properties.limits.maxComputeWorkGroupCount[0];
@@ -99,7 +111,7 @@ UltrasoundSensor::UltrasoundSensor(std::shared_ptr<gpu::Context> ctx, Ultrasound
         {{"probes", probes}, {"scatterers", scatterers}, {"scatterer_carrier", carriers},
          {"probe_scatterers", probe_ranges}, {"tissue_attenuation", tissues}, {"tets", tet_table},
          {"particle_positions", particles}, {"positions", scene.at("transform.positions")},
-         {"rotations", scene.at("transform.rotations")}, {"accumulator", accumulator_}});
+         {"rotations", scene.at("transform.rotations")}, {"path", path}, {"accumulator", accumulator_}});
     const uint32_t group = pass->pipeline.reflection.local_size[0];
     pass->set_threads({std::min<uint64_t>(most, x_groups * group), ch.probe_count, 1});
     auto chunk_constants = c;
@@ -128,6 +140,8 @@ UltrasoundSensor::UltrasoundSensor(std::shared_ptr<gpu::Context> ctx, Ultrasound
 
 void UltrasoundSensor::record(VkCommandBuffer cmd) const {
   vkCmdFillBuffer(cmd, accumulator_->storage->buffer.buffer, 0, VK_WHOLE_SIZE, 0);
+  gpu::compute_barrier(cmd);
+  medium_->record(cmd);
   gpu::compute_barrier(cmd);
   for (const auto& pass : project_) pass->record(cmd);  // atomics: chunks need no barrier between them
   gpu::compute_barrier(cmd);

@@ -1,4 +1,5 @@
-// The ultrasound sensor on the GPU, recorded into step_simulation_sensors: scatterers posed
+// The ultrasound sensor on the GPU, recorded into step_simulation_sensors: each scanline traced
+// through the rigid tissues' regions (attenuation, interface echoes, shadows), scatterers posed
 // by their parents and projected onto every probe's scanlines as IQ contributions, the pulse
 // envelope convolved along each line, then envelope, log compression and scan conversion into
 // one output layer per probe ("ultrasound0.image" (probes, H, W) float32 in [0, 1],
@@ -41,6 +42,7 @@ class UltrasoundSensor {
  private:
   UltrasoundModel model_;
   std::shared_ptr<compute::TypedBuffer> accumulator_;
+  std::shared_ptr<compute::ComputePass> medium_;                // tissue boundaries along the lines
   std::vector<std::shared_ptr<compute::ComputePass>> project_;  // one per ScattererChunk
   std::shared_ptr<compute::ComputePass> demodulate_, scan_convert_, modulate_;  // modulate_: RF, on request
 };

@@ -36,6 +36,19 @@ struct UltrasoundProbeData {
   // z elevational Rayleigh ranges of the focused beam, w two-way attenuation in dB per unit of
   // depth per (dB/cm/MHz) of the tissue (2 x f0 in MHz x centimetres per unit)
   float4 depth;
+  uint4 media;      // x first, y count of its env's media (ultrasound.media rows)
+  float4 specular;  // x echo of a perfect plane reflector (scatterer amplitudes), y coupling impedance (MRayl)
+};
+
+// A rigid tissue's region as a medium the scanlines cross (ultrasound_medium): in the frame of
+// entity row ids.x, centred at center.xyz; where regions overlap, the later tissue's holds.
+static const uint ULTRASOUND_BOX = 1;
+static const uint ULTRASOUND_SPHERE = 2;
+static const uint ULTRASOUND_CYLINDER = 3;  // radius size.x around z, half height size.y
+struct UltrasoundMedium {
+  uint4 ids;      // x entity row, y region kind
+  float4 center;  // xyz region centre in the entity frame, w impedance (MRayl)
+  float4 size;    // xyz box half extents (sphere: radius x; cylinder: radius x, half height y), w attenuation (dB/cm/MHz)
 };
 
 struct UltrasoundConstants {

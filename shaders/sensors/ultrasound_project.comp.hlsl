@@ -1,12 +1,15 @@
 // COLE step 1: every scatterer of a probe's env, posed by its carrier (an entity's pose, or a
 // tet's four particles by barycentric weights), is projected onto the scanlines within 3 beam
-// sigmas: a complex (IQ) contribution of amplitude x two-way attenuation x lateral and
+// sigmas: a complex (IQ) contribution of amplitude x the line's two-way path factor at its depth
+// (ultrasound_medium: attenuation and transmission through the media crossed) x lateral and
 // elevational Gaussian beam weights x exp(-i 2k depth) is added to the accumulator bin that
 // holds its depth (bins finer than IQ samples where the pulse needs it, so the binning does not
-// alias the carrier: ultrasound_model.cpp). A focused beam's sigmas grow away from the focal depth as a Gaussian beam's
-// (sqrt(1 + (distance / z_R)^2)), its on-axis amplitude falling by the same factor per axis.
-// The phase carries the exact depth; the pulse envelope is applied by ultrasound_iq.
-// Threads: (scatterer of the env, strided, probe of the chunk).
+// alias the carrier: ultrasound_model.cpp). A soft tissue's scatterers, whose moving shape no
+// medium traces, also lose their own tissue's attenuation over their whole depth. A focused
+// beam's sigmas grow away from the focal depth as a Gaussian beam's (sqrt(1 + (distance /
+// z_R)^2)), its on-axis amplitude falling by the same factor per axis. The phase carries the
+// exact depth; the pulse envelope is applied by ultrasound_iq.
+// Threads: (scatterer of the probe's env in this chunk, strided; probe of the chunk).
 #include "cressim/layout.h"
 #include "cressim/quat.h"
 #include "cressim/ultrasound.h"
@@ -21,16 +24,17 @@ StructuredBuffer<uint4> tets;                // particle indices
 StructuredBuffer<float4> particle_positions; // particles.positions
 StructuredBuffer<float4> positions;          // transform.* rows
 StructuredBuffer<float4> rotations;
+StructuredBuffer<float> path;                // (probes, lines, bins) two-way amplitude factor
 RWStructuredBuffer<int> accumulator;         // (probes, lines, bins, 2) fixed point
 
 void deposit(UltrasoundProbeData p, uint probe, uint scanline, float lateral, float depth, float weight, float sigma) {
   const float at = depth / p.beam.z;
   if (at < 0 || at >= float(pc.samples) * p.beam.w) return;
-  const float w = weight * exp(-0.5 * lateral * lateral / (sigma * sigma));
+  const uint bin = (probe * pc.lines + scanline) * pc.bins + uint(at);
+  const float w = weight * path[bin] * exp(-0.5 * lateral * lateral / (sigma * sigma));
   const float phase = -p.pulse.z * depth;
-  const uint i = 2 * ((probe * pc.lines + scanline) * pc.bins + uint(at));
-  InterlockedAdd(accumulator[i], int(round(w * cos(phase) * ULTRASOUND_FIXED_POINT)));
-  InterlockedAdd(accumulator[i + 1], int(round(w * sin(phase) * ULTRASOUND_FIXED_POINT)));
+  InterlockedAdd(accumulator[2 * bin], int(round(w * cos(phase) * ULTRASOUND_FIXED_POINT)));
+  InterlockedAdd(accumulator[2 * bin + 1], int(round(w * sin(phase) * ULTRASOUND_FIXED_POINT)));
 }
 
 float3 pose(float4 sa, uint carrier) {
@@ -60,7 +64,8 @@ void project(UltrasoundProbeData p, uint probe, uint s) {
   const float2 grow = widening(p, depth);
   const float2 sigma = p.beam.xy * grow;
   if (abs(local.y) > 3.0 * sigma.y) return;
-  const float decibels = tissue_attenuation[carrier.y] * p.depth.w * max(depth, 0.0);
+  const bool soft = (carrier.x & ULTRASOUND_TET_CARRIER) != 0;
+  const float decibels = soft ? tissue_attenuation[carrier.y] * p.depth.w * max(depth, 0.0) : 0.0;
   const float weight = sa.w * exp(-0.5 * local.y * local.y / (sigma.y * sigma.y)) / (grow.x * grow.y) *
                        exp(-decibels * (log(10.0) / 20.0));
   const float last = float(pc.lines - 1);
