@@ -352,19 +352,19 @@ UltrasoundModel build_ultrasound_model(const scene::World& world, const scene::L
       auto d = probe_data(world, e, row, env, samples);
       const auto& p = world.get<scene::UltrasoundProbe>(e);
       const uint32_t rf = p.rf_output ? p.radial_decimation : 0;
-      if (m.probes.empty()) {
-        m.lines = p.scanlines, m.samples = samples, m.width = p.width, m.height = p.height, m.rf_factor = rf;
-      } else if (m.lines != p.scanlines || m.samples != samples || m.width != p.width || m.height != p.height) {
-        fail(world, e, "every UltrasoundProbe of a world must have the same scanlines, image size and samples per "
-                       "line (" + std::to_string(m.lines) + " lines, " + std::to_string(m.width) + "x" +
-                       std::to_string(m.height) + ", " + std::to_string(m.samples) + " samples) for now");
-      } else if (m.rf_factor != rf) {
-        fail(world, e, "UltrasoundProbe.rf_output: every probe of a world asks for RF, with one radial_decimation, "
-                       "or none does");
+      uint32_t g = 0;
+      for (; g < m.groups.size(); ++g) {
+        const auto& o = m.groups[g];
+        if (o.lines == p.scanlines && o.samples == samples && o.width == p.width && o.height == p.height &&
+            o.rf_factor == rf)
+          break;
       }
-      m.bins = std::max(m.bins, samples * uint32_t(d.beam.w));
-      d.ids.w = uint32_t(m.probes.size());
+      if (g == m.groups.size()) m.groups.push_back({p.scanlines, samples, p.width, p.height, 0, rf, 0});
+      auto& group = m.groups[g];
+      group.bins = std::max(group.bins, samples * uint32_t(d.beam.w));
+      d.ids.w = group.layers++;
       m.probes.push_back(d);
+      m.probe_group.push_back(g);
       m.probe_entity.push_back(e);
     }
     for (uint32_t probe = env_probes; probe < m.probes.size(); ++probe)

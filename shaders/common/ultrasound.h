@@ -60,10 +60,11 @@ struct UltrasoundConstants {
   uint height;
   uint rf_factor;  // RF samples per IQ sample ("ultrasound0.rf"), 0: no RF
   // projection, one pass per chunk (a run of scatterers that one storage binding holds; an env's
-  // may span several): the chunk's first probe (probe_count probes from there), and the threads
-  // along x (each takes every scatterer_stride-th of its probe's scatterers: any count per env)
+  // may span several): the chunk's first probe (probe_count probes from there)
   uint probe_first;
-  uint scatterer_stride;
+  // threads along x of a strided pass, each taking every stride-th item (projection: scatterers
+  // of its probe's env; scan conversion: words of four pixels), so any count fits the dispatch
+  uint stride;
 };
 
 CRESSIM_SHADER_END

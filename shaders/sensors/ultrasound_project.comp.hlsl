@@ -92,5 +92,5 @@ void main(uint3 id : SV_DispatchThreadID) {
   const uint probe = pc.probe_first + id.y;
   const UltrasoundProbeData p = probes[probe];
   const uint2 range = probe_scatterers[id.y];
-  for (uint i = id.x; i < range.y; i += pc.scatterer_stride) project(p, probe, range.x + i);
+  for (uint i = id.x; i < range.y; i += pc.stride) project(p, probe, range.x + i);
 }
