@@ -31,7 +31,8 @@ void deposit(UltrasoundProbeData p, uint probe, uint scanline, float lateral, fl
   const float at = depth / p.beam.z;
   if (at < 0 || at >= float(pc.samples) * p.beam.w) return;
   const uint bin = (probe * pc.lines + scanline) * pc.bins + uint(at);
-  const float w = weight * path[bin] * exp(-0.5 * lateral * lateral / (sigma * sigma));
+  const float crossed = p.media.y ? path[bin] : 1.0;  // ultrasound_medium traces envs with media only
+  const float w = weight * crossed * exp(-0.5 * lateral * lateral / (sigma * sigma));
   const float phase = -p.pulse.z * depth;
   InterlockedAdd(accumulator[2 * bin], int(round(w * cos(phase) * ULTRASOUND_FIXED_POINT)));
   InterlockedAdd(accumulator[2 * bin + 1], int(round(w * sin(phase) * ULTRASOUND_FIXED_POINT)));
