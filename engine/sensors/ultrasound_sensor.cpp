@@ -113,7 +113,8 @@ UltrasoundSensor::UltrasoundSensor(std::shared_ptr<gpu::Context> ctx, Ultrasound
                                                {"rotations", rotations}, {"path", path},
                                                {"accumulator", out.accumulator}});
     set_constants(*out.medium, c);
-    out.medium->set_threads({uint64_t(lines) * out.medium->pipeline.reflection.local_size[0], uint64_t(P), 1});  // a group a line
+    const uint32_t group_size = out.medium->pipeline.reflection.local_size[0];
+    out.medium->set_threads({uint64_t(lines) * group_size, uint64_t(P), 1});  // a workgroup a line
     // projection: per chunk, the group's probes whose envs have scatterers in it; x strides over them
     for (size_t k = 0; k < chunks.size(); ++k) {
       const auto& ch = chunks[k];

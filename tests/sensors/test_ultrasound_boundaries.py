@@ -10,6 +10,7 @@ t12 t21 = 4 Z1 Z2 / (Z1 + Z2)^2 = 1 - R).
 import math
 
 import numpy as np
+import pytest
 
 import cressim
 
@@ -122,3 +123,19 @@ def test_a_calcification_casts_its_shadow(make_engine):
     front = np.abs(shadowed[47, int((centre - radius) / DZ) - 2:int((centre - radius) / DZ) + 3]).max()
     r = (z_bone - 1.63) / (z_bone + 1.63)
     assert abs(front / (SPECULAR * r) - 1) < 0.05
+
+
+def test_bad_acoustics_name_the_entity_and_field(make_engine):
+    for fields, message in (({"impedance": 0.0}, "'slab' in env 0: UltrasoundTissue.impedance must be positive"),
+                            ({"impedance": math.nan}, "'slab' in env 0: UltrasoundTissue.impedance must be positive")):
+        world = cressim.World(cressim.SceneLayout(1))
+        world.create_entity(env=0, name="slab").add(
+            cressim.UltrasoundTissue(size=(0.01, 0.01, 0.01), count=1, **fields))
+        with pytest.raises(ValueError, match=message):
+            make_engine(world).prepare()
+    for fields, message in (({"coupling_impedance": -1.0}, "UltrasoundProbe.coupling_impedance must be positive"),
+                            ({"specular_amplitude": math.inf}, "UltrasoundProbe.specular_amplitude must be")):
+        world = cressim.World(cressim.SceneLayout(2))
+        world.create_entity(env=1, name="probe").add(probe(**fields))
+        with pytest.raises(ValueError, match="'probe' in env 1: " + message):
+            make_engine(world).prepare()
