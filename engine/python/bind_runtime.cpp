@@ -213,7 +213,7 @@ void bind_runtime(py::module_& m) {
             env.push_back(m.probes[i].ids.y), layer.push_back(m.probes[i].ids.w);
             lines.push_back(g.lines), samples.push_back(g.samples), width.push_back(g.width), height.push_back(g.height);
           }
-          scatterers = m.scatterers.size();
+          scatterers = e.ultrasound()->scatterers();
           d["tets"] = m.tets.size();  // soft tissue tets carrying scatterers
         }
         d["entity"] = to_numpy(entity);

@@ -79,6 +79,9 @@ UltrasoundSensor::UltrasoundSensor(std::shared_ptr<gpu::Context> ctx, Ultrasound
                                     m.scatterer_carrier.data() + chunks[k].first, n * 2 * sizeof(uint32_t), {n, 2},
                                     DType::UINT32, true, generation)});
   }
+  scatterers_ = m.scatterers.size();
+  std::vector<shader::float4>().swap(model_.scatterers);  // a G of scatterers is 24 GB on the host
+  std::vector<std::array<uint32_t, 2>>().swap(model_.scatterer_carrier);
 
   for (uint32_t g = 0; g < m.groups.size(); ++g) {
     const auto& info = m.groups[g];

@@ -36,7 +36,9 @@ class UltrasoundSensor {
   UltrasoundSensor(std::shared_ptr<gpu::Context> ctx, UltrasoundModel model, uint64_t generation, BufferMap& internal,
                    const BufferMap& scene);
   void record(VkCommandBuffer cmd) const;
+  // the model as built, less its scatterer tables (dropped on the host once uploaded)
   const UltrasoundModel& model() const { return model_; }
+  uint64_t scatterers() const { return scatterers_; }
 
  private:
   struct Group {  // one output group's accumulator and passes
@@ -46,6 +48,7 @@ class UltrasoundSensor {
     std::shared_ptr<compute::ComputePass> demodulate, scan_convert, modulate;  // modulate: RF, on request
   };
   UltrasoundModel model_;
+  uint64_t scatterers_ = 0;
   std::vector<Group> groups_;
 };
 
