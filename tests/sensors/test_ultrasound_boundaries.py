@@ -48,19 +48,27 @@ def imaged(make_engine, world, **fields):
     return iq[0, ..., 0] + 1j * iq[0, ..., 1]
 
 
-def test_attenuation_accumulates_through_the_tissues_a_line_crosses(make_engine):
-    """Two points at 6 mm, one under two lossy layers (3 and 1.5 dB/cm/MHz, 2 mm each), one
-    beside them: the first's echo is 2 f0 (3 x 0.2 + 1.5 x 0.2) = 9 dB weaker."""
+@pytest.mark.parametrize("kind", ["linear", "sector"])
+def test_attenuation_accumulates_through_the_tissues_a_line_crosses(make_engine, kind):
+    """Two points 6 mm along lines 8.2 degrees (sector; linear: 2.9 mm) either side of the axis,
+    one under two lossy layers (3 and 1.5 dB/cm/MHz, 2 mm each), one beside them: the first's
+    echo is 2 f0 (3 x 0.2 + 1.5 x 0.2) = 9 dB weaker, over cos(angle) on the sector's slanted line."""
     world = cressim.World(cressim.SceneLayout(1))
-    left, right = 28, 67
-    point(world, 0, (line_x(left), 0, 6 * MM))
-    point(world, 0, (line_x(right), 0, 6 * MM))
+    left, right, radius = 28, 67, 10 * MM
+    angle = math.radians(-20 + right * 40 / 95)  # the sector probe's line 67
+    for line in (left, right):
+        if kind == "linear":
+            point(world, 0, (line_x(line), 0, 6 * MM))
+        else:
+            a = math.radians(-20 + line * 40 / 95)
+            point(world, 0, ((radius + 6 * MM) * math.sin(a), 0, (radius + 6 * MM) * math.cos(a) - radius))
     slab(world, 0, "upper", 1 * MM, 3 * MM, x0=0.5 * MM, attenuation=3.0)
     slab(world, 0, "lower", 3 * MM, 5 * MM, x0=0.5 * MM, attenuation=1.5)
-    iq = imaged(make_engine, world)
+    iq = imaged(make_engine, world, **({} if kind == "linear" else dict(kind="sector", sector_angle=40.0,
+                                                                          radius=radius)))
     loss = 20 * math.log10(np.abs(iq[left]).max() / np.abs(iq[right]).max())
-    expected = 2 * F0 / 1e6 * (3.0 * 0.2 + 1.5 * 0.2)
-    print(f"two-way loss through the layers {loss:.3f} dB (formula {expected:.3f})")
+    expected = 2 * F0 / 1e6 * (3.0 * 0.2 + 1.5 * 0.2) / (1 if kind == "linear" else math.cos(angle))
+    print(f"{kind}: two-way loss through the layers {loss:.3f} dB (formula {expected:.3f})")
     assert abs(loss - expected) < 0.02
     assert not np.abs(iq).max() > 1.01  # equal impedances: no echoes from the layers
 
