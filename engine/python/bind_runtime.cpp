@@ -211,7 +211,8 @@ void bind_runtime(py::module_& m) {
           for (size_t i = 0; i < m.probes.size(); ++i) {
             const auto& g = m.groups[m.probe_group[i]];
             env.push_back(m.probes[i].ids.y), layer.push_back(m.probes[i].ids.w);
-            lines.push_back(g.lines), samples.push_back(g.samples), width.push_back(g.width), height.push_back(g.height);
+            lines.push_back(g.lines), samples.push_back(g.samples);
+            width.push_back(g.width), height.push_back(g.height);
           }
           scatterers = e.ultrasound()->scatterers();
           d["tets"] = m.tets.size();  // soft tissue tets carrying scatterers

@@ -60,7 +60,8 @@ shader::UltrasoundProbeData probe_data(const scene::World& world, scene::EntityI
     fail(world, e, "UltrasoundProbe gives " + std::to_string(uint64_t(count)) + " IQ samples per scanline (at most " +
                        std::to_string(kMaxSamples) + "): raise radial_decimation or shorten line_length");
   samples = uint32_t(count);
-  const float per_sample = std::max(1.f, std::ceil(dz * (k2 + kAliasSigmas / sigma_z) / (2 * std::numbers::pi_v<float>)));
+  const float two_pi = 2 * std::numbers::pi_v<float>;
+  const float per_sample = std::max(1.f, std::ceil(dz * (k2 + kAliasSigmas / sigma_z) / two_pi));
   if (double(samples) * per_sample > kMaxSamples)
     fail(world, e, "UltrasoundProbe needs " + std::to_string(uint64_t(samples * per_sample)) +
                        " bins per scanline (at most " + std::to_string(kMaxSamples) +

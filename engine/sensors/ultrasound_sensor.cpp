@@ -19,7 +19,8 @@ std::shared_ptr<compute::TypedBuffer> make(std::shared_ptr<gpu::Context> ctx, Bu
 }
 
 void set_constants(compute::ComputePass& pass, const shader::UltrasoundConstants& values) {
-  if (pass.constants.size() != sizeof(values)) throw std::logic_error("UltrasoundConstants does not match " + pass.name);
+  if (pass.constants.size() != sizeof(values))
+    throw std::logic_error("UltrasoundConstants does not match " + pass.name);
   std::memcpy(pass.constants.data(), &values, sizeof(values));
   ++pass.version;
 }
@@ -73,8 +74,9 @@ UltrasoundSensor::UltrasoundSensor(std::shared_ptr<gpu::Context> ctx, Ultrasound
     const std::string suffix = k ? "." + std::to_string(k) : "";
     const int64_t n = int64_t(chunks[k].end - chunks[k].first);
     chunk_tables.push_back(
-        {compute::make_keyed_buffer(ctx, internal, "ultrasound.scatterers" + suffix, m.scatterers.data() + chunks[k].first,
-                                    n * sizeof(shader::float4), {n, 4}, DType::FLOAT32, true, generation),
+        {compute::make_keyed_buffer(ctx, internal, "ultrasound.scatterers" + suffix,
+                                    m.scatterers.data() + chunks[k].first, n * sizeof(shader::float4), {n, 4},
+                                    DType::FLOAT32, true, generation),
          compute::make_keyed_buffer(ctx, internal, "ultrasound.scatterer_carrier" + suffix,
                                     m.scatterer_carrier.data() + chunks[k].first, n * 2 * sizeof(uint32_t), {n, 2},
                                     DType::UINT32, true, generation)});
@@ -96,7 +98,8 @@ UltrasoundSensor::UltrasoundSensor(std::shared_ptr<gpu::Context> ctx, Ultrasound
                        {P, int64_t(sizeof(shader::UltrasoundProbeData) / 4)}, DType::UINT32, generation);
     out.accumulator = make(ctx, internal, prefix + "accumulator", std::vector<int32_t>{}, {P, lines, bins, 2},
                            DType::INT32, generation);
-    auto path = make(ctx, internal, prefix + "path", std::vector<float>{}, {P, lines, bins}, DType::FLOAT32, generation);
+    auto path = make(ctx, internal, prefix + "path", std::vector<float>{}, {P, lines, bins}, DType::FLOAT32,
+                     generation);
     auto iq = make(ctx, internal, prefix + "iq", std::vector<float>{}, {P, lines, samples, 2}, DType::FLOAT32,
                    generation, exportable);
     auto image = make(ctx, internal, prefix + "image", std::vector<float>{}, {P, H, W}, DType::FLOAT32, generation,
@@ -125,7 +128,8 @@ UltrasoundSensor::UltrasoundSensor(std::shared_ptr<gpu::Context> ctx, Ultrasound
       std::vector<std::array<uint32_t, 2>> spans(layers.size(), {0, 0});
       for (uint32_t i = 0; i < layers.size(); ++i) {
         const auto [begin, count] = m.env_scatterers[layers[i].ids.y];
-        const uint64_t lo = std::max<uint64_t>(begin, ch.first), hi = std::min<uint64_t>(begin + uint64_t(count), ch.end);
+        const uint64_t lo = std::max<uint64_t>(begin, ch.first);
+        const uint64_t hi = std::min<uint64_t>(begin + uint64_t(count), ch.end);
         if (lo >= hi) continue;
         spans[i] = {uint32_t(lo - ch.first), uint32_t(hi - lo)};
         first = std::min(first, i), last = i, most = std::max(most, spans[i][1]);

@@ -48,7 +48,9 @@ static const uint ULTRASOUND_CYLINDER = 3;  // radius size.x around z, half heig
 struct UltrasoundMedium {
   uint4 ids;      // x entity row, y region kind
   float4 center;  // xyz region centre in the entity frame, w impedance (MRayl)
-  float4 size;    // xyz box half extents (sphere: radius x; cylinder: radius x, half height y), w attenuation (dB/cm/MHz)
+  // xyz box half extents (sphere: radius x; cylinder: radius x, half height y), w attenuation
+  // (dB/cm/MHz)
+  float4 size;
 };
 
 struct UltrasoundConstants {
