@@ -73,6 +73,44 @@ def test_attenuation_accumulates_through_the_tissues_a_line_crosses(make_engine,
     assert not np.abs(iq).max() > 1.01  # equal impedances: no echoes from the layers
 
 
+def test_media_follow_their_region_and_pose(make_engine):
+    """A point at 8 mm on the central line under a lossy (3 dB/cm/MHz) cylinder along the beam
+    (1 mm half height: 2 f0 alpha 0.2 cm = 6 dB) and under a 2 mm slab tilted 30 degrees about
+    the elevation (6 / cos 30 = 6.928 dB), against the same point with nothing above it."""
+    def medium(world, env):
+        if env == 0:
+            t = world.create_entity(env=env, name="cylinder")
+            t.add(cressim.Transform(position=(0, 0, 3 * MM)))
+            t.add(cressim.UltrasoundTissue(region="cylinder", size=(2 * MM, 1 * MM, 0), count=1, amplitude_mean=0.0,
+                                           amplitude_std=0.0, attenuation=3.0))
+        elif env == 1:
+            t = world.create_entity(env=env, name="tilted")
+            half = math.radians(30) / 2
+            t.add(cressim.Transform(position=(0, 0, 3 * MM), rotation=(0, math.sin(half), 0, math.cos(half))))
+            t.add(cressim.UltrasoundTissue(region="box", size=(4 * MM, 2 * MM, 1 * MM), count=1, amplitude_mean=0.0,
+                                           amplitude_std=0.0, attenuation=3.0))
+
+    world = cressim.World(cressim.SceneLayout(3))
+    for env in range(3):
+        point(world, env, (line_x(48), 0, 8 * MM))
+        medium(world, env)
+        p = world.create_entity(env=env, name="probe")
+        p.add(cressim.Transform())
+        p.add(probe())
+    engine = make_engine(world)
+    engine.prepare()
+    engine.upload_world()
+    engine.step_simulation_sensors()
+    engine.end_frame()
+    iq = engine.buffer("ultrasound0.iq").read().astype(np.float64)
+    peak = np.hypot(iq[:, 48, :, 0], iq[:, 48, :, 1]).max(axis=1)
+    losses = 20 * np.log10(peak[2] / peak[:2])
+    expected = [2 * F0 / 1e6 * 3.0 * 0.2, 2 * F0 / 1e6 * 3.0 * 0.2 / math.cos(math.radians(30))]
+    print(f"cylinder {losses[0]:.3f} dB (formula {expected[0]:.3f}), tilted slab {losses[1]:.3f} dB "
+          f"(formula {expected[1]:.3f})")
+    np.testing.assert_allclose(losses, expected, atol=0.02)
+
+
 def test_interface_echoes_match_the_reflection_coefficient(make_engine):
     """Fat (1.38 MRayl) from 2 to 5 mm, muscle (1.70 MRayl, 1 dB/cm/MHz) from 5 to 9 mm, in a
     fat-matched coupling medium: echoes of r = 0.104 at 5 mm and -r (1 - R) less 4 dB of loss at 9 mm."""
