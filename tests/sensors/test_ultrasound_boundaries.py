@@ -185,3 +185,32 @@ def test_bad_acoustics_name_the_entity_and_field(make_engine):
         world.create_entity(env=1, name="probe").add(probe(**fields))
         with pytest.raises(ValueError, match="'probe' in env 1: " + message):
             make_engine(world).prepare()
+
+
+def test_the_demo_shows_its_cyst_shadow_and_interface(tmp_path):
+    """cressim demo ultrasound (fat over liver, a cyst, a calcification): dark where the cyst and
+    the calcification's shadow are, a bright row at the fat/liver interface, speckle elsewhere."""
+    from cressim.demos import ultrasound as demo
+
+    assert demo.run(str(tmp_path)) == 0
+    engine = demo.build()
+    engine.step_simulation_sensors()
+    engine.end_frame()
+    image = engine.buffer("ultrasound0.image_u8").read()[0].astype(float) / 255  # 300 x 256 over 60 x 51.2 mm
+
+    def row(depth):
+        return int(depth / (demo.DEPTH / 300))
+
+    def col(x):
+        return int((x + 64 * demo.SPACING) / (128 * demo.SPACING / 256))
+
+    x, depth, radius = demo.CALCIFICATION
+    shadow = image[row(depth + radius + 3 * MM):row(55 * MM), col(x - 0.5 * MM):col(x + 0.5 * MM)]
+    beside = image[row(depth + radius + 3 * MM):row(55 * MM), col(x + 5 * MM):col(x + 15 * MM)]
+    cyst = image[row(24 * MM):row(26 * MM), col(-13 * MM):col(-11 * MM)]
+    interface = image[row(8 * MM) - 1:row(8 * MM) + 2, col(-20 * MM):col(0)].max(axis=0)
+    print(f"shadow {shadow.mean():.3f}, beside {beside.mean():.3f}, cyst {cyst.mean():.3f}, interface "
+          f"{interface.mean():.3f}")
+    assert shadow.mean() < 0.05 and cyst.mean() < 0.05 and beside.mean() > 0.4
+    assert interface.min() > 0.95  # the interface echo saturates every column's row
+    assert (tmp_path / "ultrasound_boundaries.png").exists()
