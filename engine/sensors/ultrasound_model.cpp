@@ -1,12 +1,15 @@
 #include "sensors/ultrasound_model.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <exception>
 #include <map>
 #include <numbers>
 #include <random>
 #include <stdexcept>
 #include <string>
+#include <thread>
 
 #include "scene/authoring_error.h"
 
@@ -110,10 +113,10 @@ std::mt19937_64 seeded(const scene::UltrasoundTissue& t, scene::EntityId e) {
   return std::mt19937_64(uint64_t(t.seed) * 0x9E3779B97F4A7C15ull + e + 1);
 }
 
-// Scatterers [first, end) put in Morton order of 32^3 cells over their box (lo, extent): threads
+// Scatterers put in Morton order of 32^3 cells over their box (lo, extent): threads
 // that run together then deposit to nearby accumulator bins, which keeps the atomics in cache.
 // Sums are exact integers, so the order changes no image.
-void sort_by_cell(std::vector<shader::float4>& s, size_t first, const scene::Vec3& lo, const scene::Vec3& extent) {
+void sort_by_cell(std::vector<shader::float4>& s, const scene::Vec3& lo, const scene::Vec3& extent) {
   constexpr uint32_t kSide = 32;
   auto key = [&](const shader::float4& q) {
     const float p[3] = {q.x, q.y, q.z};
@@ -125,15 +128,15 @@ void sort_by_cell(std::vector<shader::float4>& s, size_t first, const scene::Vec
     return code;
   };
   std::vector<uint64_t> start(kSide * kSide * kSide + 1, 0);
-  for (size_t i = first; i < s.size(); ++i) ++start[key(s[i]) + 1];
+  for (const auto& q : s) ++start[key(q) + 1];
   for (size_t k = 1; k < start.size(); ++k) start[k] += start[k - 1];
-  std::vector<shader::float4> sorted(s.size() - first);
-  for (size_t i = first; i < s.size(); ++i) sorted[start[key(s[i])]++] = s[i];
-  std::copy(sorted.begin(), sorted.end(), s.begin() + first);
+  std::vector<shader::float4> sorted(s.size());
+  for (const auto& q : s) sorted[start[key(q)]++] = q;
+  s.swap(sorted);
 }
 
-// rigid carrier: uniform in the region, in the entity frame, posed by the entity's row
-void generate(const scene::World& world, scene::EntityId e, uint32_t row, uint32_t tissue, UltrasoundModel& m) {
+// rigid carrier: uniform in the region, in the entity frame (posed by the entity's row)
+std::vector<shader::float4> generate(const scene::World& world, scene::EntityId e) {
   const auto& t = world.get<scene::UltrasoundTissue>(e);
   scene::Vec3 half = t.size;  // bounding box half extents of the region
   float volume = 0;
@@ -150,19 +153,53 @@ void generate(const scene::World& world, scene::EntityId e, uint32_t row, uint32
   auto rng = seeded(t, e);
   std::uniform_real_distribution<float> uni(-1, 1);
   std::normal_distribution<float> amp(t.amplitude_mean, t.amplitude_std);
-  const size_t first = m.scatterers.size();
-  for (uint64_t made = 0; made < uint64_t(std::llround(wanted));) {
+  std::vector<shader::float4> made;
+  made.reserve(size_t(std::llround(wanted)));
+  for (uint64_t drawn = 0; drawn < uint64_t(std::llround(wanted));) {
     const scene::Vec3 q{half[0] * uni(rng), half[1] * uni(rng), half[2] * uni(rng)};
     if (!inside(t, q)) continue;  // rejection keeps the density uniform in the region
-    ++made;
+    ++drawn;
     const scene::Vec3 p{t.center[0] + q[0], t.center[1] + q[1], t.center[2] + q[2]};
     const float a = amplitude(t, p, amp, rng);
     if (a == 0) continue;  // anechoic: nothing to trace
-    m.scatterers.push_back({p[0], p[1], p[2], a});
-    m.scatterer_carrier.push_back({row, tissue});
+    made.push_back({p[0], p[1], p[2], a});
   }
   const scene::Vec3 lo{t.center[0] - half[0], t.center[1] - half[1], t.center[2] - half[2]};
-  sort_by_cell(m.scatterers, first, lo, {2 * half[0], 2 * half[1], 2 * half[2]});
+  sort_by_cell(made, lo, {2 * half[0], 2 * half[1], 2 * half[2]});
+  return made;
+}
+
+// every rigid tissue's scatterers (entities in row order), drawn on all cores: each tissue has
+// its own random stream, so the result does not depend on the threads
+std::map<scene::EntityId, std::vector<shader::float4>> generate_rigid(const scene::World& world,
+                                                                      const scene::LayoutMapping& mapping) {
+  std::vector<scene::EntityId> tissues;
+  for (uint32_t row = 0; row < mapping.row_entity.size(); ++row) {
+    const scene::EntityId e = mapping.row_entity[row];
+    if (world.has<scene::UltrasoundTissue>(e) && !world.has<scene::SoftBody>(e)) tissues.push_back(e);
+  }
+  std::vector<std::vector<shader::float4>> made(tissues.size());
+  std::vector<std::exception_ptr> errors(tissues.size());
+  std::atomic<size_t> next{0};
+  auto work = [&] {
+    for (size_t i; (i = next++) < tissues.size();) {
+      try {
+        made[i] = generate(world, tissues[i]);
+      } catch (...) {
+        errors[i] = std::current_exception();
+      }
+    }
+  };
+  const size_t cores = std::max(1u, std::thread::hardware_concurrency());
+  std::vector<std::thread> workers(std::min(cores, tissues.size()));
+  for (auto& w : workers) w = std::thread(work);
+  for (auto& w : workers) w.join();
+  std::map<scene::EntityId, std::vector<shader::float4>> out;
+  for (size_t i = 0; i < tissues.size(); ++i) {
+    if (errors[i]) std::rethrow_exception(errors[i]);
+    out[tissues[i]] = std::move(made[i]);
+  }
+  return out;
 }
 
 // the soft body's first particle in the particle model
@@ -354,6 +391,7 @@ UltrasoundModel build_ultrasound_model(const scene::World& world, const scene::L
                                        const physics::ParticleModel& particles) {
   UltrasoundModel m;
   m.env_scatterers.assign(mapping.num_envs, {0, 0});
+  auto rigid = generate_rigid(world, mapping);
   static_assert(uint32_t(scene::RegionKind::BOX) == shader::ULTRASOUND_BOX &&
                 uint32_t(scene::RegionKind::SPHERE) == shader::ULTRASOUND_SPHERE &&
                 uint32_t(scene::RegionKind::CYLINDER) == shader::ULTRASOUND_CYLINDER);
@@ -367,7 +405,10 @@ UltrasoundModel build_ultrasound_model(const scene::World& world, const scene::L
         const uint32_t tissue = uint32_t(m.tissue_attenuation.size());
         m.tissue_attenuation.push_back(t.attenuation);
         if (!world.has<scene::SoftBody>(e)) {
-          generate(world, e, row, tissue, m);
+          auto& made = rigid.at(e);
+          m.scatterers.insert(m.scatterers.end(), made.begin(), made.end());
+          m.scatterer_carrier.insert(m.scatterer_carrier.end(), made.size(), {row, tissue});
+          std::vector<shader::float4>().swap(made);
           m.media.push_back({{row, uint32_t(t.region), 0, 0}, {t.center[0], t.center[1], t.center[2], t.impedance},
                              {t.size[0], t.size[1], t.size[2], t.attenuation}});
         } else if (world.get<scene::SoftBody>(e).tets.empty()) generate_in_particles(world, e, particles, tissue, m);
