@@ -214,3 +214,4 @@ def test_the_demo_shows_its_cyst_shadow_and_interface(tmp_path):
     assert shadow.mean() < 0.05 and cyst.mean() < 0.05 and beside.mean() > 0.4
     assert interface.min() > 0.95  # the interface echo saturates every column's row
     assert (tmp_path / "ultrasound_boundaries.png").exists()
+    assert engine.validation_enabled and engine.validation_messages == []
