@@ -141,7 +141,7 @@ def test_the_episode_succeeds_once_the_field_is_clear():
     assert env.clear_count == 31 and BloodSuction(1).clear_count == 575  # the default: 95 %
     obs, _ = on_host(env.reset())
     for step in range(60):
-        before = env.removed().clone()
+        before = env.removed().cpu()  # the env's device (cuda on the GPU machine)
         obs, reward, terminated, truncated, info = on_host(env.step(toward_blood(obs[:, :13], [[1.0], [-1.0]])))
         if terminated.any():
             break
@@ -205,7 +205,7 @@ def test_the_policy_trained_on_the_gpu_clears_the_blood_here():
     removed = torch.zeros(2)
     ended = torch.zeros(2, dtype=torch.bool)
     for step in range(240):
-        before = env.removed().clone()
+        before = env.removed().cpu()  # the env's device (cuda on the GPU machine)
         obs, reward, terminated, truncated, _ = on_host(env.step(policy(obs)))
         live = ~ended
         removed[live] = torch.where(terminated[live], torch.full_like(removed[live], 575.0), before[live].float())
