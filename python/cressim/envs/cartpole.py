@@ -21,7 +21,7 @@ import numpy as np
 
 import cressim
 
-from .vector_env import Space, VectorEnv
+from .vector_env import box, VectorEnv
 
 RAIL = (2.5, 0.04, 0.04)
 CART = (0.18, 0.1, 0.1)
@@ -30,8 +30,8 @@ POLE = (0.05, 0.05, 0.5)
 
 class CartPole(VectorEnv):
     hlsl = Path(__file__).with_name("cartpole.hlsl")
-    observation_space = Space((4,))
-    action_space = Space((1,), -1.0, 1.0)
+    single_observation_space = box((4,))
+    single_action_space = box((1,), -1.0, 1.0)
     max_episode_steps = 500
     action_scale = 8.0
     max_x = 2.4

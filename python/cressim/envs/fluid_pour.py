@@ -23,7 +23,7 @@ import numpy as np
 import cressim
 
 from .particle_task import ParticleTask
-from .vector_env import Space
+from .vector_env import box
 
 INNER = (1.15, 0.80, 0.95)  # half extents x, y, and half height
 WALL = 0.12  # half thickness
@@ -46,8 +46,8 @@ def open_box_shapes():
 
 class FluidPour(ParticleTask):
     hlsl = Path(__file__).with_name("fluid_pour.hlsl")
-    observation_space = Space((6,))
-    action_space = Space((2,), -1.0, 1.0)
+    single_observation_space = box((6,))
+    single_action_space = box((2,), -1.0, 1.0)
     max_episode_steps = 240
     particle_iterations = 4
     spill_penalty = 1.0

@@ -24,7 +24,7 @@ from pathlib import Path
 import cressim
 
 from .particle_task import ParticleTask
-from .vector_env import Space
+from .vector_env import box
 
 GROUND = (1.25, 0.85, 0.05)
 CUBE_HALF = 0.225
@@ -34,8 +34,8 @@ TARGET = (0.45, 0.0, 0.18, 0.18, 0.3)  # centre x, y; half extents x, y, z
 
 class SoftBodyPush(ParticleTask):
     hlsl = Path(__file__).with_name("soft_body_push.hlsl")
-    observation_space = Space((5,))
-    action_space = Space((2,), -1.0, 1.0)
+    single_observation_space = box((5,))
+    single_action_space = box((2,), -1.0, 1.0)
     max_episode_steps = 180
     particle_iterations = 32
     contact_iterations = 16

@@ -67,7 +67,7 @@ import numpy as np
 import cressim
 from cressim.passes.grasp import Grasp
 
-from .vector_env import Space, VectorEnv, checked_number, tensor_view
+from .vector_env import box, VectorEnv, checked_number, tensor_view
 
 SCENE = "psm_retraction.yaml"  # the twin's scene: its world, the arm's base and the grasp
 FLAP = "flap"  # the scene's entity whose free edge is grasped
@@ -83,8 +83,8 @@ OBSERVATIONS = ("state", "crtk")
 class TissueRetract(VectorEnv):
     hlsl = Path(__file__).with_name("tissue_retract.hlsl")
     entries = ("apply_action", "evaluate", "observe")
-    observation_space = Space((29,))
-    action_space = Space((7,), -1.0, 1.0)
+    single_observation_space = box((29,))
+    single_action_space = box((7,), -1.0, 1.0)
     max_episode_steps = 180
 
     def __init__(self, num_envs: int, *, scene: str = SCENE, observation: str = "state", target_lift: float = 0.02,

@@ -60,7 +60,9 @@ def train(task: str = "CartPole", num_envs: int = 4096, iterations: int = 200, d
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     torch.manual_seed(seed)
-    env = envs.make(task, num_envs=num_envs, device=resolve_device(device), seed=seed, **(task_options or {}))
+    # PPO here bootstraps time-outs from the current value: the final observation is not read
+    env = envs.make(task, num_envs=num_envs, device=resolve_device(device), seed=seed, final_observation=False,
+                    **(task_options or {}))
     venv = CressimVecEnv(env)
     cfg = ppo_config(task, rollout=rollout, **ppo_overrides)
     alg, backend = make_learner(venv, cfg, backend)
