@@ -1,0 +1,102 @@
+"""The tasks as gymnasium 1.x vector envs: registration and make_vec, spaces, the declared autoreset
+mode, and the final observation of every finished env (SAME_STEP), in every task."""
+import math
+
+import gymnasium
+import numpy as np
+import pytest
+import torch
+from gymnasium.envs.registration import load_env_creator
+from gymnasium.spaces import Box
+from gymnasium.vector import AutoresetMode
+
+import cressim.envs
+from cressim.registration import TASKS, env_id
+from envs.on_host import on_host
+
+
+def test_every_task_is_registered_with_its_class():
+    for task in TASKS:
+        spec = gymnasium.spec(env_id(task))
+        assert spec.id == f"cressim/{task}-v0"
+        assert load_env_creator(spec.vector_entry_point) is cressim.envs.REGISTRY[task]
+
+
+def test_make_vec_gives_a_gymnasium_vector_env():
+    env = gymnasium.make_vec("cressim/CartPole-v0", num_envs=4, seed=2)  # keywords go to the task
+    assert isinstance(env, gymnasium.vector.VectorEnv) and isinstance(env, cressim.envs.CartPole)
+    assert env.spec.id == "cressim/CartPole-v0" and env.num_envs == 4 and env.seed == 2
+    assert env.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP
+    assert env.single_observation_space == Box(-np.inf, np.inf, (4,), np.float32)
+    assert env.single_action_space == Box(-1.0, 1.0, (1,), np.float32)
+    assert env.observation_space.shape == (4, 4) and env.action_space.shape == (4, 1)
+    obs, info = env.reset(seed=5)
+    assert obs.shape == (4, 4) and "final_obs" not in info
+    obs, reward, terminated, truncated, info = env.step(env.action_space.sample())  # a numpy batch
+    assert obs.shape == (4, 4) and reward.shape == terminated.shape == truncated.shape == (4,)
+    assert info["final_obs"].shape == (4, 4) and info["_final_obs"].dtype == torch.bool
+    assert env.engine.validation_messages == []
+    env.close()
+    assert env.closed and env.engine is None
+
+
+def test_bad_actions_and_arguments_are_refused_by_name():
+    env = cressim.envs.make("CartPole", num_envs=2)
+    with pytest.raises(ValueError, match=r"CartPole.step: actions of shape \(3, 1\), expected \(2, 1\)"):
+        env.step(torch.zeros(3, 1))
+    with pytest.raises(ValueError, match="CartPole.reset: seed"):
+        env.reset(seed=-1)
+    with pytest.raises(ValueError, match="CartPole.reset: options"):
+        env.reset(options={"x": 1})
+    with pytest.raises(ValueError, match="CartPole: final_observation"):
+        cressim.envs.make("CartPole", num_envs=2, final_observation="yes")
+
+
+def test_final_observation_is_the_state_that_ended_the_episode():
+    env = cressim.envs.make("CartPole", num_envs=16, seed=0)
+    obs, _ = env.reset()
+    last, ended = obs.clone(), 0
+    for _ in range(150):
+        obs, reward, terminated, truncated, info = on_host(env.step(torch.zeros(16, 1)))
+        done = terminated | truncated
+        assert torch.equal(info["_final_obs"], done) and torch.equal(info["_final_info"], done)
+        final = info["final_obs"]
+        assert torch.equal(final[~done], obs[~done])  # an env that goes on: its observation, before and after
+        if done.any():
+            f = final[done]
+            assert torch.all((f[:, 0].abs() > 2.4) | (f[:, 2].abs() > math.radians(12)))  # what ended it
+            assert torch.all((f - last[done]).abs() < 0.5)  # one step on from its last observation
+            assert torch.all(obs[done].abs() <= 0.05 + 1e-6)  # the returned one: the next episode's start
+            assert torch.equal(info["final_info"]["episode_length"][done], info["finished_length"][done])
+            ended += int(done.sum())
+        last = obs.clone()
+    assert ended >= 16
+    assert env.engine.validation_messages == []
+
+
+def _short(task: str, steps: int):
+    """The task with episodes of `steps` steps (its truncation), so that they end within a test."""
+    return type(f"{task}{steps}", (cressim.envs.REGISTRY[task],), {"max_episode_steps": steps})
+
+
+@pytest.mark.parametrize("task", ["SoftBodyPush", "FluidPour", "TargetCenter", "UltrasoundScan", "TissueRetract",
+                                  "BloodSuction"])
+def test_final_observation_is_what_a_longer_episode_shows_at_that_step(task):
+    # the same seed and actions: episodes of 3 steps end where episodes of 4 go on, and the final
+    # observation of the first must be the observation of the second at step 3 (images, frame
+    # stacks and task state included); the second skips the final observation
+    short = _short(task, 3)(1, seed=4)
+    long = _short(task, 4)(1, seed=4, final_observation=False)
+    short.reset(), long.reset()
+    actions = torch.rand(3, *short.actions.shape, generator=torch.Generator().manual_seed(1)) * 2 - 1
+    for t in range(3):
+        s_obs, _, _, s_truncated, s_info = on_host(short.step(actions[t].to(short.device)))
+        l_obs, _, _, l_truncated, l_info = on_host(long.step(actions[t].to(long.device)))
+        assert "final_obs" not in l_info and not l_truncated.any()
+    assert s_truncated.all() and s_info["_final_obs"].all()
+    final, expected = s_info["final_obs"], l_obs
+    if task == "BloodSuction":  # its value 12, the elapsed share, is steps / max_episode_steps
+        final, expected = final[:, torch.arange(final.shape[1]) != 12], expected[:, torch.arange(final.shape[1]) != 12]
+    assert torch.equal(final, expected)
+    assert not torch.equal(s_obs, s_info["final_obs"])  # the returned observation is the next episode's
+    assert short.engine.validation_messages == [] and long.engine.validation_messages == []
