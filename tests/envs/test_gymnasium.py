@@ -40,6 +40,26 @@ def test_make_vec_gives_a_gymnasium_vector_env():
     assert env.closed and env.engine is None
 
 
+def test_gymnasiums_own_vector_wrappers_read_the_same_step_episodes():
+    # numpy for numpy users (gymnasium's conversion), and its episode statistics, which follow the
+    # autoreset mode the env declares: each episode's length as the task counts it
+    from gymnasium.wrappers.vector import ArrayConversion, RecordEpisodeStatistics
+
+    env = RecordEpisodeStatistics(ArrayConversion(gymnasium.make_vec("cressim/CartPole-v0", num_envs=8, seed=1),
+                                                  env_xp=torch, target_xp=np))
+    obs, _ = env.reset(seed=1)
+    assert isinstance(obs, np.ndarray) and obs.shape == (8, 4)
+    lengths = []
+    for _ in range(120):
+        obs, reward, terminated, truncated, info = env.step(np.zeros((8, 1), np.float32))
+        assert isinstance(reward, np.ndarray) and isinstance(info["final_obs"], np.ndarray)
+        if "episode" in info:
+            done = info["_episode"]
+            assert np.array_equal(info["episode"]["l"][done], info["finished_length"][done])
+            lengths += info["finished_length"][done].tolist()
+    assert len(lengths) >= 8 and list(env.length_queue) == lengths[-100:]
+
+
 def test_bad_actions_and_arguments_are_refused_by_name():
     env = cressim.envs.make("CartPole", num_envs=2)
     with pytest.raises(ValueError, match=r"CartPole.step: actions of shape \(3, 1\), expected \(2, 1\)"):
