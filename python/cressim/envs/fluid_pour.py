@@ -52,6 +52,7 @@ class FluidPour(ParticleTask):
     particle_iterations = 4
     spill_penalty = 1.0
     success_fraction = 0.40
+    video_view = ((0.0, -7.5, 3.5), (0.0, 0.0, 1.0))
 
     def build_world(self, num_envs: int) -> cressim.World:
         world = cressim.World(cressim.SceneLayout(num_envs))

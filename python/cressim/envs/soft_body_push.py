@@ -43,11 +43,15 @@ class SoftBodyPush(ParticleTask):
     pusher_speed = 1.0  # m/s per unit action
     success_occupancy = 0.7
     pusher_start = (-0.6, 0.0)  # x, y
+    video_view = ((0.0, -2.6, 1.6), (0.1, 0.0, 0.2))
 
     def build_world(self, num_envs: int) -> cressim.World:
         world = cressim.World(cressim.SceneLayout(num_envs))
         mesh = cressim.TetMesh.box((CUBE_HALF,) * 3, (self.cells,) * 3)
         self.particles_per_env = len(mesh.positions)
+        if self.render_mode is not None:  # visuals in the envs render() shows; the pusher as its bounding box
+            ground_mesh = world.add_mesh(cressim.Mesh.box(GROUND))
+            pusher_mesh = world.add_mesh(cressim.Mesh.box((PUSHER[0], PUSHER[0], PUSHER[1] + PUSHER[0])))
         for env in range(num_envs):
             ground = world.create_entity(env=env, name="ground")
             ground.add(cressim.Transform(position=(0, 0, -GROUND[2])))
@@ -56,6 +60,9 @@ class SoftBodyPush(ParticleTask):
             pusher.add(cressim.Transform(position=(*self.pusher_start, PUSHER[1] + PUSHER[0] + 0.01)))
             pusher.add(cressim.RigidBody(kinematic=True))
             pusher.add(cressim.Collider(cressim.Shape.capsule(*PUSHER)))
+            if self.rendered(env):
+                ground.add(cressim.Renderable(ground_mesh, color=(0.4, 0.45, 0.4, 1)))
+                pusher.add(cressim.Renderable(pusher_mesh, color=(0.2, 0.35, 0.75, 1)))
             cube = world.create_entity(env=env, name="cube")
             cube.add(cressim.Transform(position=(0, 0, CUBE_HALF + 0.04)))
             cube.add(cressim.SoftBody(mesh, mass=0.01, radius=0.04, distance_compliance=8e-4, volume_compliance=8e-4,

@@ -86,6 +86,7 @@ class TissueRetract(VectorEnv):
     single_observation_space = box((29,))
     single_action_space = box((7,), -1.0, 1.0)
     max_episode_steps = 180
+    video_view = ((0.07, -0.1, 0.23), (0.0, -0.005, 0.16))  # the twin's camera
 
     def __init__(self, num_envs: int, *, scene: str = SCENE, observation: str = "state", target_lift: float = 0.02,
                  grasp_reach: float | None = None, absorbing_success: bool = False, **kwargs):

@@ -52,6 +52,7 @@ class UltrasoundScan(VectorEnv):
     success = 0.06
     start_range = 0.15
     density = 1e6
+    video_view = ((0.6, -1.2, 0.7), (0.0, 0.0, 0.0))
 
     def __init__(self, num_envs: int, **kwargs):
         super().__init__(num_envs, **kwargs)

@@ -66,22 +66,44 @@ class VectorEnv(gymnasium.vector.VectorEnv):
     single_observation_space: Box
     single_action_space: Box
     max_episode_steps: int
+    # render_mode="rgb_array": the video camera's eye and target (m, z up) in each rendered env, or
+    # (own_cameras) the task's own camera in every env is what render() shows
+    video_view: tuple = ((0.0, -3.0, 2.0), (0.0, 0.0, 0.0))
+    own_cameras = False
 
     def __init__(self, num_envs: int, *, device: str | torch.device | None = None, seed: int = 0,
                  validation: bool | None = None, vulkan_device: str | None = None, cuda_sync: str = "semaphore",
-                 final_observation: bool = True):
+                 final_observation: bool = True, render_mode: str | None = None, render_envs=(0,),
+                 render_size: tuple = (320, 240)):
         """`final_observation`: each step also observes every env before its reset (for
         `info["final_obs"]`); off, a step skips that observe pass and, in image tasks, a second
-        render (learners that never read the final observation: `cressim train`, `cressim bench`)."""
+        render (learners that never read the final observation: `cressim train`, `cressim bench`).
+        `render_mode="rgb_array"`: `render()` returns the images of the envs `render_envs` after
+        each step, from a camera (`render_size`, width and height) added to those envs only, or
+        from the task's own cameras."""
+        name = type(self).__name__
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
-            raise ValueError(f"{type(self).__name__}: num_envs must be a positive integer, got {num_envs!r}")
+            raise ValueError(f"{name}: num_envs must be a positive integer, got {num_envs!r}")
         if not isinstance(final_observation, bool):
-            raise ValueError(f"{type(self).__name__}: final_observation must be True or False, got {final_observation!r}")
+            raise ValueError(f"{name}: final_observation must be True or False, got {final_observation!r}")
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"{name}: render_mode must be None or 'rgb_array', got {render_mode!r}")
+        envs = list(render_envs) if isinstance(render_envs, (list, tuple, range)) else None
+        if (not envs or len(set(envs)) != len(envs)
+                or not all(isinstance(i, (int, np.integer)) and 0 <= i < num_envs for i in envs)):
+            raise ValueError(f"{name}: render_envs must be distinct env indices in [0, {num_envs}), got {render_envs!r}")
+        if (not isinstance(render_size, (list, tuple)) or len(render_size) != 2
+                or not all(isinstance(v, (int, np.integer)) and 16 <= v <= 4096 and v % 2 == 0 for v in render_size)):
+            raise ValueError(f"{name}: render_size must be (width, height), even integers in [16, 4096] "
+                             f"(video frames), got {render_size!r}")
         self.num_envs = int(num_envs)
         self.final_observation = final_observation
+        self.render_mode, self.render_envs, self.render_size = render_mode, [int(i) for i in envs], tuple(render_size)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         world = self.build_world(self.num_envs)
+        if render_mode is not None and not self.own_cameras:
+            self._add_video_cameras(world)
         self.engine = cressim.Engine(world, validation=validation, device=vulkan_device)
         self.engine.physics = self.physics_settings()
         self.engine.prepare()
@@ -106,6 +128,7 @@ class VectorEnv(gymnasium.vector.VectorEnv):
         self.episode_length = tensor_view(self.buffers.episode_length, self.device)
         self.finished_length = tensor_view(self.buffers.finished_length, self.device)
         self.health = tensor_view(self.engine.buffer("env.health"), self.device).view(torch.int32)
+        self._video = self._video_cameras() if render_mode is not None else []
 
     # --- what a task provides -------------------------------------------------------------
     def build_world(self, num_envs: int) -> cressim.World:
@@ -167,13 +190,51 @@ class VectorEnv(gymnasium.vector.VectorEnv):
                         final_info={"episode_length": self.finished_length, "_episode_length": done})
         return self.obs, self.reward, self.terminated, self.truncated, info
 
+    def render(self) -> np.ndarray | None:
+        """With render_mode="rgb_array": the last step's images of `render_envs`, (envs, H, W, 3)
+        uint8 on the host; else None."""
+        if self.render_mode is None:
+            return None
+        return np.stack([image[..., :3].cpu().numpy() for image in self._video])
+
+    def rendered(self, env: int) -> bool:
+        """Whether env `env` is drawn for render() (a task gives its bodies visuals there)."""
+        return self.render_mode is not None and env in self.render_envs
+
     def close_extras(self, **kwargs):
         self.engine = None
+        self._video = []
 
     # --- internals ---------------------------------------------------------------------------
     def _info(self) -> dict:
         return {"episode_length": self.episode_length, "finished_length": self.finished_length,
                 "health": self.health}
+
+    def _add_video_cameras(self, world: cressim.World):
+        """A camera (looking from video_view's eye at its target) and a light in each rendered env."""
+        from cressim.scene_file import _quat_look_at
+
+        eye, target = self.video_view
+        width, height = self.render_size
+        for env in self.render_envs:
+            camera = world.create_entity(env=env, name="video_camera")
+            camera.add(cressim.Transform(position=eye, rotation=_quat_look_at(eye, target)))
+            camera.add(cressim.Camera(width=width, height=height, fov_y=45.0, products=["rgb"]))
+            light = world.create_entity(env=env, name="video_light")
+            light.add(cressim.Transform(rotation=(0.2, 0.1, 0.0, 0.97)))  # mostly downwards
+            light.add(cressim.Light(intensity=1.0, ambient=0.35))
+
+    def _video_cameras(self) -> list:
+        """Each rendered env's image, a view of its camera's layer (RGBA)."""
+        cams = self.engine.cameras
+        views = []
+        for env in self.render_envs:
+            rows = np.flatnonzero(cams["env"] == env)
+            if not len(rows):
+                raise RuntimeError(f"{type(self).__name__}: env {env} has no camera to render")
+            group, layer = int(cams["group"][rows[0]]), int(cams["layer"][rows[0]])
+            views.append(tensor_view(self.engine.buffer(f"camera{group}.rgb"), self.device)[layer])  # (H, W, 4) uint8
+        return views
 
     def _set_seed(self, seed: int):
         for key in ("evaluate", "evaluate_reset_all"):
@@ -256,6 +317,8 @@ class VectorEnv(gymnasium.vector.VectorEnv):
         e.reset_flagged_envs()
         self.sense()
         self.observe()
+        if self.render_mode is not None and not self.own_cameras:  # the video cameras
+            e.step_visual_sensors()
         e.end_frame()
 
 
