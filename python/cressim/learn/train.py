@@ -14,6 +14,7 @@ from .learner import make_learner
 from .plot import plot_training
 from .rollout import EpisodeStats, resolve_device, run_update, sync
 from .vec_env import CressimVecEnv
+from .video import EnvVideo
 
 
 def _progress(total: int, enabled: bool):
@@ -47,13 +48,14 @@ def _fmt(x: float) -> str:
 
 def train(task: str = "CartPole", num_envs: int = 4096, iterations: int = 200, device=None, seed: int = 0,
           out_dir="runs/cartpole", *, rollout: int | None = None, save_every: int = 50, backend: str = "auto",
-          progress: bool = True, task_options: dict | None = None, **ppo_overrides) -> dict:
+          progress: bool = True, task_options: dict | None = None, video_envs=None, **ppo_overrides) -> dict:
     """Trains a PPO policy; returns a summary with the per-update history.
 
     device: the env's torch device (None: what the env picks, cuda where Vulkan shares memory
     with CUDA, else cpu); the learner runs there too. rollout and `ppo_overrides` (fields of
     PPOConfig) override TASKS.md's settings, e.g. for a short smoke run. task_options: keywords
-    of the task's constructor (TissueRetract's observation="crtk").
+    of the task's constructor (TissueRetract's observation="crtk"). video_envs: env indices whose
+    rollout in each checkpoint's update is written as `video_<k>_env<i>.mp4` (PyAV).
     """
     from cressim import envs
 
@@ -61,8 +63,10 @@ def train(task: str = "CartPole", num_envs: int = 4096, iterations: int = 200, d
     out.mkdir(parents=True, exist_ok=True)
     torch.manual_seed(seed)
     # PPO here bootstraps time-outs from the current value: the final observation is not read
+    rendering = {} if video_envs is None else {"render_mode": "rgb_array", "render_envs": tuple(video_envs)}
     env = envs.make(task, num_envs=num_envs, device=resolve_device(device), seed=seed, final_observation=False,
-                    **(task_options or {}))
+                    **rendering, **(task_options or {}))
+    video = EnvVideo(env) if video_envs is not None else None
     venv = CressimVecEnv(env)
     cfg = ppo_config(task, rollout=rollout, **ppo_overrides)
     alg, backend = make_learner(venv, cfg, backend)
@@ -87,7 +91,9 @@ def train(task: str = "CartPole", num_envs: int = 4096, iterations: int = 200, d
     checkpoint = None
     for it in range(1, iterations + 1):
         t0 = time.perf_counter()
-        losses = run_update(venv, alg, cfg.rollout, stats)
+        checkpointed = it % save_every == 0 or it == iterations
+        filming = video is not None and checkpointed
+        losses = run_update(venv, alg, cfg.rollout, stats, after_step=video.capture if filming else None)
         sync(env.device)
         dt = time.perf_counter() - t0
         rec = {"iteration": it, "env_steps": it * num_envs * cfg.rollout, **stats.pop(), **losses,
@@ -97,8 +103,10 @@ def train(task: str = "CartPole", num_envs: int = 4096, iterations: int = 200, d
                          "term": _fmt(rec["terminated"]),
                          "sps": f"{rec['steps_per_s']:,.0f}"})
         bar.update(1)
-        if it % save_every == 0 or it == iterations:
+        if checkpointed:
             checkpoint = save(it)
+            if filming:
+                video.write(out / f"video_{it}")
             (out / "metrics.json").write_text(json.dumps({**meta, "history": history}, indent=1))  # so far
     bar.close()
     plot = plot_training(history, out / "training.png", f"PPO ({backend}) {task}, {num_envs} envs")
