@@ -14,18 +14,19 @@ from .target_center import TargetCenter
 from .tissue_retract import TissueRetract
 from .ultrasound_scan import UltrasoundScan
 from .vector_env import VectorEnv, box
-from ..registration import TASKS
+from ..registration import TASKS, env_id
 
 REGISTRY = {name: globals()[name] for name in TASKS}
 
 
 def make(name: str, num_envs: int, **kwargs) -> VectorEnv:
-    """Creates the task `name` with `num_envs` envs; keyword options go to the task."""
-    try:
-        task = REGISTRY[name]
-    except KeyError:
-        raise KeyError(f"unknown task {name!r}; tasks: {', '.join(sorted(REGISTRY))}") from None
-    return task(num_envs, **kwargs)
+    """Creates the task `name` with `num_envs` envs through gymnasium's registry (its `spec` set, as
+    `gymnasium.make_vec("cressim/<name>-v0", num_envs)` would); keyword options go to the task."""
+    import gymnasium
+
+    if name not in REGISTRY:
+        raise KeyError(f"unknown task {name!r}; tasks: {', '.join(sorted(REGISTRY))}")
+    return gymnasium.make_vec(env_id(name), num_envs=num_envs, **kwargs)
 
 
 __all__ = ["BloodSuction", "CartPole", "FluidPour", "REGISTRY", "SoftBodyPush", "TargetCenter",
