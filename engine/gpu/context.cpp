@@ -112,7 +112,9 @@ std::vector<VkPhysicalDevice> physical_devices(VkInstance instance) {
 }
 
 DeviceInfo describe(VkPhysicalDevice pd, uint32_t index) {
+  VkPhysicalDeviceIDProperties ids{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ID_PROPERTIES};
   VkPhysicalDeviceDriverProperties driver{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES};
+  driver.pNext = &ids;
   VkPhysicalDeviceProperties2 p2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2};
   p2.pNext = &driver;
   vkGetPhysicalDeviceProperties2(pd, &p2);
@@ -122,6 +124,8 @@ DeviceInfo describe(VkPhysicalDevice pd, uint32_t index) {
   info.type = type_name(p2.properties.deviceType);
   info.api_version = p2.properties.apiVersion;
   info.driver = std::string(driver.driverName) + " " + driver.driverInfo;
+  static const char* hex = "0123456789abcdef";
+  for (uint8_t b : ids.deviceUUID) info.uuid += {hex[b >> 4], hex[b & 15]};
   return info;
 }
 

@@ -16,6 +16,7 @@ struct DeviceInfo {
   std::string type;  // "discrete", "integrated", "virtual", "cpu", "other"
   uint32_t api_version = 0;
   std::string driver;
+  std::string uuid;  // 32 hex digits: the CUDA device of the same GPU has the same (cuDeviceGetUuid)
 };
 
 struct ContextOptions {

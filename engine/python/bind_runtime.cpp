@@ -32,6 +32,7 @@ py::dict device_dict(const gpu::Context& c) {
                 std::to_string(VK_API_VERSION_MINOR(c.info.api_version)) + "." +
                 std::to_string(VK_API_VERSION_PATCH(c.info.api_version));
   d["driver"] = c.info.driver;
+  d["uuid"] = c.info.uuid;
   d["subgroup_size"] = c.subgroup_size;
   d["max_storage_buffer_range"] = c.properties.limits.maxStorageBufferRange;
   d["max_compute_work_group_count"] = std::vector<uint32_t>(c.properties.limits.maxComputeWorkGroupCount,
@@ -102,6 +103,7 @@ void bind_runtime(py::module_& m) {
       e["vulkan"] = std::to_string(VK_API_VERSION_MAJOR(d.api_version)) + "." +
                     std::to_string(VK_API_VERSION_MINOR(d.api_version));
       e["driver"] = d.driver;
+      e["uuid"] = d.uuid;
       out.append(e);
     }
     return out;

@@ -1,8 +1,9 @@
-"""The `cressim` command line: `cressim info`, `cressim demo`, `cressim render`, `cressim train`, `cressim bench`."""
+"""The `cressim` command line: `cressim info`, `demo`, `render`, `train`, `eval`, `generate`, `bench`."""
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -83,16 +84,48 @@ def _env_list(text: str) -> list:
         return [int(v) for v in text.split(",")]
     except ValueError:
         raise SystemExit(f"--video-envs {text!r}: expected comma-separated env indices (e.g. 0,3)") from None
+def _torchrun(nproc: int, argv: list[str]) -> int:
+    """`cressim ARGV` in `nproc` processes on this host, started by torchrun (torch.distributed.run)."""
+    import subprocess
+
+    command = [sys.executable, "-m", "torch.distributed.run", "--standalone", f"--nproc-per-node={nproc}",
+               "-m", "cressim", *argv]
+    return subprocess.run(command).returncode
+
+
+def _leader() -> bool:
+    """Rank 0 of a torchrun launch, or the only process: the one that reports."""
+    return os.environ.get("RANK", "0") == "0"
+
+
+def _without_nproc(argv: list[str]) -> list[str]:
+    out, skip = [], False
+    for a in argv:
+        if skip:
+            skip = False
+        elif a == "--nproc":
+            skip = True
+        elif not a.startswith("--nproc="):
+            out.append(a)
+    return out
 
 
 def _train(args: argparse.Namespace) -> int:
     from cressim.learn import train
+    from cressim.learn.distributed import launched
+
+    if args.nproc < 1:
+        raise SystemExit(f"--nproc {args.nproc}: at least 1 process")
+    if args.nproc > 1 and not launched():
+        return _torchrun(args.nproc, _without_nproc(args.argv))
 
     result = train(args.task, num_envs=args.envs, iterations=args.iterations, device=args.device, seed=args.seed,
                    out_dir=args.out or f"runs/{args.task.lower()}", rollout=args.rollout, save_every=args.save_every,
                    backend=args.backend, minibatch=args.minibatch, task_options=_task_options(args.task_option),
                    obs_normalization=args.obs_normalization or None,
                    video_envs=_env_list(args.video_envs) if args.video else None)
+    if not _leader():
+        return 0
     last = result["history"][-1]
     print(f"done in {result['wall_s']:.1f} s ({result['backend']}): {last['env_steps']:,} env steps, "
           f"mean episode length {last['mean_length']:.1f}, return {last['mean_return']:.1f}, "
@@ -115,6 +148,22 @@ def _eval(args: argparse.Namespace) -> int:
     if args.json:
         Path(args.json).parent.mkdir(parents=True, exist_ok=True)
         Path(args.json).write_text(json.dumps(result, indent=1))
+    return 0
+
+
+def _generate(args: argparse.Namespace) -> int:
+    from cressim.learn.distributed import launched
+    from cressim.record.rollouts import generate
+
+    if args.nproc < 1:
+        raise SystemExit(f"--nproc {args.nproc}: at least 1 process")
+    if args.nproc > 1 and not launched():
+        return _torchrun(args.nproc, _without_nproc(args.argv))
+    index = generate(args.task, args.envs, args.steps, args.out, policy=args.policy, seed=args.seed,
+                     task_options=_task_options(args.task_option), device=args.device)
+    if _leader():
+        print(f"{args.out}/index.json: {index['steps']} steps of {index['num_envs']} envs of {args.task} "
+              f"in {len(index['shards'])} shard(s)")
     return 0
 
 
@@ -165,12 +214,28 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--minibatch", type=int, help="samples per minibatch (default: the paper's, 2048 for CartPole)")
     p.add_argument("--task-option", action="append", metavar="KEY=VALUE",
                    help="a keyword of the task's constructor, e.g. observation=crtk (repeatable)")
+    p.add_argument("--nproc", type=int, default=1,
+                   help="processes (one a GPU) under torch.distributed, --envs split among them; "
+                        "runs torchrun, as `torchrun --nproc-per-node N -m cressim train ...` does")
     p.add_argument("--obs-normalization", action="store_true",
                    help="the observation's numbers by their running mean and std (PPOConfig.obs_normalization)")
     p.add_argument("--video", action="store_true",
                    help="MP4s of the --video-envs in each checkpoint's rollout (--out/video_<k>_env<i>.mp4, PyAV)")
     p.add_argument("--video-envs", default="0", help="comma-separated env indices filmed (default 0)")
     p.set_defaults(run=_train)
+    p = sub.add_parser("generate", help="record batched rollouts to MCAP bags, one a process, with an index")
+    p.add_argument("task", nargs="?", default="CartPole")
+    p.add_argument("--envs", type=int, default=64, help="envs in all (split among --nproc processes)")
+    p.add_argument("--steps", type=int, default=100, help="steps of every env")
+    p.add_argument("--policy", help="`cressim train`'s policy.pt (mean actions; default: uniform in [-1, 1])")
+    p.add_argument("--out", default="out/rollouts", help="a new folder: shard_<rank>/ bags and index.json")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--device", help="torch device (default: what the env picks; cuda:LOCAL_RANK under torchrun)")
+    p.add_argument("--nproc", type=int, default=1, help="processes (one a GPU) under torch.distributed, as in train")
+    p.add_argument("--task-option", action="append", metavar="KEY=VALUE",
+                   help="a keyword of the task's constructor (repeatable)")
+    p.set_defaults(run=_generate)
+
     p = sub.add_parser("eval", help="a trained policy's mean actions on its task: return, length, success share")
     p.add_argument("checkpoint", help="`cressim train`'s policy.pt or model_<k>.pt (built-in learner)")
     p.add_argument("--envs", type=int, default=64)
@@ -202,7 +267,9 @@ def main(argv: list[str] | None = None) -> int:
             p.set_defaults(run=lambda args, exc=exc: sys.exit(f"cressim {args.command}: needs {exc.name} ({exc})"))
     else:
         register(sub)
+    argv = sys.argv[1:] if argv is None else list(argv)
     args = parser.parse_args(argv)
+    args.argv = argv
     return args.run(args)
 
 

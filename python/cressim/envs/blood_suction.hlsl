@@ -25,6 +25,7 @@ struct Params {
   uint group_envs;       // observe_image: its envs (layers)
   uint pixels;           // observe_image: H W
   uint final_obs;        // observe: 1 in the pass that writes the final observations (before evaluate)
+  uint env_offset;      // env 0's index in the whole batch: a shard draws that batch's numbers (vector_env.py)
 };
 [[vk::push_constant]] ConstantBuffer<Params> pc;
 
@@ -69,7 +70,7 @@ uint pcg_hash(uint v) {
 
 // in [-1, 1): the draw `k` of the env's episode `episode`
 float start_draw(uint env, uint episode, uint k) {
-  return float(pcg_hash(pc.seed ^ pcg_hash(env) ^ pcg_hash(episode * 7919u + 17u + k * 104729u)) >> 8) / 8388608.0 - 1.0;
+  return float(pcg_hash(pc.seed ^ pcg_hash(env + pc.env_offset) ^ pcg_hash(episode * 7919u + 17u + k * 104729u)) >> 8) / 8388608.0 - 1.0;
 }
 
 float3 tip_position(uint env) {

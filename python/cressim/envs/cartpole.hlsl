@@ -11,6 +11,7 @@ struct Params {
   float max_angle;
   float reset_range;   // uniform +-range for x, v, angle, angular velocity at reset
   uint reset_all;      // 1: flag every env (reset())
+  uint env_offset;      // env 0's index in the whole batch: a shard draws that batch's numbers (vector_env.py)
 };
 [[vk::push_constant]] ConstantBuffer<Params> pc;
 
@@ -37,7 +38,7 @@ uint pcg_hash(uint v) {
   return (word >> 22u) ^ word;
 }
 float uniform_pm1(uint env, uint k) {
-  const uint h = pcg_hash(pc.seed ^ pcg_hash(env * 4u + k) ^ pcg_hash(reset_count[env] * 7919u + 17u));
+  const uint h = pcg_hash(pc.seed ^ pcg_hash((env + pc.env_offset) * 4u + k) ^ pcg_hash(reset_count[env] * 7919u + 17u));
   return float(h) * (2.0 / 4294967295.0) - 1.0;
 }
 

@@ -26,6 +26,7 @@ struct Params {
   uint group_envs;       // observe: its envs (layers)
   uint pixels;           // observe: H W
   uint defer_start;      // 1: finished envs begin their next episode in `start`, not in `act`
+  uint env_offset;      // env 0's index in the whole batch: a shard draws that batch's numbers (vector_env.py)
 };
 [[vk::push_constant]] ConstantBuffer<Params> pc;
 
@@ -50,7 +51,7 @@ uint pcg_hash(uint v) {
   return (word >> 22u) ^ word;
 }
 float uniform01(uint env, uint episode, uint k) {
-  return float(pcg_hash(pc.seed ^ pcg_hash(env * 8u + k) ^ pcg_hash(episode * 7919u + 17u))) / 4294967295.0;
+  return float(pcg_hash(pc.seed ^ pcg_hash((env + pc.env_offset) * 8u + k) ^ pcg_hash(episode * 7919u + 17u))) / 4294967295.0;
 }
 
 // the camera looks along +y at yaw = pitch = 0 (optical x = world x, optical y = world -z);

@@ -103,7 +103,7 @@ class TargetCenter(VectorEnv):
                 "tan_half_fov": math.tan(math.radians(self.fov_y / 2)), "success": self.success,
                 "start_offset": self.start_offset, "area_x": 0.4, "area_y0": 0.0, "area_y1": 0.6, "target_z": CUBE,
                 "words_per_env": s * s * 3 // 4, "first_env": 0, "group_envs": self.num_envs, "pixels": s * s,
-                "defer_start": int(self.final_observation)}
+                "defer_start": int(self.final_observation), "env_offset": self.env_offset}
 
     def _create_passes(self) -> dict:
         b = self.buffers

@@ -17,6 +17,7 @@ struct Params {
   float jaw_closed;    // rad
   uint crtk;           // observations from what a CRTK client knows (tissue_retract.py)
   uint absorbing_success;  // success pays for the steps it leaves (tissue_retract.py)
+  uint env_offset;      // env 0's index in the whole batch: a shard draws that batch's numbers (vector_env.py)
 };
 [[vk::push_constant]] ConstantBuffer<Params> pc;
 
@@ -110,7 +111,7 @@ void evaluate(uint3 id : SV_DispatchThreadID) {
   grasps[env] = int4(0, grasps[env].y, 0, 0);  // open
   uint4 s = task_state[env];
   s.y = pc.reset_all != 0 ? 0 : s.y + 1;
-  s.x = target_candidates[pcg_hash(pc.seed ^ pcg_hash(env) ^ pcg_hash(s.y * 7919u + 17u)) % pc.candidates];
+  s.x = target_candidates[pcg_hash(pc.seed ^ pcg_hash(env + pc.env_offset) ^ pcg_hash(s.y * 7919u + 17u)) % pc.candidates];
   task_state[env] = s;
 }
 

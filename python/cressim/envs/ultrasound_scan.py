@@ -68,13 +68,15 @@ class UltrasoundScan(VectorEnv):
             gain=-20.0, time_gain_compensation=0.5 * 3.5 * 2)
 
     def build_world(self, num_envs: int) -> cressim.World:
-        return self.scene(num_envs)
+        return self.scene(num_envs, self.env_offset)
 
     @classmethod
-    def scene(cls, num_envs: int) -> cressim.World:
-        """The task's world without its passes (benchmarks/bench_ultrasound.py images it alone)."""
+    def scene(cls, num_envs: int, env_offset: int = 0) -> cressim.World:
+        """The task's world without its passes (benchmarks/bench_ultrasound.py images it alone);
+        `env_offset` as in VectorEnv (the starts of envs env_offset on of one draw)."""
         world = cressim.World(cressim.SceneLayout(num_envs))
-        starts = np.random.default_rng(12345).uniform(-cls.start_range, cls.start_range, num_envs)
+        starts = np.random.default_rng(12345).uniform(-cls.start_range, cls.start_range,
+                                                      env_offset + num_envs)[env_offset:]
         cyst = cressim.UltrasoundInclusion((0, 0, 0), TARGET_RADIUS, amplitude_scale=0.0)
         mesh = cressim.TetMesh.box((CUBE, CUBE, CUBE), (CELLS, CELLS, CELLS))
         bottom = np.flatnonzero(np.isclose(mesh.positions[:, 2], -CUBE)).tolist()

@@ -74,16 +74,21 @@ class VectorEnv(gymnasium.vector.VectorEnv):
     def __init__(self, num_envs: int, *, device: str | torch.device | None = None, seed: int = 0,
                  validation: bool | None = None, vulkan_device: str | None = None, cuda_sync: str = "semaphore",
                  final_observation: bool = True, render_mode: str | None = None, render_envs=(0,),
-                 render_size: tuple = (320, 240)):
+                 render_size: tuple = (320, 240), env_offset: int = 0):
         """`final_observation`: each step also observes every env before its reset (for
         `info["final_obs"]`); off, a step skips that observe pass and, in image tasks, a second
         render (learners that never read the final observation: `cressim train`, `cressim bench`).
         `render_mode="rgb_array"`: `render()` returns the images of the envs `render_envs` after
         each step, from a camera (`render_size`, width and height) added to those envs only, or
-        from the task's own cameras."""
+        from the task's own cameras. `env_offset`: where env 0 sits in a larger batch that this one
+        is a shard of (one process's part under torch.distributed): env k draws the random numbers
+        of env env_offset + k there, so the shards together run exactly the envs of the one large
+        batch."""
         name = type(self).__name__
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"{name}: num_envs must be a positive integer, got {num_envs!r}")
+        if isinstance(env_offset, bool) or not isinstance(env_offset, (int, np.integer)) or env_offset < 0:
+            raise ValueError(f"{name}: env_offset must be an integer >= 0, got {env_offset!r}")
         if not isinstance(final_observation, bool):
             raise ValueError(f"{name}: final_observation must be True or False, got {final_observation!r}")
         if render_mode not in (None, "rgb_array"):
@@ -96,7 +101,7 @@ class VectorEnv(gymnasium.vector.VectorEnv):
                 or not all(isinstance(v, (int, np.integer)) and 16 <= v <= 4096 and v % 2 == 0 for v in render_size)):
             raise ValueError(f"{name}: render_size must be (width, height), even integers in [16, 4096] "
                              f"(video frames), got {render_size!r}")
-        self.num_envs = int(num_envs)
+        self.num_envs, self.env_offset = int(num_envs), int(env_offset)
         self.final_observation = final_observation
         self.render_mode, self.render_envs, self.render_size = render_mode, [int(i) for i in envs], tuple(render_size)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
@@ -263,21 +268,22 @@ class VectorEnv(gymnasium.vector.VectorEnv):
         common.update(self.task_bindings())
         source = self.hlsl.read_text()
         declared = _declared(source)
+        shard = {"env_offset": self.env_offset} if "env_offset" in declared else {}
         passes = {}
         # named by the file: compiler errors give its path and line, and "episode.hlsli" beside it resolves
         for entry in self.entries:
             if entry == "observe":
                 passes["observe"], passes["observe_final"] = self.observe_passes(
-                    source, entry, self.num_envs, common, self.task_constants(reset_all=False))
+                    source, entry, self.num_envs, common, {**self.task_constants(reset_all=False), **shard})
                 continue
             passes[entry] = self.engine.create_compute_pass(
                 source, name=str(self.hlsl), entry=entry, threads=self.num_envs,
                 bindings={k: v for k, v in common.items() if k in declared},
-                constants=self.task_constants(reset_all=False))
+                constants={**self.task_constants(reset_all=False), **shard})
         passes["evaluate_reset_all"] = self.engine.create_compute_pass(
             source, name=str(self.hlsl), entry="evaluate", threads=self.num_envs,
             bindings={k: v for k, v in common.items() if k in declared},
-            constants=self.task_constants(reset_all=True))
+            constants={**self.task_constants(reset_all=True), **shard})
         return passes
 
     def observe_passes(self, source: str, entry: str, threads: int, bindings: dict, constants: dict,

@@ -18,11 +18,11 @@ class Captured:
     """Calls `fn()` eagerly `warmup` times (on a side stream, so that lazy initialisation of
     cuDNN, cuBLAS and the optimizer's state is done before capture), then captures it once and
     from then on replays the graph and returns the outputs of the captured call. Off CUDA it
-    just calls `fn()`."""
+    just calls `fn()`, as it does where `enabled` is False."""
 
-    def __init__(self, fn: Callable, device: torch.device, warmup: int = 3):
+    def __init__(self, fn: Callable, device: torch.device, warmup: int = 3, enabled: bool = True):
         self.fn, self.warmup = fn, warmup
-        self.enabled = torch.device(device).type == "cuda"
+        self.enabled = enabled and torch.device(device).type == "cuda"
         self.graph, self.outputs, self.calls = None, None, 0
 
     def __call__(self):

@@ -3,8 +3,12 @@ from __future__ import annotations
 
 import contextlib
 import io
+import os
+
+import torch
 
 from .config import PPOConfig
+from .distributed import active
 from .torch_ppo import TorchPPO
 from .vec_env import CressimVecEnv
 
@@ -21,13 +25,16 @@ def rsl_rl_available() -> bool:
 
 
 def rsl_rl_train_cfg(venv: CressimVecEnv, cfg: PPOConfig) -> dict:
-    """The rsl-rl (>= 5) runner configuration for `cfg`."""
+    """The rsl-rl (>= 5) runner configuration for `cfg`; under torch.distributed, rsl-rl's own
+    multi-GPU mode (it all-reduces the gradients itself)."""
+    world = torch.distributed.get_world_size() if active() else 1
     net = {"class_name": "MLPModel", "hidden_dims": list(cfg.hidden), "activation": "tanh",
            "obs_normalization": cfg.obs_normalization}
     return {
         "num_steps_per_env": cfg.rollout,
         "obs_groups": {"actor": ["policy"], "critic": ["policy"]},
-        "multi_gpu": None,
+        "multi_gpu": {"global_rank": torch.distributed.get_rank(), "local_rank": int(os.environ.get("LOCAL_RANK", "0")),
+                      "world_size": world} if world > 1 else None,
         "algorithm": {
             "class_name": "PPO", "num_learning_epochs": cfg.epochs,
             "num_mini_batches": cfg.num_mini_batches(venv.num_envs), "clip_param": cfg.clip, "gamma": cfg.gamma,
@@ -57,5 +64,7 @@ def make_learner(venv: CressimVecEnv, cfg: PPOConfig, backend: str = "auto"):
 
         with contextlib.redirect_stdout(io.StringIO()):  # it prints the models and observation groups
             alg = PPO.construct_algorithm(venv.get_observations(), venv, rsl_rl_train_cfg(venv, cfg), str(venv.device))
+        if active():  # every process starts from rank 0's weights
+            alg.broadcast_parameters()
     alg.train_mode()
     return alg, backend

@@ -7,6 +7,8 @@ import math
 
 import torch
 
+from .distributed import all_sum
+
 
 class EpisodeStats:
     """Lengths (from info["finished_length"]) and returns of the episodes that end."""
@@ -30,8 +32,8 @@ class EpisodeStats:
     def pop(self) -> dict:
         """Episodes since the last pop: count, mean length, mean return, and the share that
         terminated rather than ran out of time (the task's success where it ends on success; NaN
-        when none ended)."""
-        n, length, ret, terminated = self.sums.tolist()
+        when none ended); under torch.distributed, every process's episodes."""
+        n, length, ret, terminated = all_sum(self.sums).tolist()
         self._clear()
         return {"episodes": int(n), "mean_length": length / n if n else math.nan,
                 "mean_return": ret / n if n else math.nan, "terminated": terminated / n if n else math.nan}
@@ -53,9 +55,9 @@ def collect_rollout(venv, alg, steps: int, stats: EpisodeStats | None = None, af
         alg.compute_returns(obs)
 
 
-def run_update(venv, alg, steps: int, stats: EpisodeStats | None = None, after_step=None) -> dict:
+def run_update(venv, alg, steps: int, stats: EpisodeStats | None = None) -> dict:
     """A rollout, then the PPO update; returns the mean losses."""
-    collect_rollout(venv, alg, steps, stats, after_step)
+    collect_rollout(venv, alg, steps, stats)
     return alg.update()
 
 

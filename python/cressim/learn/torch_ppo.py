@@ -17,6 +17,7 @@ from torch.distributions import Normal
 
 from .config import PPOConfig
 from .cuda_graph import Captured
+from .distributed import active, all_sum, average_gradients, broadcast
 
 
 def tanh_layers(inputs: int, hidden: tuple) -> list:
@@ -106,8 +107,12 @@ class ObsNormalizer(nn.Module):
 
     @torch.no_grad()
     def update(self, batch: torch.Tensor) -> None:
+        """Merges `batch`, and under torch.distributed every process's batch (the same statistics
+        on each process: mean, then spread about it, summed over the processes)."""
         x = batch[:, :self.count].float()
-        n, mean, var = float(x.shape[0]), x.mean(0), x.var(0, unbiased=False)
+        sums = all_sum(torch.cat([x.sum(0), x.new_tensor([x.shape[0]])]))
+        n, mean = sums[-1], sums[:-1] / sums[-1]
+        var = all_sum((x - mean).square().sum(0)) / n
         total = self.samples + n
         delta = mean - self.mean
         self.var.copy_((self.var * self.samples + var * n + delta.square() * self.samples * n / total) / total)
@@ -153,11 +158,22 @@ class TorchPPO:
         self.critic = network(cfg, num_obs, obs_shape, 1).to(self.device)
         self.log_std = nn.Parameter(torch.full((num_actions,), cfg.init_log_std, device=self.device))
         self.actor_params = [*self.actor.parameters(), self.log_std]
+        # under torch.distributed this process's envs are rows [rank N, (rank + 1) N) of the whole
+        # batch; every process starts from rank 0's weights and steps with the gradients averaged
+        # over the processes (distributed.average_gradients), so the weights stay equal
+        self.world = torch.distributed.get_world_size() if active() else 1
+        self.rank = torch.distributed.get_rank() if active() else 0
+        self.learned = [*self.actor_params, *self.critic.parameters()]
+        broadcast([*self.learned, *self.actor.buffers(), *self.critic.buffers()])
+        # the shuffles draw from a generator of their own: the default one draws the action noise,
+        # whose stream must not depend on how large a process's share of the batch is
+        self._shuffle = torch.Generator(self.device)
+        self._shuffle.manual_seed(torch.initial_seed() + 1)
         # capturable: the step count stays on the device, so the update can be a CUDA graph
         self.optimizer = torch.optim.Adam(chain(self.actor_params, self.critic.parameters()), lr=cfg.lr,
                                           capturable=self.device.type == "cuda")
         self.learning_rate = cfg.lr
-        self.num_mini_batches = cfg.num_mini_batches(num_envs)
+        self.num_mini_batches = cfg.num_mini_batches(num_envs)  # per process, as DDP's batch size is
         T, N = cfg.rollout, num_envs
         z = lambda *shape, dtype=torch.float32: torch.zeros(T, N, *shape, device=self.device, dtype=dtype)  # noqa: E731
         # observations are stored as they come: a float rollout of uint8 images would be 4x larger
@@ -180,7 +196,11 @@ class TorchPPO:
     def _sample_policy(self):
         x = self._act_obs
         dist = self._dist(x)
-        a = dist.rsample()  # loc + scale * N(0, 1): the same draws as sample(), without its check of scale
+        # loc + scale * N(0, 1), the noise drawn for the whole batch and this process's rows taken:
+        # the actions one process with every env would take, whatever the split
+        n = x.shape[0]
+        noise = torch.randn(self.world * n, *dist.loc.shape[1:], device=x.device)[self.rank * n:(self.rank + 1) * n]
+        a = dist.loc + dist.scale * noise
         return a, dist.log_prob(a).sum(-1), self.critic(x).squeeze(-1)
 
     def act(self, obs) -> torch.Tensor:
@@ -209,8 +229,12 @@ class TorchPPO:
             adv = delta + live * c.gamma * c.lam * adv
             self.returns[t] = adv + self.values[t]
             next_values = self.values[t]
+        # normalised over the whole batch, every process's rollout
         a = self.returns - self.values
-        self.advantages.copy_((a - a.mean()) / (a.std() + 1e-8))
+        sums = all_sum(torch.stack([a.sum(), a.new_tensor(a.numel())]))
+        mean = sums[0] / sums[1]
+        std = (all_sum((a - mean).square().sum()) / (sums[1] - 1)).sqrt()
+        self.advantages.copy_((a - mean) / (std + 1e-8))
 
     def _learn_minibatch(self) -> None:
         """One optimizer step on the samples indexed by self._minibatch."""
@@ -226,6 +250,7 @@ class TorchPPO:
         loss = surrogate + c.value_coef * value - c.entropy_coef * entropy
         self.optimizer.zero_grad()
         loss.backward()
+        average_gradients(self.learned)
         nn.utils.clip_grad_norm_(self.actor_params, c.max_grad_norm)
         nn.utils.clip_grad_norm_(self.critic.parameters(), c.max_grad_norm)
         self.optimizer.step()
@@ -233,7 +258,7 @@ class TorchPPO:
 
     def update(self) -> dict:
         c, n, size = self.cfg, self.num_mini_batches, self._minibatch.numel()
-        order = torch.randperm(n * size, device=self.device)
+        order = torch.randperm(n * size, device=self.device, generator=self._shuffle)
         self._loss_sums.zero_()
         for _ in range(c.epochs):
             for i in range(n):
@@ -244,7 +269,7 @@ class TorchPPO:
             self.actor.normalizer.update(seen)
             self.critic.normalizer.update(seen)
         self.step = 0
-        value, surrogate, entropy = (self._loss_sums / (c.epochs * n)).tolist()
+        value, surrogate, entropy = (all_sum(self._loss_sums) / (c.epochs * n * self.world)).tolist()
         return {"value": value, "surrogate": surrogate, "entropy": entropy}
 
     def train_mode(self) -> None:

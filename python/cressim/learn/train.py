@@ -1,5 +1,5 @@
 """`train(...)`: PPO on a batched cressim task, with a progress bar, checkpoints, metrics and a
-plot in `out_dir`."""
+plot in `out_dir`; on several processes (GPUs) when started by torchrun (distributed.py)."""
 from __future__ import annotations
 
 import json
@@ -9,10 +9,11 @@ from pathlib import Path
 
 import torch
 
+from . import distributed
 from .config import ppo_config
 from .learner import make_learner
 from .plot import plot_training
-from .rollout import EpisodeStats, resolve_device, run_update, sync
+from .rollout import EpisodeStats, collect_rollout, sync
 from .vec_env import CressimVecEnv
 from .video import EnvVideo
 
@@ -55,30 +56,45 @@ def train(task: str = "CartPole", num_envs: int = 4096, iterations: int = 200, d
     with CUDA, else cpu); the learner runs there too. rollout and `ppo_overrides` (fields of
     PPOConfig) override TASKS.md's settings, e.g. for a short smoke run. task_options: keywords
     of the task's constructor (TissueRetract's observation="crtk"). video_envs: env indices whose
-    rollout in each checkpoint's update is written as `video_<k>_env<i>.mp4` (PyAV).
+    rollout in each checkpoint's update is written as `video_<k>_env<i>.mp4` (PyAV; rank 0's envs).
+
+    Under torchrun (WORLD_SIZE > 1) each process runs num_envs / WORLD_SIZE of the envs on its
+    own GPU (or the cpu) and the learner's gradients are all-reduced; statistics cover every
+    process, and rank 0 alone prints and writes. With the built-in learner the processes run
+    exactly what one process with all the envs would (distributed.py, torch_ppo.py), up to the
+    order of float sums.
     """
     from cressim import envs
 
+    shard, env_device, vulkan = distributed.place(device)
+    local_envs, offset = shard.envs(num_envs)
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    if shard.leader:
+        out.mkdir(parents=True, exist_ok=True)
     torch.manual_seed(seed)
+    filmed = video_envs is not None and shard.leader
+    rendering = {"render_mode": "rgb_array", "render_envs": tuple(video_envs)} if filmed else {}
     # PPO here bootstraps time-outs from the current value: the final observation is not read
-    rendering = {} if video_envs is None else {"render_mode": "rgb_array", "render_envs": tuple(video_envs)}
-    env = envs.make(task, num_envs=num_envs, device=resolve_device(device), seed=seed, final_observation=False,
-                    **rendering, **(task_options or {}))
-    video = EnvVideo(env) if video_envs is not None else None
+    env = envs.make(task, num_envs=local_envs, device=env_device, seed=seed, env_offset=offset, vulkan_device=vulkan,
+                    final_observation=False, **rendering, **(task_options or {}))
+    video = EnvVideo(env) if filmed else None
     venv = CressimVecEnv(env)
     cfg = ppo_config(task, rollout=rollout, **ppo_overrides)
     alg, backend = make_learner(venv, cfg, backend)
-    stats = EpisodeStats(num_envs, env.device)
+    if backend == "rsl_rl" and shard.world > 1:  # its exploration noise: each process's own generator
+        torch.manual_seed(seed + shard.rank)
+    stats = EpisodeStats(local_envs, env.device)
+    progress = progress and shard.leader
     meta = {"task": task, "task_options": dict(task_options or {}), "num_envs": num_envs, "seed": seed,
-            "device": str(env.device), "backend": backend,
+            "processes": shard.world, "device": str(env.device), "backend": backend,
             "vulkan_device": env.engine.device["name"], "ppo": cfg.to_dict()}
     if progress:
-        print(f"PPO ({backend}) on {task}: {num_envs} envs on {env.device} ({meta['vulkan_device']}), "
-              f"{cfg.num_mini_batches(num_envs)} minibatches x {cfg.epochs} epochs, rollout {cfg.rollout}")
+        where = f"{local_envs} envs on each of {shard.world} processes" if shard.world > 1 else f"{num_envs} envs"
+        print(f"PPO ({backend}) on {task}: {where} on {env.device} ({meta['vulkan_device']}), "
+              f"{cfg.num_mini_batches(local_envs)} minibatches{' a process' if shard.world > 1 else ''} x {cfg.epochs} epochs, "
+              f"rollout {cfg.rollout}")
 
-    def save(it: int) -> Path:
+    def save(it: int) -> Path:  # the leader's: every process holds the same weights
         path = out / f"model_{it}.pt"
         state = {**alg.save(), "iteration": it, "env_steps": it * num_envs * cfg.rollout, **meta}
         torch.save(state, path)
@@ -93,23 +109,30 @@ def train(task: str = "CartPole", num_envs: int = 4096, iterations: int = 200, d
         t0 = time.perf_counter()
         checkpointed = it % save_every == 0 or it == iterations
         filming = video is not None and checkpointed
-        losses = run_update(venv, alg, cfg.rollout, stats, after_step=video.capture if filming else None)
+        collect_rollout(venv, alg, cfg.rollout, stats, after_step=video.capture if filming else None)
+        sync(env.device)
+        t1 = time.perf_counter()
+        losses = alg.update()
         sync(env.device)
         dt = time.perf_counter() - t0
         rec = {"iteration": it, "env_steps": it * num_envs * cfg.rollout, **stats.pop(), **losses,
-               "steps_per_s": num_envs * cfg.rollout / dt, "wall_s": time.perf_counter() - start}
+               "steps_per_s": num_envs * cfg.rollout / dt, "rollout_steps_per_s": num_envs * cfg.rollout / (t1 - t0),
+               "wall_s": time.perf_counter() - start}
         history.append(rec)
         bar.set_postfix({"len": _fmt(rec["mean_length"]), "rew": _fmt(rec["mean_return"]),
                          "term": _fmt(rec["terminated"]),
                          "sps": f"{rec['steps_per_s']:,.0f}"})
         bar.update(1)
-        if checkpointed:
+        if shard.leader and checkpointed:
             checkpoint = save(it)
             if filming:
                 video.write(out / f"video_{it}")
             (out / "metrics.json").write_text(json.dumps({**meta, "history": history}, indent=1))  # so far
     bar.close()
-    plot = plot_training(history, out / "training.png", f"PPO ({backend}) {task}, {num_envs} envs")
+    title = f"PPO ({backend}) {task}, {num_envs} envs" + (f" on {shard.world} processes" if shard.world > 1 else "")
+    plot = plot_training(history, out / "training.png", title) if shard.leader else None
     env.close()
-    return {**meta, "history": history, "checkpoint": str(checkpoint), "plot": str(plot),
+    distributed.barrier()  # the leader's files are written before any process returns
+    return {**meta, "rank": shard.rank, "history": history, "checkpoint": str(checkpoint) if checkpoint else None,
+            "plot": str(plot) if plot else None,
             "wall_s": time.perf_counter() - start}
