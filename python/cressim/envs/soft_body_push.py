@@ -49,9 +49,9 @@ class SoftBodyPush(ParticleTask):
         world = cressim.World(cressim.SceneLayout(num_envs))
         mesh = cressim.TetMesh.box((CUBE_HALF,) * 3, (self.cells,) * 3)
         self.particles_per_env = len(mesh.positions)
-        if self.render_mode is not None:  # visuals in the envs render() shows; the pusher as its bounding box
+        if self.render_mode is not None:  # visuals in the envs render() shows
             ground_mesh = world.add_mesh(cressim.Mesh.box(GROUND))
-            pusher_mesh = world.add_mesh(cressim.Mesh.box((PUSHER[0], PUSHER[0], PUSHER[1] + PUSHER[0])))
+            pusher_mesh = world.add_mesh(cressim.Mesh.capsule(*PUSHER))
         for env in range(num_envs):
             ground = world.create_entity(env=env, name="ground")
             ground.add(cressim.Transform(position=(0, 0, -GROUND[2])))
