@@ -52,6 +52,10 @@ def test_sb3_ppo_learns_through_the_vec_env():
     assert env.engine.validation_messages == []
 
 
-def test_sb3_env_refuses_an_env_without_final_observations():
+def test_sb3_env_renders_and_refuses_an_env_without_final_observations():
+    venv = Sb3VecEnv(cressim.envs.make("CartPole", num_envs=3, render_mode="rgb_array", render_envs=(0, 2),
+                                       render_size=(64, 48)))
+    venv.reset()
+    assert venv.render_mode == "rgb_array" and venv.render().shape == (96, 64, 3)  # SB3 tiles the two envs
     with pytest.raises(ValueError, match="final_observation=False"):
         Sb3VecEnv(cressim.envs.make("CartPole", num_envs=2, final_observation=False))

@@ -23,13 +23,13 @@ def test_write_mp4_decodes_back_to_its_frames(tmp_path):
     for t in range(12):  # a red square moving right over grey
         frames[t] = 90
         frames[t, 16:32, 4 * t:4 * t + 16] = (220, 30, 30)
-    back = decoded(write_mp4(tmp_path / "a.mp4", frames))
+    back = decoded(write_mp4(tmp_path / "a.mp4", frames, fps=60))
     assert back.shape == frames.shape
     assert np.abs(back.astype(int) - frames).mean() < 4  # lossy, but the same pictures
     with pytest.raises(ValueError, match="even width and height"):
-        write_mp4(tmp_path / "b.mp4", frames[:, :47])
+        write_mp4(tmp_path / "b.mp4", frames[:, :47], fps=60)
     with pytest.raises(ValueError, match=r"\(T > 0, H, W, 3\) uint8"):
-        write_mp4(tmp_path / "c.mp4", frames.astype(np.float32))
+        write_mp4(tmp_path / "c.mp4", frames.astype(np.float32), fps=60)
 
 
 def test_render_shows_the_chosen_envs():
@@ -61,6 +61,8 @@ def test_train_and_eval_write_the_videos_asked_for(tmp_path, capsys):
         for env in (0, 3):
             frames = decoded(out / f"video_{k}_env{env}.mp4")
             assert frames.shape == (16, 240, 320, 3)  # one frame per step of the update's rollout
+    with av.open(str(out / "video_1_env0.mp4")) as container:
+        assert container.streams.video[0].average_rate == 60  # real time: the tasks' 60 Hz frames
     assert not (out / "video_1_env1.mp4").exists()
     assert main(["eval", str(out / "policy.pt"), "--envs", "2", "--video", str(tmp_path / "eval"),
                  "--video-envs", "1", "--json", str(tmp_path / "eval.json")]) == 0

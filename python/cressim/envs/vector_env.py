@@ -60,7 +60,8 @@ class VectorEnv(gymnasium.vector.VectorEnv):
     """Base of the batched tasks. Subclasses build the scene (`build_world`), name their HLSL
     file and its three entry points, give their per-env spaces and fill the task constants."""
 
-    metadata = {"autoreset_mode": AutoresetMode.SAME_STEP}
+    # every task's frame is 1/60 s: render() gives 60 images a second of simulated time
+    metadata = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": ["rgb_array"], "render_fps": 60}
     hlsl: Path  # task passes: `entries` (evaluate also as evaluate_reset_all)
     entries = ("apply_action", "evaluate", "observe")
     single_observation_space: Box

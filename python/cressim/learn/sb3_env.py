@@ -48,6 +48,11 @@ class Sb3VecEnv(VecEnv):
     def close(self) -> None:
         self.env.close()
 
+    def get_images(self) -> list:
+        """The rendered envs' images (the env's render_envs, render_mode="rgb_array"), which SB3's
+        render() tiles."""
+        return list(self.env.render()) if self.env.render_mode == "rgb_array" else [None] * self.num_envs
+
     # the batch is one env object: attributes and methods are its, the same for every index
     def get_attr(self, attr_name: str, indices=None) -> list:
         return [getattr(self.env, attr_name)] * len(self._get_indices(indices))

@@ -42,8 +42,9 @@ class SkrlEnv(Wrapper):
     def state(self) -> None:
         return None
 
-    def render(self, *args, **kwargs) -> None:
-        return None
+    def render(self, *args, **kwargs):
+        """The rendered envs' images (render_mode="rgb_array"), else None."""
+        return self._env.render()
 
     def close(self) -> None:
         self._env.close()

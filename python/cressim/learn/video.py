@@ -8,10 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-FPS = 60  # the tasks' frame rate: the video plays in real time
 
-
-def write_mp4(path, frames, fps: int = FPS) -> Path:
+def write_mp4(path, frames, fps: int) -> Path:
     """Writes `frames` ((T, H, W, 3) uint8, H and W even) as an H.264 MP4; returns the path."""
     import av
 
@@ -33,12 +31,13 @@ def write_mp4(path, frames, fps: int = FPS) -> Path:
 
 
 class EnvVideo:
-    """The images of `env.render_envs`, a frame per `capture()` (after a step or reset)."""
+    """The images of `env.render_envs`, a frame per `capture()` (after a step or reset), played at
+    the env's `metadata["render_fps"]` (real time)."""
 
-    def __init__(self, env, fps: int = FPS):
+    def __init__(self, env):
         if env.render_mode != "rgb_array":
             raise ValueError(f"EnvVideo: {type(env).__name__} was made without render_mode='rgb_array'")
-        self.env, self.fps, self.frames = env, fps, []
+        self.env, self.fps, self.frames = env, env.metadata["render_fps"], []
 
     def capture(self) -> None:
         self.frames.append(self.env.render())
