@@ -75,7 +75,6 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 import torch
@@ -200,7 +199,7 @@ class BloodSuction(VectorEnv):
             robot_dir() / "psm_suction.urdf", num_envs, base_position=RCM, base_rotation=(0.0, 0.0, 0.0, 1.0),
             publish_rate=1 / FRAME, physics_rate=4 / FRAME, initial_q=np.array(START_Q), initial_jaw=0.0, dof=4,
             world=world)
-        self._show_arm(world)
+        self.arm.show(world, range(num_envs), SHOWN_LINKS)
         points, tets, triangles = basin_mesh()
         held = np.nonzero(points[:, 2] < 1e-6)[0]  # the bottom layer, on the table
         block = blood_block()
@@ -231,24 +230,6 @@ class BloodSuction(VectorEnv):
             camera.add(cressim.Transform(position=EYE, rotation=_look_at(EYE, LOOK_AT)))
             camera.add(cressim.Camera(width=s, height=s, fov_y=45.0, near=0.01, far=1.0, products=["rgb"]))
         return world
-
-    def _show_arm(self, world: cressim.World):
-        """Renderables (URDF visuals) on the bodies of SHOWN_LINKS: in kinematic mode each link is
-        a body whose frame is the link's."""
-        from cressim.robots import robot_dir
-        from cressim.robots.arm_visuals import ArmVisuals
-
-        links = {link.name: link for link in self.arm.urdf.robot.links}
-        for name in SHOWN_LINKS:
-            body = SimpleNamespace(links=[links[name]], pose=np.eye(4), name=name)
-            visuals = ArmVisuals(self.arm.urdf, robot_dir(), [body], {name: np.eye(4)})
-            m = visuals.meshes[0]
-            mesh = world.add_mesh(cressim.Mesh(np.asarray(m.vertices, np.float32), np.asarray(m.faces, np.uint32),
-                                               np.asarray(m.vertex_normals, np.float32)))
-            k = self.arm.body_names.index(name)
-            for entity in self.arm.body_entity_ids[:, k]:
-                world.entity(int(entity)).add(cressim.Renderable(mesh, color=visuals.colors[0], metallic=0.3,
-                                                                 roughness=0.4))
 
     def physics_settings(self) -> cressim.PhysicsSettings:
         return cressim.PhysicsSettings(dt=FRAME, substeps=4, particle_iterations=4, max_particle_attachments_per_env=0)

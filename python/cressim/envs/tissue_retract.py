@@ -119,11 +119,14 @@ class TissueRetract(VectorEnv):
         from cressim.scene_file import add_scene
 
         scene = self.scene
-        world = cressim.World(cressim.SceneLayout(num_envs, max_renderables_per_env=2))  # the table, the flap
+        # the table and the flap; rendered envs also draw the arm's links
+        world = cressim.World(cressim.SceneLayout(num_envs, max_renderables_per_env=2 if self.render_mode is None else 16))
         self.arm = ArmBodies(
             robot_dir() / f"{scene.robot}.urdf", num_envs, base_position=scene.base_position,
             base_rotation=scene.base_rotation, publish_rate=1 / FRAME, physics_rate=4 / FRAME,
             initial_q=np.array(self.start_q), initial_jaw=JAW_OPEN, dof=6, world=world)
+        if self.render_mode is not None:
+            self.arm.show(world, self.render_envs)
         added = add_scene(world, scene.world, skip=SKIPPED)
         if FLAP not in added.labels.values():
             raise ValueError(f"TissueRetract: {scene.world} has no entity '{FLAP}' to grasp")
