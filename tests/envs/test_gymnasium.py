@@ -104,19 +104,29 @@ def _short(task: str, steps: int):
 def test_final_observation_is_what_a_longer_episode_shows_at_that_step(task):
     # the same seed and actions: episodes of 3 steps end where episodes of 4 go on, and the final
     # observation of the first must be the observation of the second at step 3 (images, frame
-    # stacks and task state included); the second skips the final observation
+    # stacks and task state included). The final pass must change nothing a step returns: the
+    # same task without it returns the same, into the next episodes.
     short = _short(task, 3)(1, seed=4)
+    plain = _short(task, 3)(1, seed=4, final_observation=False)
     long = _short(task, 4)(1, seed=4, final_observation=False)
-    short.reset(), long.reset()
-    actions = torch.rand(3, *short.actions.shape, generator=torch.Generator().manual_seed(1)) * 2 - 1
-    for t in range(3):
-        s_obs, _, _, s_truncated, s_info = on_host(short.step(actions[t].to(short.device)))
-        l_obs, _, _, l_truncated, l_info = on_host(long.step(actions[t].to(long.device)))
-        assert "final_obs" not in l_info and not l_truncated.any()
-    assert s_truncated.all() and s_info["_final_obs"].all()
-    final, expected = s_info["final_obs"], l_obs
-    if task == "BloodSuction":  # its value 12, the elapsed share, is steps / max_episode_steps
-        final, expected = final[:, torch.arange(final.shape[1]) != 12], expected[:, torch.arange(final.shape[1]) != 12]
-    assert torch.equal(final, expected)
-    assert not torch.equal(s_obs, s_info["final_obs"])  # the returned observation is the next episode's
-    assert short.engine.validation_messages == [] and long.engine.validation_messages == []
+    for env in (short, plain, long):
+        env.reset()
+    actions = torch.rand(5, *short.actions.shape, generator=torch.Generator().manual_seed(1)) * 2 - 1
+    for t in range(5):
+        s_obs, s_reward, s_terminated, s_truncated, s_info = on_host(short.step(actions[t].to(short.device)))
+        p_obs, p_reward, p_terminated, p_truncated, p_info = on_host(plain.step(actions[t].to(plain.device)))
+        assert "final_obs" not in p_info
+        for a, b in ((s_obs, p_obs), (s_reward, p_reward), (s_terminated, p_terminated), (s_truncated, p_truncated)):
+            assert torch.equal(a, b)
+        if t < 3:
+            l_obs, _, _, l_truncated, _ = on_host(long.step(actions[t].to(long.device)))
+            assert not l_truncated.any()
+        if t == 2:
+            assert s_truncated.all() and s_info["_final_obs"].all()
+            final, expected = s_info["final_obs"], l_obs
+            if task == "BloodSuction":  # its value 12, the elapsed share, is steps / max_episode_steps
+                keep = torch.arange(final.shape[1]) != 12
+                final, expected = final[:, keep], expected[:, keep]
+            assert torch.equal(final, expected)
+            assert not torch.equal(s_obs, s_info["final_obs"])  # the returned observation is the next episode's
+    assert all(env.engine.validation_messages == [] for env in (short, plain, long))
