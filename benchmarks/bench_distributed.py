@@ -42,9 +42,7 @@ def main() -> int:
     p.add_argument("--iterations", type=int, default=30)
     p.add_argument("--warmup", type=int, default=5)
     p.add_argument("--out", default="benchmarks/results")
-    p.add_argument("extra", nargs=argparse.REMAINDER, help="after --: more `cressim train` arguments")
-    a = p.parse_args()
-    extra = a.extra[1:] if a.extra[:1] == ["--"] else a.extra
+    a, extra = p.parse_known_args()  # the rest: more `cressim train` arguments
     device = torch.cuda.get_device_name(0)
     rows = []
     for n in (int(x) for x in a.nproc.split(",")):

@@ -167,6 +167,20 @@ def _generate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _export(args: argparse.Namespace) -> int:
+    from cressim.record import datasets
+
+    if args.replay:
+        result = datasets.replay(args.source, device=args.device)
+        print(json.dumps(result))
+        return 0 if result["max_abs_difference"] <= args.tolerance else 1
+    if not args.out:
+        raise SystemExit("cressim export: --out is needed (a new folder for lerobot, a new .hdf5 file for robomimic)")
+    write = datasets.to_lerobot if args.format == "lerobot" else datasets.to_robomimic
+    print(write(args.source, args.out))
+    return 0
+
+
 def _bench(args: argparse.Namespace) -> int:
     from cressim.learn.bench import run
 
@@ -235,6 +249,16 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--task-option", action="append", metavar="KEY=VALUE",
                    help="a keyword of the task's constructor (repeatable)")
     p.set_defaults(run=_generate)
+
+    p = sub.add_parser("export", help="generated rollouts as a LeRobot (v2.1) or robomimic (HDF5) dataset; "
+                                      "--replay runs a dataset again and compares")
+    p.add_argument("source", help="`cressim generate`'s folder (or, with --replay, an exported dataset)")
+    p.add_argument("--format", default="lerobot", choices=("lerobot", "robomimic"))
+    p.add_argument("--out", help="lerobot: a new folder; robomimic: a new .hdf5 file")
+    p.add_argument("--replay", action="store_true", help="replay SOURCE (a dataset) in a batch and compare observations")
+    p.add_argument("--tolerance", type=float, default=0.0, help="--replay: the largest difference that passes")
+    p.add_argument("--device", help="--replay: torch device of the envs")
+    p.set_defaults(run=_export)
 
     p = sub.add_parser("eval", help="a trained policy's mean actions on its task: return, length, success share")
     p.add_argument("checkpoint", help="`cressim train`'s policy.pt or model_<k>.pt (built-in learner)")

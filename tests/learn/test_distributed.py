@@ -4,11 +4,13 @@ import json
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 import torch
 
+import cressim
 from cressim.learn.distributed import Shard
 
 # two processes need two GPUs where the engine runs on a GPU (each takes cuda:LOCAL_RANK)
@@ -16,9 +18,11 @@ GPUS = torch.cuda.device_count()
 pytestmark = pytest.mark.skipif(GPUS == 1, reason="two processes need two GPUs (or none: lavapipe)")
 
 
-def cressim(*args, cwd):
+def run_cli(*args, cwd):
     """`cressim ARGS` as a user runs it (--nproc runs torchrun); fails the test with its output."""
     env = {k: v for k, v in os.environ.items() if k not in ("RANK", "WORLD_SIZE", "LOCAL_RANK", "MASTER_ADDR", "MASTER_PORT")}
+    # this package, wherever it was imported from (an editable install, or PYTHONPATH relative to the tree)
+    env["PYTHONPATH"] = os.pathsep.join([str(Path(cressim.__file__).parents[1]), env.get("PYTHONPATH", "")])
     r = subprocess.run([sys.executable, "-m", "cressim", *args, "--device", "cuda" if GPUS else "cpu"], cwd=cwd, env=env, capture_output=True, text=True)
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
     return r.stdout
@@ -30,8 +34,8 @@ def test_two_processes_train_as_one(tmp_path):
     with observation normalisation reduced over both processes."""
     common = ["train", "CartPole", "--envs", "32", "--iterations", "4", "--rollout", "16", "--minibatch", "512",
               "--backend", "torch", "--obs-normalization", "--seed", "5"]
-    cressim(*common, "--out", "one", cwd=tmp_path)
-    out = cressim(*common, "--out", "two", "--nproc", "2", cwd=tmp_path)
+    run_cli(*common, "--out", "one", cwd=tmp_path)
+    out = run_cli(*common, "--out", "two", "--nproc", "2", cwd=tmp_path)
     assert "16 envs on each of 2 processes" in out
     one, two = (json.loads((tmp_path / d / "metrics.json").read_text()) for d in ("one", "two"))
     assert two["processes"] == 2 and two["num_envs"] == 32
@@ -53,8 +57,8 @@ def test_generated_shards_join_into_the_one_process_batch(tmp_path):
     from cressim.record.rollouts import read
 
     common = ["generate", "CartPole", "--envs", "6", "--steps", "12", "--seed", "2"]
-    cressim(*common, "--out", "one", cwd=tmp_path)
-    cressim(*common, "--out", "two", "--nproc", "2", cwd=tmp_path)
+    run_cli(*common, "--out", "one", cwd=tmp_path)
+    run_cli(*common, "--out", "two", "--nproc", "2", cwd=tmp_path)
     index = json.loads((tmp_path / "two" / "index.json").read_text())
     assert [(s["path"], s["first_env"], s["envs"]) for s in index["shards"]] == [("shard_000", 0, 3), ("shard_001", 3, 3)]
     assert all(s["messages"]["/rollout/observation"] == 12 for s in index["shards"])

@@ -1,5 +1,5 @@
-"""Videos of chosen envs: render_mode="rgb_array" renders them after each step, write_mp4 encodes
-H.264 MP4s (PyAV) that decode back to the frames, and `cressim train --video` / `cressim eval --video`
+"""Videos of chosen envs: render_mode="rgb_array" renders them after each step, cressim.io.write_mp4
+encodes H.264 MP4s (PyAV) that decode back to the frames, and `cressim train --video` / `cressim eval --video`
 write them for the envs asked for."""
 import json
 
@@ -10,12 +10,8 @@ import torch
 
 import cressim.envs
 from cressim.cli import main
-from cressim.learn.video import EnvVideo, write_mp4
-
-
-def decoded(path) -> np.ndarray:
-    with av.open(str(path)) as container:
-        return np.stack([frame.to_ndarray(format="rgb24") for frame in container.decode(video=0)])
+from cressim.io import read_mp4, write_mp4
+from cressim.learn.video import EnvVideo
 
 
 def test_write_mp4_decodes_back_to_its_frames(tmp_path):
@@ -23,10 +19,10 @@ def test_write_mp4_decodes_back_to_its_frames(tmp_path):
     for t in range(12):  # a red square moving right over grey
         frames[t] = 90
         frames[t, 16:32, 4 * t:4 * t + 16] = (220, 30, 30)
-    back = decoded(write_mp4(tmp_path / "a.mp4", frames, fps=60))
+    back = read_mp4(write_mp4(tmp_path / "a.mp4", frames, fps=60))
     assert back.shape == frames.shape
     assert np.abs(back.astype(int) - frames).mean() < 4  # lossy, but the same pictures
-    with pytest.raises(ValueError, match="even width and height"):
+    with pytest.raises(ValueError, match="yuv420p needs an even width and height"):
         write_mp4(tmp_path / "b.mp4", frames[:, :47], fps=60)
     with pytest.raises(ValueError, match=r"\(T > 0, H, W, 3\) uint8"):
         write_mp4(tmp_path / "c.mp4", frames.astype(np.float32), fps=60)
@@ -59,7 +55,7 @@ def test_train_and_eval_write_the_videos_asked_for(tmp_path, capsys):
                  "--save-every", "1", "--backend", "torch", "--out", str(out), "--video", "--video-envs", "0,3"]) == 0
     for k in (1, 2):
         for env in (0, 3):
-            frames = decoded(out / f"video_{k}_env{env}.mp4")
+            frames = read_mp4(out / f"video_{k}_env{env}.mp4")
             assert frames.shape == (16, 240, 320, 3)  # one frame per step of the update's rollout
     with av.open(str(out / "video_1_env0.mp4")) as container:
         assert container.streams.video[0].average_rate == 60  # real time: the tasks' 60 Hz frames
@@ -67,7 +63,7 @@ def test_train_and_eval_write_the_videos_asked_for(tmp_path, capsys):
     assert main(["eval", str(out / "policy.pt"), "--envs", "2", "--video", str(tmp_path / "eval"),
                  "--video-envs", "1", "--json", str(tmp_path / "eval.json")]) == 0
     printed = capsys.readouterr().out
-    frames = decoded(tmp_path / "eval" / "eval_env1.mp4")  # the reset and every step of the evaluation
+    frames = read_mp4(tmp_path / "eval" / "eval_env1.mp4")  # the reset and every step of the evaluation
     steps = json.loads((tmp_path / "eval.json").read_text())["steps"]
     assert str(tmp_path / "eval" / "eval_env1.mp4") in printed and len(frames) == steps + 1
     with pytest.raises(SystemExit, match="--video-envs 'a'"):

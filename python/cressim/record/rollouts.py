@@ -34,7 +34,6 @@ TOPICS = ("observation", "action", "reward", "terminated", "truncated")
 def _array(values: torch.Tensor, label: str) -> tuple[dict, str]:
     """A batch (env, ...) as a std_msgs MultiArray message dict and its type."""
     a = values.detach().cpu().numpy()
-    a = a.reshape(a.shape[0], -1) if a.ndim > 1 else a
     uint8 = a.dtype in (np.uint8, np.bool_)
     dims, stride = [], int(a.size)
     for i, size in enumerate(a.shape):
