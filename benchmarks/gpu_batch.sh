@@ -10,6 +10,7 @@
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-soft-material      # elastic tets' cost
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-surgical  # TissueRetract, BloodSuction
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-r bench-us  # render extras, ultrasound
+#   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-us-scale    # ultrasound phantoms of 1 M and 10 M
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-pr          # particles drawn by the renderer
 #   source .gpu/prelude.sh; CRESSIM_TESTS=OFF bash benchmarks/gpu_batch.sh setup bench-tc bench-ppo  # PPO
 # Results (text and JSON) go to $OUT/r (default out/gpu/r). Each command has its own time limit, so
@@ -163,6 +164,16 @@ for stage in "$@"; do
     bench-us)
       mkdir -p "$OUT/ultrasound"
       run ultrasound 200 python3 -m cressim bench UltrasoundScan --envs 1,8,32,64 --mode both --out "$OUT/ultrasound"
+      run ultrasound_sensor 120 python3 benchmarks/bench_ultrasound.py --envs 1,32,256,1024 \
+        --json "$OUT/ultrasound_sensor.json"
+      ;;
+    bench-us-scale)  # images/s and scatterers/s: 1 M scatterers per env at 1, 32, 1,024 envs; 10 M in one
+      run ultrasound_phantom_1m 300 python3 benchmarks/bench_ultrasound.py --envs 1,32 --scatterers 1000000 \
+        --json "$OUT/ultrasound_phantom_1m.json"
+      run ultrasound_phantom_1m_1024 580 python3 benchmarks/bench_ultrasound.py --envs 1024 --scatterers 1000000 \
+        --frames 20 --json "$OUT/ultrasound_phantom_1m_1024.json"
+      run ultrasound_phantom_10m 200 python3 benchmarks/bench_ultrasound.py --envs 1 --scatterers 10000000 \
+        --json "$OUT/ultrasound_phantom_10m.json"
       run ultrasound_sensor 120 python3 benchmarks/bench_ultrasound.py --envs 1,32,256,1024 \
         --json "$OUT/ultrasound_sensor.json"
       ;;

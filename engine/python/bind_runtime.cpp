@@ -205,23 +205,31 @@ void bind_runtime(py::module_& m) {
       }, "Each camera's entity, env, and where its images are: camera{group}.rgb[layer] etc.")
       .def_property_readonly("ultrasound_probes", [](const Engine& e) {
         py::dict d;
-        std::vector<uint32_t> entity, env, layer;
+        std::vector<uint32_t> entity, env, group, layer, lines, samples, width, height;
         size_t scatterers = 0;
         if (e.ultrasound()) {
           const auto& m = e.ultrasound()->model();
-          entity = m.probe_entity;
-          for (auto& p : m.probes) env.push_back(p.ids.y), layer.push_back(p.ids.w);
-          scatterers = m.scatterers.size();
+          entity = m.probe_entity, group = m.probe_group;
+          for (size_t i = 0; i < m.probes.size(); ++i) {
+            const auto& g = m.groups[m.probe_group[i]];
+            env.push_back(m.probes[i].ids.y), layer.push_back(m.probes[i].ids.w);
+            lines.push_back(g.lines), samples.push_back(g.samples);
+            width.push_back(g.width), height.push_back(g.height);
+          }
+          scatterers = e.ultrasound()->scatterers();
           d["tets"] = m.tets.size();  // soft tissue tets carrying scatterers
-          d["lines"] = m.lines, d["samples"] = m.samples, d["width"] = m.width, d["height"] = m.height;
         }
         d["entity"] = to_numpy(entity);
         d["env"] = to_numpy(env);
+        d["group"] = to_numpy(group);
         d["layer"] = to_numpy(layer);
+        d["lines"] = to_numpy(lines), d["samples"] = to_numpy(samples);
+        d["width"] = to_numpy(width), d["height"] = to_numpy(height);
         d["scatterers"] = scatterers;
         return d;
-      }, "Each ultrasound probe's entity, env and layer of ultrasound0.image / ultrasound0.iq; the "
-         "scatterer count over all envs (and the soft-tissue tets carrying them); scanlines, IQ samples per line and image size.")
+      }, "Each ultrasound probe's entity, env, and where its outputs are: ultrasound{group}.image[layer] "
+         "(also .image_u8, .iq, .rf), with that group's scanlines, IQ samples per line and image size; the "
+         "scatterer count over all envs (and the soft-tissue tets carrying them).")
       .def_property_readonly("health_events", &Engine::health_events,
                              "Envs flagged unhealthy (NaN/Inf, speed, penetration) and reset since upload_world().")
       .def_property_readonly("prepared", &Engine::prepared)

@@ -350,7 +350,9 @@ void bind_sensor_components(py::module_& m) {
                 "fractional_bandwidth, lateral_beam_width and elevational_beam_width (FWHM), speed_of_sound "
                 "(m/s), metres_per_unit, dynamic_range and gain (dB), time_gain_compensation (dB/cm of depth), "
                 "focal_depth (the beam widths hold there and grow away from it as a Gaussian beam's; 0: constant "
-                "widths), rf_output (also fill ultrasound0.rf). Defaults: an abdominal curvilinear probe.")
+                "widths), coupling_impedance (MRayl, outside every tissue), specular_amplitude (the echo of a "
+                "perfect plane reflector in scatterer amplitudes), rf_output (also fill ultrasound0.rf). Defaults: "
+                "an abdominal curvilinear probe.")
       .def(py::init([](py::kwargs kw) { return from_keywords<P>("UltrasoundProbe", kw); }))
       .def_property("kind",
                     [](const P& p) { return p.kind == ProbeKind::LINEAR ? "linear" : "sector"; },
@@ -377,6 +379,8 @@ void bind_sensor_components(py::module_& m) {
       .def_readwrite("gain", &P::gain)
       .def_readwrite("time_gain_compensation", &P::time_gain_compensation)
       .def_readwrite("focal_depth", &P::focal_depth)
+      .def_readwrite("coupling_impedance", &P::coupling_impedance)
+      .def_readwrite("specular_amplitude", &P::specular_amplitude)
       .def_readwrite("rf_output", &P::rf_output);
 
   using I = scene::UltrasoundInclusion;
@@ -396,7 +400,8 @@ void bind_sensor_components(py::module_& m) {
                 "Keyword fields: region ('box', 'sphere', 'cylinder'; not used on a SoftBody), size (box half "
                 "extents; sphere radius in x; cylinder radius x, half height y along z), center, density (per "
                 "cubic scene unit) or count, amplitude_mean, amplitude_std (normal amplitudes), inclusions, seed, "
-                "attenuation (dB/cm/MHz, default 0.5).")
+                "attenuation (dB/cm/MHz, default 0.5), impedance (MRayl, default 1.63; a rigid tissue's region is "
+                "the medium its scanlines cross: attenuation along the way, echoes and shadows at its boundaries).")
       .def(py::init([](py::kwargs kw) { return from_keywords<T>("UltrasoundTissue", kw); }))
       .def_property("region",
                     [](const T& t) {
@@ -415,7 +420,8 @@ void bind_sensor_components(py::module_& m) {
       .def_readwrite("amplitude_std", &T::amplitude_std)
       .def_readwrite("inclusions", &T::inclusions)
       .def_readwrite("seed", &T::seed)
-      .def_readwrite("attenuation", &T::attenuation);
+      .def_readwrite("attenuation", &T::attenuation)
+      .def_readwrite("impedance", &T::impedance);
 }
 
 }  // namespace

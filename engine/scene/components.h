@@ -167,6 +167,8 @@ struct UltrasoundProbe {
   float gain = -25;                     // dB; envelope 1 (after gain) is white
   float time_gain_compensation = 0;     // dB per cm of depth added back (attenuation x 2 x f0 flattens)
   float focal_depth = 0;                // beam narrowest (the widths above) here; 0: no focus, widths constant
+  float coupling_impedance = 1.63f;     // MRayl, of the medium outside every tissue (gel matched to soft tissue)
+  float specular_amplitude = 1000;      // echo of a perfect plane reflector (r = 1), in scatterer amplitudes
   bool rf_output = false;               // also fill "ultrasound0.rf" at the full sampling rate
 };
 
@@ -195,6 +197,7 @@ struct UltrasoundTissue {
   std::vector<UltrasoundInclusion> inclusions;
   uint32_t seed = 0;     // with the entity id: envs get different speckle
   float attenuation = 0.5f;  // dB/cm/MHz, one way (soft tissue about 0.5)
+  float impedance = 1.63f;   // MRayl (soft tissue about 1.63, fat 1.38, bone 7.8)
 };
 
 // Particle objects (engine/physics/particle_*): positions are in the entity frame at prepare().

@@ -220,6 +220,8 @@ void ultrasound_probe(const Fields& c, const UltrasoundProbe& p) {
   c.finite("gain", p.gain);
   c.finite("time_gain_compensation", p.time_gain_compensation);
   c.non_negative("focal_depth", p.focal_depth);
+  c.positive("coupling_impedance", p.coupling_impedance);
+  c.non_negative("specular_amplitude", p.specular_amplitude);
 }
 
 void ultrasound_tissue(const Fields& c, const UltrasoundTissue& t) {
@@ -246,6 +248,7 @@ void ultrasound_tissue(const Fields& c, const UltrasoundTissue& t) {
     c.non_negative(at + ".amplitude_scale", t.inclusions[i].amplitude_scale);
   }
   c.non_negative("attenuation", t.attenuation);
+  c.positive("impedance", t.impedance);
 }
 
 void soft_body(const Fields& c, const SoftBody& s) {

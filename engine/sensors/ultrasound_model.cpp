@@ -1,12 +1,15 @@
 #include "sensors/ultrasound_model.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <exception>
 #include <map>
 #include <numbers>
 #include <random>
 #include <stdexcept>
 #include <string>
+#include <thread>
 
 #include "scene/authoring_error.h"
 
@@ -14,7 +17,18 @@ namespace cressim::sensors {
 namespace {
 
 constexpr float kFwhmPerSigma = 2.3548200f;  // 2 sqrt(2 ln 2)
-constexpr float kReachSigmas = 3.0f;         // beam and pulse tails cut at 3 sigma (1 %)
+constexpr float kReachSigmas = 3.0f;         // beam tails cut at 3 sigma (1 %)
+// The pulse's tails cut at 4 sigma (3e-4): a cut kernel's spectrum has side lobes at the carrier,
+// and at 3 sigma they alone would give a uniform tissue's echo a coherent part of 2e-3.
+constexpr float kPulseReachSigmas = 4.0f;
+// A scatterer's envelope is placed at its accumulator bin's centre while its phase keeps its
+// exact depth. Binning at spacing b aliases the carrier: a uniform tissue's mean echo, which the
+// pulse cancels (its spectrum at the two-way wavenumber 2k: exp(-(2k sigma_z)^2 / 2)), comes
+// back as the spectrum at 2k - 2 pi / b. That mean grows with the scatterer count while the
+// speckle grows with its square root, so the envelope turns Rician (SNR 3.3 at 100 scatterers
+// per resolution cell with 8x-decimated IQ bins). Bins are made fine enough that
+// (2 pi / b - 2k) sigma_z >= this, i.e. the alias is below exp(-8) = 3e-4 of the pulse's peak.
+constexpr float kAliasSigmas = 4.0f;
 constexpr uint32_t kMaxSamples = 1u << 16;   // per scanline
 
 [[noreturn]] void fail(const scene::World& w, scene::EntityId e, const std::string& what) {
@@ -49,9 +63,16 @@ shader::UltrasoundProbeData probe_data(const scene::World& world, scene::EntityI
     fail(world, e, "UltrasoundProbe gives " + std::to_string(uint64_t(count)) + " IQ samples per scanline (at most " +
                        std::to_string(kMaxSamples) + "): raise radial_decimation or shorten line_length");
   samples = uint32_t(count);
-  d.pulse = {dz, sigma_z, k2, std::ceil(kReachSigmas * sigma_z / dz)};
+  const float two_pi = 2 * std::numbers::pi_v<float>;
+  const float per_sample = std::max(1.f, std::ceil(dz * (k2 + kAliasSigmas / sigma_z) / two_pi));
+  if (double(samples) * per_sample > kMaxSamples)
+    fail(world, e, "UltrasoundProbe needs " + std::to_string(uint64_t(samples * per_sample)) +
+                       " bins per scanline (at most " + std::to_string(kMaxSamples) +
+                       "): shorten line_length or widen fractional_bandwidth");
+  const float bin = dz / per_sample;
+  d.pulse = {dz, sigma_z, k2, std::ceil(kPulseReachSigmas * sigma_z / bin)};
   const float sl = p.lateral_beam_width / kFwhmPerSigma, se = p.elevational_beam_width / kFwhmPerSigma;
-  d.beam = {sl, se, 0, 0};
+  d.beam = {sl, se, bin, per_sample};
   const float cm_per_unit = 100 * p.metres_per_unit;
   d.display = {p.dynamic_range, p.gain, p.time_gain_compensation * cm_per_unit, 0};
   // Gaussian beam: the two-way sigma is half the one-way 1/e^2 radius w0, and the width grows
@@ -60,6 +81,7 @@ shader::UltrasoundProbeData probe_data(const scene::World& world, scene::EntityI
   const float pi = std::numbers::pi_v<float>;
   d.depth = {p.focal_depth, pi * 4 * sl * sl / wavelength, pi * 4 * se * se / wavelength,
              2 * p.center_frequency * 1e-6f * cm_per_unit};
+  d.specular = {p.specular_amplitude, p.coupling_impedance, 0, 0};
   d.ids = {row, env, uint32_t(p.kind), 0};
   return d;
 }
@@ -91,8 +113,30 @@ std::mt19937_64 seeded(const scene::UltrasoundTissue& t, scene::EntityId e) {
   return std::mt19937_64(uint64_t(t.seed) * 0x9E3779B97F4A7C15ull + e + 1);
 }
 
-// rigid carrier: uniform in the region, in the entity frame, posed by the entity's row
-void generate(const scene::World& world, scene::EntityId e, uint32_t row, uint32_t tissue, UltrasoundModel& m) {
+// Scatterers put in Morton order of 32^3 cells over their box (lo, extent): threads
+// that run together then deposit to nearby accumulator bins, which keeps the atomics in cache.
+// Sums are exact integers, so the order changes no image.
+void sort_by_cell(std::vector<shader::float4>& s, const scene::Vec3& lo, const scene::Vec3& extent) {
+  constexpr uint32_t kSide = 32;
+  auto key = [&](const shader::float4& q) {
+    const float p[3] = {q.x, q.y, q.z};
+    uint32_t code = 0;
+    for (int d = 0; d < 3; ++d) {
+      const auto c = uint32_t(std::clamp((p[d] - lo[d]) / extent[d] * kSide, 0.f, float(kSide - 1)));
+      for (uint32_t b = 0; b < 5; ++b) code |= ((c >> b) & 1u) << (3 * b + d);
+    }
+    return code;
+  };
+  std::vector<uint64_t> start(kSide * kSide * kSide + 1, 0);
+  for (const auto& q : s) ++start[key(q) + 1];
+  for (size_t k = 1; k < start.size(); ++k) start[k] += start[k - 1];
+  std::vector<shader::float4> sorted(s.size());
+  for (const auto& q : s) sorted[start[key(q)]++] = q;
+  s.swap(sorted);
+}
+
+// rigid carrier: uniform in the region, in the entity frame (posed by the entity's row)
+std::vector<shader::float4> generate(const scene::World& world, scene::EntityId e) {
   const auto& t = world.get<scene::UltrasoundTissue>(e);
   scene::Vec3 half = t.size;  // bounding box half extents of the region
   float volume = 0;
@@ -109,16 +153,53 @@ void generate(const scene::World& world, scene::EntityId e, uint32_t row, uint32
   auto rng = seeded(t, e);
   std::uniform_real_distribution<float> uni(-1, 1);
   std::normal_distribution<float> amp(t.amplitude_mean, t.amplitude_std);
-  for (uint64_t made = 0; made < uint64_t(std::llround(wanted));) {
+  std::vector<shader::float4> made;
+  made.reserve(size_t(std::llround(wanted)));
+  for (uint64_t drawn = 0; drawn < uint64_t(std::llround(wanted));) {
     const scene::Vec3 q{half[0] * uni(rng), half[1] * uni(rng), half[2] * uni(rng)};
     if (!inside(t, q)) continue;  // rejection keeps the density uniform in the region
-    ++made;
+    ++drawn;
     const scene::Vec3 p{t.center[0] + q[0], t.center[1] + q[1], t.center[2] + q[2]};
     const float a = amplitude(t, p, amp, rng);
     if (a == 0) continue;  // anechoic: nothing to trace
-    m.scatterers.push_back({p[0], p[1], p[2], a});
-    m.scatterer_carrier.push_back({row, tissue});
+    made.push_back({p[0], p[1], p[2], a});
   }
+  const scene::Vec3 lo{t.center[0] - half[0], t.center[1] - half[1], t.center[2] - half[2]};
+  sort_by_cell(made, lo, {2 * half[0], 2 * half[1], 2 * half[2]});
+  return made;
+}
+
+// every rigid tissue's scatterers (entities in row order), drawn on all cores: each tissue has
+// its own random stream, so the result does not depend on the threads
+std::map<scene::EntityId, std::vector<shader::float4>> generate_rigid(const scene::World& world,
+                                                                      const scene::LayoutMapping& mapping) {
+  std::vector<scene::EntityId> tissues;
+  for (uint32_t row = 0; row < mapping.row_entity.size(); ++row) {
+    const scene::EntityId e = mapping.row_entity[row];
+    if (world.has<scene::UltrasoundTissue>(e) && !world.has<scene::SoftBody>(e)) tissues.push_back(e);
+  }
+  std::vector<std::vector<shader::float4>> made(tissues.size());
+  std::vector<std::exception_ptr> errors(tissues.size());
+  std::atomic<size_t> next{0};
+  auto work = [&] {
+    for (size_t i; (i = next++) < tissues.size();) {
+      try {
+        made[i] = generate(world, tissues[i]);
+      } catch (...) {
+        errors[i] = std::current_exception();
+      }
+    }
+  };
+  const size_t cores = std::max(1u, std::thread::hardware_concurrency());
+  std::vector<std::thread> workers(std::min(cores, tissues.size()));
+  for (auto& w : workers) w = std::thread(work);
+  for (auto& w : workers) w.join();
+  std::map<scene::EntityId, std::vector<shader::float4>> out;
+  for (size_t i = 0; i < tissues.size(); ++i) {
+    if (errors[i]) std::rethrow_exception(errors[i]);
+    out[tissues[i]] = std::move(made[i]);
+  }
+  return out;
 }
 
 // the soft body's first particle in the particle model
@@ -310,16 +391,27 @@ UltrasoundModel build_ultrasound_model(const scene::World& world, const scene::L
                                        const physics::ParticleModel& particles) {
   UltrasoundModel m;
   m.env_scatterers.assign(mapping.num_envs, {0, 0});
+  auto rigid = generate_rigid(world, mapping);
+  static_assert(uint32_t(scene::RegionKind::BOX) == shader::ULTRASOUND_BOX &&
+                uint32_t(scene::RegionKind::SPHERE) == shader::ULTRASOUND_SPHERE &&
+                uint32_t(scene::RegionKind::CYLINDER) == shader::ULTRASOUND_CYLINDER);
   for (uint32_t env = 0; env < mapping.num_envs; ++env) {
     const uint32_t first = uint32_t(m.scatterers.size());
+    const uint32_t env_media = uint32_t(m.media.size()), env_probes = uint32_t(m.probes.size());
     for (uint32_t row = mapping.env_offset[env]; row < mapping.env_offset[env] + mapping.env_count[env]; ++row) {
       const scene::EntityId e = mapping.row_entity[row];
       if (world.has<scene::UltrasoundTissue>(e)) {
         const auto& t = world.get<scene::UltrasoundTissue>(e);
         const uint32_t tissue = uint32_t(m.tissue_attenuation.size());
         m.tissue_attenuation.push_back(t.attenuation);
-        if (!world.has<scene::SoftBody>(e)) generate(world, e, row, tissue, m);
-        else if (world.get<scene::SoftBody>(e).tets.empty()) generate_in_particles(world, e, particles, tissue, m);
+        if (!world.has<scene::SoftBody>(e)) {
+          auto& made = rigid.at(e);
+          m.scatterers.insert(m.scatterers.end(), made.begin(), made.end());
+          m.scatterer_carrier.insert(m.scatterer_carrier.end(), made.size(), {row, tissue});
+          std::vector<shader::float4>().swap(made);
+          m.media.push_back({{row, uint32_t(t.region), 0, 0}, {t.center[0], t.center[1], t.center[2], t.impedance},
+                             {t.size[0], t.size[1], t.size[2], t.attenuation}});
+        } else if (world.get<scene::SoftBody>(e).tets.empty()) generate_in_particles(world, e, particles, tissue, m);
         else generate_in_tets(world, e, particles, tissue, m);
       }
       if (!world.has<scene::UltrasoundProbe>(e)) continue;
@@ -327,24 +419,28 @@ UltrasoundModel build_ultrasound_model(const scene::World& world, const scene::L
       auto d = probe_data(world, e, row, env, samples);
       const auto& p = world.get<scene::UltrasoundProbe>(e);
       const uint32_t rf = p.rf_output ? p.radial_decimation : 0;
-      if (m.probes.empty()) {
-        m.lines = p.scanlines, m.samples = samples, m.width = p.width, m.height = p.height, m.rf_factor = rf;
-      } else if (m.lines != p.scanlines || m.samples != samples || m.width != p.width || m.height != p.height) {
-        fail(world, e, "every UltrasoundProbe of a world must have the same scanlines, image size and samples per "
-                       "line (" + std::to_string(m.lines) + " lines, " + std::to_string(m.width) + "x" +
-                       std::to_string(m.height) + ", " + std::to_string(m.samples) + " samples) for now");
-      } else if (m.rf_factor != rf) {
-        fail(world, e, "UltrasoundProbe.rf_output: every probe of a world asks for RF, with one radial_decimation, "
-                       "or none does");
+      uint32_t g = 0;
+      for (; g < m.groups.size(); ++g) {
+        const auto& o = m.groups[g];
+        if (o.lines == p.scanlines && o.samples == samples && o.width == p.width && o.height == p.height &&
+            o.rf_factor == rf)
+          break;
       }
-      d.ids.w = uint32_t(m.probes.size());
+      if (g == m.groups.size()) m.groups.push_back({p.scanlines, samples, p.width, p.height, 0, rf, 0});
+      auto& group = m.groups[g];
+      group.bins = std::max(group.bins, samples * uint32_t(d.beam.w));
+      d.ids.w = group.layers++;
       m.probes.push_back(d);
+      m.probe_group.push_back(g);
       m.probe_entity.push_back(e);
     }
+    for (uint32_t probe = env_probes; probe < m.probes.size(); ++probe)
+      m.probes[probe].media = {env_media, uint32_t(m.media.size()) - env_media, 0, 0};
     const uint64_t count = m.scatterers.size() - first;
-    if (m.scatterers.size() > UINT32_MAX) throw std::invalid_argument("more than 2^32 ultrasound scatterers");
+    if (m.scatterers.size() > UINT32_MAX)
+      throw std::invalid_argument("env " + std::to_string(env) + ": the world's ultrasound tissues reach " +
+                                  std::to_string(m.scatterers.size()) + " scatterers (at most 2^32 - 1 in all envs)");
     m.env_scatterers[env] = {first, uint32_t(count)};
-    m.max_env_scatterers = std::max(m.max_env_scatterers, uint32_t(count));
   }
   return m;
 }

@@ -14,16 +14,25 @@
 
 namespace cressim::sensors {
 
+// Probes that share scanlines, IQ samples per line, image size and RF output: one set of outputs
+// "ultrasound<group>.*" with one layer per probe, envs in order.
+struct UltrasoundGroup {
+  uint32_t lines = 0, samples = 0, width = 0, height = 0;
+  uint32_t bins = 0;       // accumulator bins per scanline (shaders/common/ultrasound.h)
+  uint32_t rf_factor = 0;  // RF samples per IQ sample (the decimation) when RF is asked for, else 0
+  uint32_t layers = 0;     // its probes
+};
+
 struct UltrasoundModel {
-  std::vector<shader::UltrasoundProbeData> probes;  // one output layer each, envs in order
-  std::vector<uint32_t> probe_entity;
+  std::vector<shader::UltrasoundProbeData> probes;  // envs in order; ids.w: the layer in its group
+  std::vector<uint32_t> probe_entity, probe_group;
+  std::vector<UltrasoundGroup> groups;
   std::vector<shader::float4> scatterers;  // xyz in the carrier's frame (or barycentric weights 1-3), w amplitude
   std::vector<std::array<uint32_t, 2>> scatterer_carrier;  // x entity row or tet | ULTRASOUND_TET_CARRIER, y tissue
   std::vector<float> tissue_attenuation;         // per tissue, dB/cm/MHz
+  std::vector<shader::UltrasoundMedium> media;   // rigid tissues' regions, envs and entities in order
   std::vector<shader::uint4> tets;               // global particle indices of carrier tets
   std::vector<std::array<uint32_t, 2>> env_scatterers;  // per env: first, count
-  uint32_t lines = 0, samples = 0, width = 0, height = 0, max_env_scatterers = 0;
-  uint32_t rf_factor = 0;  // RF samples per IQ sample (the decimation) when RF is asked for, else 0
 
   bool empty() const { return probes.empty(); }
 };

@@ -45,6 +45,10 @@ def _demo(args: argparse.Namespace) -> int:
         from cressim.demos.suture import run
 
         return run(frames=args.frames, out_dir=args.out, num_envs=args.envs or 1)
+    if args.scene == "ultrasound":
+        from cressim.demos.ultrasound import run
+
+        return run(out_dir=args.out)
     from cressim.demos.batched_scene import run
 
     return run(num_envs=args.envs or 16, frames=args.frames or 120, out_dir=args.out)
@@ -197,12 +201,14 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--json", action="store_true", help="print the chosen device as JSON")
     p.set_defaults(run=_info)
     p = sub.add_parser("demo", help="the main job on the default scene")
-    p.add_argument("scene", nargs="?", default="batched", choices=("batched", "soft", "fluid", "thread", "cautery", "cable", "suture"),
+    p.add_argument("scene", nargs="?", default="batched", choices=("batched", "soft", "fluid", "thread", "cautery", "cable", "suture",
+                                                             "ultrasound"),
                    help="batched: a batched scene and a custom compute pass (default); soft, fluid, thread: "
                         "particle scenes saved as particle-state sequences (.npz) and a few rendered frames (PNG "
                         "colour, segmentation); cautery: an energized hook coagulates and cuts a track in liver; "
                         "cable: a tendon-driven continuum robot bends, sweeps and carries a load; suture: a "
-                        "needle sews two bites across a wound and the thread is drawn until its knot catches. "
+                        "needle sews two bites across a wound and the thread is drawn until its knot catches; "
+                        "ultrasound: a B-mode image of fat over liver with a cyst and a shadowing calcification. "
                         "The twin's demo is ROS's: `python -m cressim_ros.demo`")
     p.add_argument("--envs", type=int, help="batched: envs (default 16); cautery, cable, suture: envs (default 1)")
     p.add_argument("--frames", type=int, help="frames (default 120; cautery 480; cable, suture: the whole sequence)")

@@ -97,7 +97,8 @@ EMITTER_KEYS = ("emit_rate", "emit_width", "emit_origin", "emit_velocity")
 PROBE_INTS = ("scanlines", "width", "height", "radial_decimation")
 PROBE_NUMBERS = ("line_length", "line_spacing", "sector_angle", "radius", "sampling_frequency", "center_frequency",
                  "fractional_bandwidth", "lateral_beam_width", "elevational_beam_width", "speed_of_sound",
-                 "metres_per_unit", "dynamic_range", "gain", "time_gain_compensation", "focal_depth")
+                 "metres_per_unit", "dynamic_range", "gain", "time_gain_compensation", "focal_depth",
+                 "coupling_impedance", "specular_amplitude")
 # an ultrasound tissue region's sizes: box half extents, sphere radius, cylinder radius and half height
 REGION_SIZES = {"box": 3, "sphere": 1, "cylinder": 2}
 
@@ -663,7 +664,7 @@ class _Loader:
     def ultrasound_tissue(self, f: Field) -> cressim.UltrasoundTissue:
         """Scatterers: in the region (a rigid tissue), or in the tets of the entity's SoftBody."""
         c = f.keys(("region", "size", "center", "density", "count", "amplitude_mean", "amplitude_std", "attenuation",
-                    "seed", "inclusions"))
+                    "impedance", "seed", "inclusions"))
         opts = {}
         for k, v in c.items():
             if k == "region":

@@ -24,24 +24,49 @@ static const uint ULTRASOUND_TET_CARRIER = 0x80000000u;
 struct UltrasoundProbeData {
   uint4 ids;        // x entity row, y env, z kind, w output layer
   float4 geometry;  // x line step (units or rad), y apex radius, z line length, w first line (offset or angle)
-  float4 pulse;     // x sample spacing along a line, y axial sigma of the envelope, z two-way wavenumber (rad/unit), w kernel radius (samples)
-  float4 beam;      // x lateral sigma, y elevational sigma (at the focus; cut at 3 sigma)
+  // x IQ sample spacing along a line, y axial sigma of the envelope, z two-way wavenumber
+  // (rad/unit), w pulse kernel radius in bins (cut at 4 sigma)
+  float4 pulse;
+  // x lateral sigma, y elevational sigma (at the focus; cut at 3 sigma), z bin spacing (a
+  // scatterer's envelope sits at its bin's centre, its phase at its exact depth), w bins per IQ sample
+  float4 beam;
   float4 image;     // x left edge, y top edge, z pixel width, w pixel height
   float4 display;   // x dynamic range (dB), y gain (dB), z time-gain compensation (dB per unit of depth)
   // depth dependence: x focal depth (0: no focus, the beam keeps its width), y lateral and
   // z elevational Rayleigh ranges of the focused beam, w two-way attenuation in dB per unit of
   // depth per (dB/cm/MHz) of the tissue (2 x f0 in MHz x centimetres per unit)
   float4 depth;
+  uint4 media;      // x first, y count of its env's media (ultrasound.media rows)
+  float4 specular;  // x echo of a perfect plane reflector (scatterer amplitudes), y coupling impedance (MRayl)
+};
+
+// A rigid tissue's region as a medium the scanlines cross (ultrasound_medium): in the frame of
+// entity row ids.x, centred at center.xyz; where regions overlap, the later tissue's holds.
+static const uint ULTRASOUND_BOX = 1;
+static const uint ULTRASOUND_SPHERE = 2;
+static const uint ULTRASOUND_CYLINDER = 3;  // radius size.x around z, half height size.y
+struct UltrasoundMedium {
+  uint4 ids;      // x entity row, y region kind
+  float4 center;  // xyz region centre in the entity frame, w impedance (MRayl)
+  // xyz box half extents (sphere: radius x; cylinder: radius x, half height y), w attenuation
+  // (dB/cm/MHz)
+  float4 size;
 };
 
 struct UltrasoundConstants {
   uint probe_count;
   uint lines;     // scanlines per probe
   uint samples;   // IQ samples per scanline
+  uint bins;      // accumulator bins per scanline (the most of any probe: samples x its bins per sample)
   uint width;     // output image
   uint height;
-  uint max_env_scatterers;
   uint rf_factor;  // RF samples per IQ sample ("ultrasound0.rf"), 0: no RF
+  // projection, one pass per chunk (a run of scatterers that one storage binding holds; an env's
+  // may span several): the chunk's first probe (probe_count probes from there)
+  uint probe_first;
+  // threads along x of a strided pass, each taking every stride-th item (projection: scatterers
+  // of its probe's env; scan conversion: words of four pixels), so any count fits the dispatch
+  uint stride;
 };
 
 CRESSIM_SHADER_END

@@ -1,11 +1,15 @@
 // COLE step 1: every scatterer of a probe's env, posed by its carrier (an entity's pose, or a
 // tet's four particles by barycentric weights), is projected onto the scanlines within 3 beam
-// sigmas: a complex (IQ) contribution of amplitude x two-way attenuation x lateral and
-// elevational Gaussian beam weights x exp(-i 2k depth) is added to the IQ sample nearest its
-// depth. A focused beam's sigmas grow away from the focal depth as a Gaussian beam's
-// (sqrt(1 + (distance / z_R)^2)), its on-axis amplitude falling by the same factor per axis.
-// The phase carries the exact depth; the pulse envelope is applied by ultrasound_iq.
-// Threads: (scatterer of the env, probe).
+// sigmas: a complex (IQ) contribution of amplitude x the line's two-way path factor at its depth
+// (ultrasound_medium: attenuation and transmission through the media crossed) x lateral and
+// elevational Gaussian beam weights x exp(-i 2k depth) is added to the accumulator bin that
+// holds its depth (bins finer than IQ samples where the pulse needs it, so the binning does not
+// alias the carrier: ultrasound_model.cpp). A soft tissue's scatterers, whose moving shape no
+// medium traces, also lose their own tissue's attenuation over their whole depth. A focused
+// beam's sigmas grow away from the focal depth as a Gaussian beam's (sqrt(1 + (distance /
+// z_R)^2)), its on-axis amplitude falling by the same factor per axis. The phase carries the
+// exact depth; the pulse envelope is applied by ultrasound_iq.
+// Threads: (scatterer of the probe's env in this chunk, strided; probe of the chunk).
 #include "cressim/layout.h"
 #include "cressim/quat.h"
 #include "cressim/ultrasound.h"
@@ -14,22 +18,24 @@
 StructuredBuffer<UltrasoundProbeData> probes;
 StructuredBuffer<float4> scatterers;         // xyz in the carrier frame (or barycentric weights 1-3), w amplitude
 StructuredBuffer<uint2> scatterer_carrier;   // x entity row or tet | ULTRASOUND_TET_CARRIER, y tissue
-StructuredBuffer<uint2> env_scatterers;      // first, count
+StructuredBuffer<uint2> probe_scatterers;    // per probe of the chunk: first in this chunk's tables, count
 StructuredBuffer<float> tissue_attenuation;  // dB/cm/MHz
 StructuredBuffer<uint4> tets;                // particle indices
 StructuredBuffer<float4> particle_positions; // particles.positions
 StructuredBuffer<float4> positions;          // transform.* rows
 StructuredBuffer<float4> rotations;
-RWStructuredBuffer<int> accumulator;         // (probes, lines, samples, 2) fixed point
+StructuredBuffer<float> path;                // (probes, lines, bins) two-way amplitude factor
+RWStructuredBuffer<int> accumulator;         // (probes, lines, bins, 2) fixed point
 
 void deposit(UltrasoundProbeData p, uint probe, uint scanline, float lateral, float depth, float weight, float sigma) {
-  const float at = depth / p.pulse.x;
-  if (at < 0 || at >= float(pc.samples)) return;
-  const float w = weight * exp(-0.5 * lateral * lateral / (sigma * sigma));
+  const float at = depth / p.beam.z;
+  if (at < 0 || at >= float(pc.samples) * p.beam.w) return;
+  const uint bin = (probe * pc.lines + scanline) * pc.bins + uint(at);
+  const float crossed = p.media.y ? path[bin] : 1.0;  // ultrasound_medium traces envs with media only
+  const float w = weight * crossed * exp(-0.5 * lateral * lateral / (sigma * sigma));
   const float phase = -p.pulse.z * depth;
-  const uint i = 2 * ((probe * pc.lines + scanline) * pc.samples + uint(at));
-  InterlockedAdd(accumulator[i], int(round(w * cos(phase) * ULTRASOUND_FIXED_POINT)));
-  InterlockedAdd(accumulator[i + 1], int(round(w * sin(phase) * ULTRASOUND_FIXED_POINT)));
+  InterlockedAdd(accumulator[2 * bin], int(round(w * cos(phase) * ULTRASOUND_FIXED_POINT)));
+  InterlockedAdd(accumulator[2 * bin + 1], int(round(w * sin(phase) * ULTRASOUND_FIXED_POINT)));
 }
 
 float3 pose(float4 sa, uint carrier) {
@@ -48,14 +54,7 @@ float2 widening(UltrasoundProbeData p, float depth) {
   return sqrt(1.0 + d * d / (p.depth.yz * p.depth.yz));
 }
 
-[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
-void main(uint3 id : SV_DispatchThreadID) {
-  const uint probe = id.y;
-  if (probe >= pc.probe_count) return;
-  const UltrasoundProbeData p = probes[probe];
-  const uint2 range = env_scatterers[p.ids.y];
-  if (id.x >= range.y) return;
-  const uint s = range.x + id.x;
+void project(UltrasoundProbeData p, uint probe, uint s) {
   const float4 sa = scatterers[s];
   const uint2 carrier = scatterer_carrier[s];
   const uint eye = p.ids.x;
@@ -66,7 +65,8 @@ void main(uint3 id : SV_DispatchThreadID) {
   const float2 grow = widening(p, depth);
   const float2 sigma = p.beam.xy * grow;
   if (abs(local.y) > 3.0 * sigma.y) return;
-  const float decibels = tissue_attenuation[carrier.y] * p.depth.w * max(depth, 0.0);
+  const bool soft = (carrier.x & ULTRASOUND_TET_CARRIER) != 0;
+  const float decibels = soft ? tissue_attenuation[carrier.y] * p.depth.w * max(depth, 0.0) : 0.0;
   const float weight = sa.w * exp(-0.5 * local.y * local.y / (sigma.y * sigma.y)) / (grow.x * grow.y) *
                        exp(-decibels * (log(10.0) / 20.0));
   const float last = float(pc.lines - 1);
@@ -85,4 +85,13 @@ void main(uint3 id : SV_DispatchThreadID) {
       deposit(p, probe, uint(l), r * sin(d), r * cos(d) - R, weight, sigma.x);
     }
   }
+}
+
+[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
+void main(uint3 id : SV_DispatchThreadID) {
+  if (id.y >= pc.probe_count) return;
+  const uint probe = pc.probe_first + id.y;
+  const UltrasoundProbeData p = probes[probe];
+  const uint2 range = probe_scatterers[id.y];
+  for (uint i = id.x; i < range.y; i += pc.stride) project(p, probe, range.x + i);
 }

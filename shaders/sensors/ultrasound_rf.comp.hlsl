@@ -8,7 +8,7 @@
 
 [[vk::push_constant]] ConstantBuffer<UltrasoundConstants> pc;
 StructuredBuffer<UltrasoundProbeData> probes;
-StructuredBuffer<int> accumulator;  // (probes, lines, samples, 2) fixed point
+StructuredBuffer<int> accumulator;  // (probes, lines, bins, 2) fixed point
 RWStructuredBuffer<float> rf;       // (probes, lines, samples * rf_factor)
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
@@ -17,10 +17,11 @@ void main(uint3 id : SV_DispatchThreadID) {
   if (j >= count || scanline >= pc.lines || probe >= pc.probe_count) return;
   const UltrasoundProbeData p = probes[probe];
   const float depth = (float(j) + 0.5) * p.pulse.x / float(pc.rf_factor);
-  const float v = depth / p.pulse.x - 0.5;  // in IQ samples
-  const float radius = p.pulse.w, step = p.pulse.x / p.pulse.y;
-  const int lo = max(int(ceil(v - radius)), 0), hi = min(int(floor(v + radius)), int(pc.samples) - 1);
-  const uint base = (probe * pc.lines + scanline) * pc.samples;
+  const float v = depth / p.beam.z - 0.5;  // in bins
+  const float radius = p.pulse.w, step = p.beam.z / p.pulse.y;
+  const int lo = max(int(ceil(v - radius)), 0);
+  const int hi = min(int(floor(v + radius)), int(float(pc.samples) * p.beam.w) - 1);
+  const uint base = (probe * pc.lines + scanline) * pc.bins;
   float2 sum = float2(0, 0);
   for (int m = lo; m <= hi; ++m) {
     const float t = (float(m) - v) * step;

@@ -643,6 +643,16 @@ class ArmBodies:
         self.target_positions[rows, :3] = p7[:, :3].to(self.target_positions)
         self.target_rotations[rows] = p7[:, 3:].to(self.target_rotations)
 
+    def set_needle_pose(self, envs: torch.Tensor, poses: torch.Tensor):
+        """The needles of `envs` at poses (M, 4, 4) now: their bodies moved there and held there."""
+        self.place_needle(envs, poses)
+        rows = self.needle_rows[envs.to(self.device)]
+        p7 = matrix_to_pose7(poses.to(torch.float64))
+        positions = torch.from_dlpack(self.engine.buffer("rigid.positions"))
+        rotations = torch.from_dlpack(self.engine.buffer("rigid.rotations"))
+        positions[rows.to(positions.device), :3] = p7[:, :3].to(positions)
+        rotations[rows.to(rotations.device)] = p7[:, 3:].to(rotations)
+
     def needle_poses(self, envs: torch.Tensor | None = None) -> torch.Tensor:
         """(M, 4, 4) float64 on the CPU: the needle arc frames of `envs` (long tensor; default every
         env) in the world now."""

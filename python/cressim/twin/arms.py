@@ -183,7 +183,8 @@ class TwinArms:
         self.jaw_lower, self.jaw_upper = self.psm.jaw_limits or (0.0, 0.0)
 
         N, kw = self.num_envs, dict(device=self.device, dtype=torch.float64)
-        self.setpoint = torch.as_tensor(initial, **kw).repeat(N, 1)
+        self._initial_q, self._initial_jaw = torch.as_tensor(initial, **kw), jaw0  # restart() returns to them
+        self.setpoint = self._initial_q.repeat(N, 1)
         self.measured = self.setpoint.clone()
         self.setpoint_v = torch.zeros(N, INTERFACE_DOF, **kw)
         self.measured_v = torch.zeros(N, INTERFACE_DOF, **kw)
@@ -785,6 +786,39 @@ class TwinArms:
             self.bodies.prepare_reset(envs, q, jaw)
             self._regrip_needle(envs)
             self.bodies.engine.reset_envs(envs.tolist())
+
+    # ------------------------------------------------------------------ simulation control
+    def restart(self, *, clock: bool = True):
+        """Every env as the twin started, between ticks: the world reset (tissue, fluid, needle in
+        the jaws), the arms at rest at the scene's initial joints and jaw, DISABLED and not homed,
+        base frames, ratios, pedals and valves as at start, pending commands dropped; with `clock`,
+        the simulated time back at 0."""
+        N, kw = self.num_envs, dict(device=self.device, dtype=torch.float64)
+        self.reset_envs(torch.arange(N), q=self._initial_q.repeat(N, 1), jaw=torch.full((N, 1), self._initial_jaw, **kw))
+        self.states = [ArmState() for _ in range(N)]
+        self.base_frame[:] = torch.eye(4, **kw)
+        self.base_frame_np[:] = np.eye(4)
+        self.cp_pending.clear()
+        self.cv.zero_()
+        self.cv_on[:] = False
+        self.ratio_v[:], self.ratio_a[:] = 1.0, 1.0
+        self.coag_pedal[:] = False
+        self.suction_valve.zero_()
+        if clock:
+            self.sim_ns, self.ticks = 0, 0
+
+    def needle_pose(self, env: int) -> np.ndarray | None:
+        """The needle's arc frame in the world (4x4), or None where the scene has no needle."""
+        if self.needle_offset is None:
+            return None
+        return self.bodies.needle_poses(torch.tensor([env]))[0].numpy()
+
+    def set_needle_pose(self, env: int, pose: np.ndarray) -> None:
+        """Puts env's needle (arc frame, world 4x4) there now, out of the jaws (closing them over
+        it picks it up again)."""
+        self.needle_held[env] = False
+        with self.engine_lock:
+            self.bodies.set_needle_pose(torch.tensor([env]), torch.as_tensor(pose, dtype=torch.float64)[None])
 
     # ------------------------------------------------------------------ what a tick publishes
     def snapshot(self, *, cartesian: bool = True, jacobian: bool = True) -> "Snapshot":

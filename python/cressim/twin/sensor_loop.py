@@ -70,6 +70,11 @@ class SensorLoop:
         s.next_ns = nxt if nxt > sim_ns else sim_ns + period
         return True
 
+    def rewind(self):
+        """The simulated clock went back (a restart): every sensor is due at the next offer."""
+        for s in self.sensors.values():
+            s.next_ns = 0
+
     def offer(self, sim_ns: int, stamp) -> list[str]:
         """Called by each tick after TwinArms.tick: hands the sensors due at sim_ns (stamped
         `stamp`) to the worker, or renders them here when not threaded. Returns their names."""

@@ -79,3 +79,10 @@ def env_topic(topic: str, env: int, num_envs: int) -> str:
 __all__ = ["CLOCK_QOS", "CLOCK_TOPIC", "CONSOLE_NAMESPACES", "CRTK_VERSION", "DIAGNOSTICS_TOPIC", "IMAGE_QOS",
            "LATCHED_QOS", "ROBOT_DESCRIPTION_TOPIC", "SENSOR_TOPICS", "SERVICES", "TF_STATIC_TOPIC", "TF_TOPIC",
            "TOPICS_BY_NAME", "arm_topics", "env_frame_prefix", "env_namespaces", "env_topic", "msg_class", "qos"]
+
+
+def fill_pose(pose, p):
+    """A geometry_msgs Pose from x, y, z, qx, qy, qz, qw."""
+    pose.position.x, pose.position.y, pose.position.z = float(p[0]), float(p[1]), float(p[2])
+    pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w = (
+        float(p[3]), float(p[4]), float(p[5]), float(p[6]))

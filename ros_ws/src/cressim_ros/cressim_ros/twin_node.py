@@ -57,9 +57,10 @@ from .camera_topics import PRODUCTS, CameraTopics, camera_frame
 from .diagnostics import build_diagnostics
 from .recorder import RecordingUnavailable, open_recorder
 from .robot_state import RobotStateTopics
+from .simulation_control import SimulationControl
 from .topics import (CLOCK_QOS, CLOCK_TOPIC, CONSOLE_NAMESPACES, CRTK_VERSION, DIAGNOSTICS_TOPIC, LATCHED_QOS,
                      SENSOR_TOPICS, TF_STATIC_TOPIC, TF_TOPIC, TOPICS_BY_NAME, arm_topics, env_frame_prefix,
-                     env_namespaces, env_topic, msg_class, qos)
+                     env_namespaces, env_topic, fill_pose, msg_class, qos)
 from .ultrasound_topics import UltrasoundTopics, ultrasound_frame
 
 ERROR_INTERVAL_S = 0.05  # the same refusal (env, kind) goes to `error` at most this often
@@ -179,6 +180,7 @@ class TwinNode(Node):
         self._create_sensor_publishers()
         self._create_subscriptions()
         self._create_services()
+        self.control = SimulationControl(self)
         self.clock_pub = self.create_publisher(ClockMsg, CLOCK_TOPIC, CLOCK_QOS)
         self.tf_pub = self.create_publisher(TFMessage, TF_TOPIC, qos(TOPICS_BY_NAME[TF_TOPIC]))
         self.tf_static_pub = self.create_publisher(TFMessage, TF_STATIC_TOPIC, LATCHED_QOS)
@@ -515,7 +517,7 @@ class TwinNode(Node):
         if problem:
             response.result, response.message = False, problem
             return response
-        _fill_pose(response.cp, pose)
+        fill_pose(response.cp, pose)
         response.result = True
         return response
 
@@ -525,6 +527,21 @@ class TwinNode(Node):
 
     # ------------------------------------------------------------------ the tick
     def _tick(self):
+        """The timer's: a tick while the simulation plays (simulation_control.py)."""
+        if self.control.running:
+            self.advance()
+
+    def resume(self):
+        """Playing again after a pause: the pause is not a late tick."""
+        self._tick_ns.clear()
+
+    def rewind(self):
+        """The simulated clock went back to 0 (a reset): tf and the sensors are due again."""
+        self._next_tf_ns = 0
+        self.sensors.rewind()
+
+    def advance(self):
+        """One tick: the arms and the engine one publish period on, then what it publishes."""
         started = time.perf_counter()
         try:
             events = self.arms.tick()
@@ -694,14 +711,8 @@ def _joint_state(stamp, names, position, velocity, effort) -> JointState:
 def _pose_stamped(stamp, frame, p) -> PoseStamped:
     m = PoseStamped()
     m.header.stamp, m.header.frame_id = stamp, frame
-    _fill_pose(m.pose, p)
+    fill_pose(m.pose, p)
     return m
-
-
-def _fill_pose(pose, p):
-    pose.position.x, pose.position.y, pose.position.z = float(p[0]), float(p[1]), float(p[2])
-    pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w = (
-        float(p[3]), float(p[4]), float(p[5]), float(p[6]))
 
 
 def _wrench(stamp, frame, w) -> WrenchStamped:
