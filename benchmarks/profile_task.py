@@ -16,7 +16,7 @@ import cressim.envs
 
 
 def profile(task: str, envs: int, warmup: int, steps: int, solver: str | None = None) -> dict:
-    env = cressim.envs.make(task, num_envs=envs)
+    env = cressim.envs.make(task, num_envs=envs, final_observation=False)  # the step the learners and benches run
     if solver:  # the particle solver's schedule (PhysicsSettings.particle_solver) instead of the task's
         physics = env.engine.physics
         physics.particle_solver = solver

@@ -51,6 +51,9 @@ from cressim.compute import load_compute_pass
 from cressim import sensors  # noqa: F401  (PNG export of sensor images)
 from cressim import passes  # noqa: F401  (ready-made custom passes: grasp, suction)
 from cressim.tendons import TendonDrive
+from cressim.registration import register_envs
+
+register_envs()  # the tasks as gymnasium's cressim/<Task>-v0
 
 __all__ = [
     "AuthoringError",

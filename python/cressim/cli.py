@@ -82,6 +82,12 @@ def _task_options(pairs: list[str]) -> dict:
     return options
 
 
+def _env_list(text: str) -> list:
+    """--video-envs: comma-separated env indices."""
+    try:
+        return [int(v) for v in text.split(",")]
+    except ValueError:
+        raise SystemExit(f"--video-envs {text!r}: expected comma-separated env indices (e.g. 0,3)") from None
 def _torchrun(nproc: int, argv: list[str]) -> int:
     """`cressim ARGV` in `nproc` processes on this host, started by torchrun (torch.distributed.run)."""
     import subprocess
@@ -120,7 +126,8 @@ def _train(args: argparse.Namespace) -> int:
     result = train(args.task, num_envs=args.envs, iterations=args.iterations, device=args.device, seed=args.seed,
                    out_dir=args.out or f"runs/{args.task.lower()}", rollout=args.rollout, save_every=args.save_every,
                    backend=args.backend, minibatch=args.minibatch, task_options=_task_options(args.task_option),
-                   obs_normalization=args.obs_normalization or None)
+                   obs_normalization=args.obs_normalization or None,
+                   video_envs=_env_list(args.video_envs) if args.video else None)
     if not _leader():
         return 0
     last = result["history"][-1]
@@ -135,10 +142,13 @@ def _eval(args: argparse.Namespace) -> int:
     from cressim.learn import evaluate
 
     result = evaluate(args.checkpoint, num_envs=args.envs, episodes=args.episodes, device=args.device, seed=args.seed,
-                      task_options=_task_options(args.task_option))
+                      task_options=_task_options(args.task_option), video_dir=args.video,
+                      video_envs=_env_list(args.video_envs))
     print(f"{result['task']}: {result['episodes']} episodes of the mean policy ({result['vulkan_device']}): "
           f"return {result['mean_return']:.2f}, length {result['mean_length']:.1f}, "
           f"terminated {result['terminated']:.3f}")
+    for video in result["videos"]:
+        print(video)
     if args.json:
         Path(args.json).parent.mkdir(parents=True, exist_ok=True)
         Path(args.json).write_text(json.dumps(result, indent=1))
@@ -229,6 +239,9 @@ def main(argv: list[str] | None = None) -> int:
                         "runs torchrun, as `torchrun --nproc-per-node N -m cressim train ...` does")
     p.add_argument("--obs-normalization", action="store_true",
                    help="the observation's numbers by their running mean and std (PPOConfig.obs_normalization)")
+    p.add_argument("--video", action="store_true",
+                   help="MP4s of the --video-envs in each checkpoint's rollout (--out/video_<k>_env<i>.mp4, PyAV)")
+    p.add_argument("--video-envs", default="0", help="comma-separated env indices filmed (default 0)")
     p.set_defaults(run=_train)
     p = sub.add_parser("generate", help="record batched rollouts to MCAP bags, one a process, with an index")
     p.add_argument("task", nargs="?", default="CartPole")
@@ -262,6 +275,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--task-option", action="append", metavar="KEY=VALUE",
                    help="override a keyword the task was trained with (repeatable)")
     p.add_argument("--json", help="write the result (every episode's return, length, ending) here")
+    p.add_argument("--video", metavar="DIR", help="MP4s of the --video-envs' episodes here (eval_env<i>.mp4, PyAV)")
+    p.add_argument("--video-envs", default="0", help="comma-separated env indices filmed (default 0)")
     p.set_defaults(run=_eval)
     p = sub.add_parser("bench", help="stepping and PPO throughput (TASKS.md protocol)")
     p.add_argument("task", nargs="?", default="CartPole")

@@ -1,6 +1,7 @@
 """Files in and out of the renderer: PNG images and OpenEXR images (small zlib writers, no
-imaging library), depth and segmentation colour maps for people to look at, and meshes and textures read from
-.obj/.stl/.glb/.png files (trimesh and matplotlib, imported when used)."""
+imaging library), H.264 MP4 videos (PyAV, imported when used), depth and segmentation colour maps for
+people to look at, and meshes and textures read from .obj/.stl/.glb/.png files (trimesh and
+matplotlib, imported when used)."""
 from __future__ import annotations
 
 import struct
@@ -124,6 +125,41 @@ def read_png(path) -> np.ndarray:
 
     a = matplotlib.image.imread(str(path))
     return a if a.dtype == np.uint8 else np.round(np.clip(a, 0, 1) * 255).astype(np.uint8)
+
+
+def write_mp4(path, frames, fps: float, *, lossless: bool = False) -> Path:
+    """Writes `frames` ((T, H, W, 3) uint8) as an H.264 MP4 at `fps`; returns the path. Default
+    yuv420p, which every player reads (H and W even); `lossless`: constant quality 0 in yuv444p, so
+    that the frames decode back within one level (RGB <-> YUV rounding), for datasets."""
+    import fractions
+
+    import av
+
+    frames = np.asarray(frames)
+    if frames.ndim != 4 or frames.shape[-1] != 3 or frames.dtype != np.uint8 or len(frames) == 0:
+        raise ValueError(f"write_mp4: {path}: frames must be (T > 0, H, W, 3) uint8, got {frames.shape} {frames.dtype}")
+    if not lossless and (frames.shape[1] % 2 or frames.shape[2] % 2):
+        raise ValueError(f"write_mp4: {path}: yuv420p needs an even width and height, got {frames.shape[1:3]}")
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with av.open(str(path), "w") as container:
+        stream = container.add_stream("libx264", rate=fractions.Fraction(fps).limit_denominator(1000))
+        stream.height, stream.width = frames.shape[1:3]
+        stream.pix_fmt = "yuv444p" if lossless else "yuv420p"
+        if lossless:
+            stream.options = {"qp": "0", "preset": "veryfast"}
+        for image in frames:
+            container.mux(stream.encode(av.VideoFrame.from_ndarray(np.ascontiguousarray(image), format="rgb24")))
+        container.mux(stream.encode())  # flush the encoder
+    return path
+
+
+def read_mp4(path) -> np.ndarray:
+    """A video's frames, (T, H, W, 3) uint8."""
+    import av
+
+    with av.open(str(path)) as container:
+        return np.stack([frame.to_ndarray(format="rgb24") for frame in container.decode(video=0)])
 
 
 def colour_depth(depth, near: float | None = None, far: float | None = None) -> np.ndarray:

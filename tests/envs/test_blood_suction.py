@@ -52,7 +52,7 @@ def test_observation_layout_and_values_checked():
     env = cressim.envs.make("BloodSuction", num_envs=2, validation=True, start_spread=0)
     obs, _ = on_host(env.reset(seed=3))  # start_spread=0: every episode starts alike
     assert env.seed == 3 and obs.shape == (2, 13 + 64 * 64 * 3) and obs.dtype == torch.float32
-    assert env.action_space.shape == (5,)
+    assert env.single_action_space.shape == (5,)
     numbers, image = env.split_observation(obs)
     assert numbers.shape == (2, 13) and image.shape == (2, 64, 64, 3)
     assert torch.allclose(numbers[:, JOINTS], torch.tensor(START_Q))

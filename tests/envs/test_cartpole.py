@@ -19,7 +19,7 @@ def balance(obs):
 def test_spaces_shapes_and_first_observation():
     env = cressim.envs.make("CartPole", num_envs=8, validation=True)
     obs, info = env.reset(seed=3)
-    assert env.observation_space.shape == (4,) and env.action_space.shape == (1,)
+    assert env.single_observation_space.shape == (4,) and env.single_action_space.shape == (1,)
     assert obs.shape == (8, 4) and obs.dtype == torch.float32
     assert torch.all(obs.abs() <= 0.05 + 1e-6)  # uniform +-0.05 start
     assert torch.all(info["episode_length"] == 0)

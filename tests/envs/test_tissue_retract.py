@@ -41,7 +41,7 @@ def toward(obs: torch.Tensor, point: torch.Tensor, grasp: float) -> torch.Tensor
 def test_reset_observation_and_a_grasp_on_nothing():
     env = cressim.envs.make("TissueRetract", num_envs=2, validation=True)
     obs, info = on_host(env.reset(seed=1))
-    assert obs.shape == (2, 29) and env.action_space.shape == (7,)
+    assert obs.shape == (2, 29) and env.single_action_space.shape == (7,)
     assert torch.allclose(obs[:, JOINTS], torch.tensor(START_Q)) and torch.all(obs[:, 6:12] == 0)
     assert torch.allclose(obs[:, TARGET][:, 1:], torch.tensor([FREE_EDGE, FLAP_TOP]), atol=1e-4)  # on the free edge
     assert torch.allclose(obs[:, TIP], torch.tensor([0.0, 0.0, 0.2005]), atol=1e-5)

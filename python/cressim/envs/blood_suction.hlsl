@@ -24,6 +24,7 @@ struct Params {
   uint first_env;        // observe_image: the camera group's first env (layer 0)
   uint group_envs;       // observe_image: its envs (layers)
   uint pixels;           // observe_image: H W
+  uint final_obs;        // observe: 1 in the pass that writes the final observations (before evaluate)
   uint env_offset;      // env 0's index in the whole batch: a shard draws that batch's numbers (vector_env.py)
 };
 [[vk::push_constant]] ConstantBuffer<Params> pc;
@@ -138,15 +139,18 @@ void observe(uint3 id : SV_DispatchThreadID) {
       nearest = float4(x, 1);
     }
   }
-  task_aim[2 * env] = nearest;
-  task_aim[2 * env + 1] = float4(tip, 0);
+  const bool final_obs = pc.final_obs != 0;  // before evaluate: leave the reward's aim as it was
+  if (!final_obs) {
+    task_aim[2 * env] = nearest;
+    task_aim[2 * env + 1] = float4(tip, 0);
+  }
   const float3 offset = nearest.w == 0 ? float3(0, 0, 0) : nearest.xyz - tip;
   const int4 suction = suctions[env];
   const uint o = pc.row * env;
   for (uint j = 0; j < 4; ++j) observations[o + j] = arm_joints[4 * env + j];
   const float values[9] = {tip.x, tip.y, tip.z, offset.x, offset.y, offset.z,
                            float(suction.w) / float(pc.fluid_count), float(suction.x != 0),
-                           float(episode_length[env]) / float(pc.max_steps)};
+                           float(episode_length[env] + (final_obs ? 1 : 0)) / float(pc.max_steps)};
   for (uint i = 0; i < 9; ++i) observations[o + 4 + i] = values[i];
 }
 

@@ -75,7 +75,6 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 import torch
@@ -84,7 +83,7 @@ import cressim
 from cressim.passes.suction import FLOW_RATE, Suction
 from cressim.tet_mesh_file import boundary_triangles
 
-from .vector_env import Space, VectorEnv, checked_number, tensor_view
+from .vector_env import VectorEnv, box, checked_number, tensor_view
 
 # success: the field is clear when 95 % of the blood is gone. Scripted tips (the greedy chase of
 # the nearest particle and a raster sweep, docs/envs.md) leave 9 to 12 of the 605 particles after
@@ -153,7 +152,8 @@ def _look_at(eye, target) -> tuple:
 class BloodSuction(VectorEnv):
     hlsl = Path(__file__).with_name("blood_suction.hlsl")
     entries = ("apply_action", "evaluate", "observe")  # images: observe_image
-    action_space = Space((5,), -1.0, 1.0)
+    single_action_space = box((5,), -1.0, 1.0)
+    own_cameras = True  # render() shows the task's camera
     max_episode_steps = 240
     removal_reward = 0.03
 
@@ -183,7 +183,7 @@ class BloodSuction(VectorEnv):
         self.success_reward = checked_number("BloodSuction", "success_reward", success_reward, 0.0, 1e3, with_low=True)
         self.start_spread = checked_number("BloodSuction", "start_spread", start_spread, 0.0, YAW_PITCH_LIMIT,
                                            with_low=True)
-        self.observation_space = Space((NUMBERS + 3 * self.image_size ** 2,))
+        self.single_observation_space = box((NUMBERS + 3 * self.image_size ** 2,))
         super().__init__(num_envs, **kwargs)
         self.joints = tensor_view(self.buffers.extra["arm_joints"], self.device)  # (N, 4)
         self.suction_commands = tensor_view(self.suction.commands, self.device)  # (N, 4) int32: x on, w removed
@@ -199,7 +199,7 @@ class BloodSuction(VectorEnv):
             robot_dir() / "psm_suction.urdf", num_envs, base_position=RCM, base_rotation=(0.0, 0.0, 0.0, 1.0),
             publish_rate=1 / FRAME, physics_rate=4 / FRAME, initial_q=np.array(START_Q), initial_jaw=0.0, dof=4,
             world=world)
-        self._show_arm(world)
+        self.arm.show(world, range(num_envs), SHOWN_LINKS)
         points, tets, triangles = basin_mesh()
         held = np.nonzero(points[:, 2] < 1e-6)[0]  # the bottom layer, on the table
         block = blood_block()
@@ -230,24 +230,6 @@ class BloodSuction(VectorEnv):
             camera.add(cressim.Transform(position=EYE, rotation=_look_at(EYE, LOOK_AT)))
             camera.add(cressim.Camera(width=s, height=s, fov_y=45.0, near=0.01, far=1.0, products=["rgb"]))
         return world
-
-    def _show_arm(self, world: cressim.World):
-        """Renderables (URDF visuals) on the bodies of SHOWN_LINKS: in kinematic mode each link is
-        a body whose frame is the link's."""
-        from cressim.robots import robot_dir
-        from cressim.robots.arm_visuals import ArmVisuals
-
-        links = {link.name: link for link in self.arm.urdf.robot.links}
-        for name in SHOWN_LINKS:
-            body = SimpleNamespace(links=[links[name]], pose=np.eye(4), name=name)
-            visuals = ArmVisuals(self.arm.urdf, robot_dir(), [body], {name: np.eye(4)})
-            m = visuals.meshes[0]
-            mesh = world.add_mesh(cressim.Mesh(np.asarray(m.vertices, np.float32), np.asarray(m.faces, np.uint32),
-                                               np.asarray(m.vertex_normals, np.float32)))
-            k = self.arm.body_names.index(name)
-            for entity in self.arm.body_entity_ids[:, k]:
-                world.entity(int(entity)).add(cressim.Renderable(mesh, color=visuals.colors[0], metallic=0.3,
-                                                                 roughness=0.4))
 
     def physics_settings(self) -> cressim.PhysicsSettings:
         return cressim.PhysicsSettings(dt=FRAME, substeps=4, particle_iterations=4, max_particle_attachments_per_env=0)
@@ -281,11 +263,12 @@ class BloodSuction(VectorEnv):
         self._camera_groups = self._check_cameras()
         passes = super()._create_passes()
         source = self.hlsl.read_text()
-        passes["observe_image"] = [e.create_compute_pass(
-            source, name=str(self.hlsl), entry="observe_image", threads=count * 3 * self.image_size ** 2,
-            bindings={"observations": self.buffers.observations, "rgb": f"camera{g}.rgb"},
-            constants={**self.task_constants(False), "first_env": first, "group_envs": count})
-            for g, (first, count) in enumerate(self._camera_groups)]
+        for g, (first, count) in enumerate(self._camera_groups):  # the images beside the numbers
+            image, final_image = self.observe_passes(
+                source, "observe_image", count * 3 * self.image_size ** 2, {"rgb": f"camera{g}.rgb"},
+                {**self.task_constants(False), "first_env": first, "group_envs": count})
+            passes["observe"] += image
+            passes["observe_final"] += final_image
         return passes
 
     def _check_cameras(self) -> list:
@@ -313,7 +296,7 @@ class BloodSuction(VectorEnv):
                 "seed": self.seed,
                 "start_spread": self.start_spread,
                 "removal_reward": self.removal_reward, "length_scale": LENGTH_SCALE,
-                "row": self.observation_space.shape[0], "first_env": 0, "group_envs": self.num_envs,
+                "row": self.single_observation_space.shape[0], "first_env": 0, "group_envs": self.num_envs,
                 "pixels": self.image_size ** 2}
 
     # --- a step ---------------------------------------------------------------------------------
@@ -324,12 +307,10 @@ class BloodSuction(VectorEnv):
         self.suction.execute()
 
     def sense(self):
-        """The arm posed at its joint targets (a reset env's drawn start; idempotent otherwise), the
-        cameras, and their images into the observations (beside the numbers `observe` writes)."""
+        """The arm posed at its joint targets (a reset env's drawn start; idempotent otherwise) and
+        the cameras (`observe_image` copies their images beside the numbers `observe` writes)."""
         self.arm.pose()
         self.engine.step_visual_sensors()
-        for observe_image in self.passes["observe_image"]:
-            self.engine.execute_compute_pass(observe_image)
 
     def split_observation(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """(numbers (N, 13), image (N, H, W, 3)) views of observations (N, 13 + H W 3)."""

@@ -21,7 +21,7 @@ import numpy as np
 
 import cressim
 
-from .vector_env import Space, VectorEnv
+from .vector_env import box, VectorEnv
 
 RAIL = (2.5, 0.04, 0.04)
 CART = (0.18, 0.1, 0.1)
@@ -30,17 +30,24 @@ POLE = (0.05, 0.05, 0.5)
 
 class CartPole(VectorEnv):
     hlsl = Path(__file__).with_name("cartpole.hlsl")
-    observation_space = Space((4,))
-    action_space = Space((1,), -1.0, 1.0)
+    single_observation_space = box((4,))
+    single_action_space = box((1,), -1.0, 1.0)
     max_episode_steps = 500
     action_scale = 8.0
     max_x = 2.4
     max_angle = math.radians(12)
     reset_range = 0.05
 
+    video_view = ((0.0, -6.5, 1.2), (0.0, 0.0, 0.4))
+
     def build_world(self, num_envs: int) -> cressim.World:
         world = cressim.World(cressim.SceneLayout(num_envs))
         no_contacts = dict(group=0, mask=0)
+        looks = {}  # the parts' visuals, only in the envs render() shows
+        if self.render_mode is not None:
+            looks = {part: (world.add_mesh(cressim.Mesh.box(size)), colour) for part, size, colour in (
+                ("rail", RAIL, (0.3, 0.3, 0.32, 1)), ("cart", CART, (0.15, 0.35, 0.8, 1)),
+                ("pole", POLE, (0.85, 0.55, 0.1, 1)))}
         for env in range(num_envs):
             rail = world.create_entity(env=env, name="rail")
             rail.add(cressim.Transform())
@@ -53,6 +60,9 @@ class CartPole(VectorEnv):
             pole.add(cressim.Transform(position=(0, 0, 0.6)))
             pole.add(cressim.RigidBody(mass=2.0))
             pole.add(cressim.Collider(cressim.Shape.box(POLE), **no_contacts))
+            if self.rendered(env):
+                for entity, (mesh, colour) in zip((rail, cart, pole), looks.values()):
+                    entity.add(cressim.Renderable(mesh, color=colour))
             world.create_entity(env=env, name="cart_slider").add(cressim.Joint(
                 "slider", body_b=cart, axis=(1, 0, 0), limits=(-self.max_x, self.max_x), drive="velocity",
                 damping=1e4, max_force=1000.0))

@@ -23,7 +23,7 @@ import numpy as np
 import cressim
 
 from .particle_task import ParticleTask
-from .vector_env import Space
+from .vector_env import box
 
 INNER = (1.15, 0.80, 0.95)  # half extents x, y, and half height
 WALL = 0.12  # half thickness
@@ -33,25 +33,47 @@ RADIUS = 0.09
 BLOCK = (12, 8, 10)
 
 
-def open_box_shapes():
-    """Floor and four walls of an open box whose inner floor centre is the entity origin."""
+def open_box_parts() -> list:
+    """Floor and four walls, (half extents, centre), of an open box whose inner floor centre is the
+    entity origin."""
     ix, iy, ih = INNER
     w = WALL
-    return [cressim.Shape.box((ix + 2 * w, iy + 2 * w, w), position=(0, 0, -w)),
-            cressim.Shape.box((w, iy + 2 * w, ih), position=(ix + w, 0, ih)),
-            cressim.Shape.box((w, iy + 2 * w, ih), position=(-ix - w, 0, ih)),
-            cressim.Shape.box((ix, w, ih), position=(0, iy + w, ih)),
-            cressim.Shape.box((ix, w, ih), position=(0, -iy - w, ih))]
+    return [((ix + 2 * w, iy + 2 * w, w), (0, 0, -w)), ((w, iy + 2 * w, ih), (ix + w, 0, ih)),
+            ((w, iy + 2 * w, ih), (-ix - w, 0, ih)), ((ix, w, ih), (0, iy + w, ih)), ((ix, w, ih), (0, -iy - w, ih))]
+
+
+def open_box_shapes():
+    return [cressim.Shape.box(half, position=centre) for half, centre in open_box_parts()]
+
+
+def open_box_mesh() -> cressim.Mesh:
+    """The open box as one mesh (its parts' faces, flat-shaded), for the rendered envs."""
+    positions, normals, triangles = [], [], []
+    for half, centre in open_box_parts():
+        for axis in range(3):
+            for sign in (-1.0, 1.0):  # a face: 4 corners, its normal along +-axis
+                n = np.zeros(3)
+                n[axis] = sign
+                u, v = np.eye(3)[(axis + 1) % 3], np.eye(3)[(axis + 2) % 3]
+                corners = [n + a * u + b * v for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+                first = len(positions)
+                positions += [np.asarray(centre) + np.asarray(half) * c for c in corners]
+                normals += [n] * 4
+                quad = [(0, 1, 2), (0, 2, 3)] if sign > 0 else [(0, 2, 1), (0, 3, 2)]  # counter-clockwise outside
+                triangles += [[first + i for i in t] for t in quad]
+    return cressim.Mesh(np.asarray(positions, np.float32), np.asarray(triangles, np.uint32),
+                        np.asarray(normals, np.float32))
 
 
 class FluidPour(ParticleTask):
     hlsl = Path(__file__).with_name("fluid_pour.hlsl")
-    observation_space = Space((6,))
-    action_space = Space((2,), -1.0, 1.0)
+    single_observation_space = box((6,))
+    single_action_space = box((2,), -1.0, 1.0)
     max_episode_steps = 240
     particle_iterations = 4
     spill_penalty = 1.0
     success_fraction = 0.40
+    video_view = ((0.0, -10.0, 5.0), (0.0, 0.0, 1.0))
 
     def build_world(self, num_envs: int) -> cressim.World:
         world = cressim.World(cressim.SceneLayout(num_envs))
@@ -60,6 +82,8 @@ class FluidPour(ParticleTask):
         z, y, x = np.meshgrid(np.arange(n[2]), np.arange(n[1]), np.arange(n[0]), indexing="ij")
         block = np.stack([x, y, z], -1).reshape(-1, 3) * d
         block = (block - [(n[0] - 1) * d / 2, (n[1] - 1) * d / 2, -RADIUS - 0.01]).astype(np.float32)
+        if self.render_mode is not None:  # visuals in the envs render() shows
+            box_mesh, ground_mesh = world.add_mesh(open_box_mesh()), world.add_mesh(cressim.Mesh.plane(4.0))
         for env in range(num_envs):
             ground = world.create_entity(env=env, name="ground")
             ground.add(cressim.Transform())
@@ -71,6 +95,10 @@ class FluidPour(ParticleTask):
             target = world.create_entity(env=env, name="target")
             target.add(cressim.Transform(position=TARGET))
             target.add(cressim.Collider(open_box_shapes()))
+            if self.rendered(env):
+                ground.add(cressim.Renderable(ground_mesh, color=(0.4, 0.45, 0.4, 1)))
+                for box in (source, target):
+                    box.add(cressim.Renderable(box_mesh, color=(0.75, 0.75, 0.8, 1)))
             water = world.create_entity(env=env, name="water")
             water.add(cressim.Transform(position=SOURCE))
             water.add(cressim.Fluid(block, radius=RADIUS, rest_density=1000, viscosity=0.01, cohesion=0.05,

@@ -24,7 +24,7 @@ from pathlib import Path
 import cressim
 
 from .particle_task import ParticleTask
-from .vector_env import Space
+from .vector_env import box
 
 GROUND = (1.25, 0.85, 0.05)
 CUBE_HALF = 0.225
@@ -34,8 +34,8 @@ TARGET = (0.45, 0.0, 0.18, 0.18, 0.3)  # centre x, y; half extents x, y, z
 
 class SoftBodyPush(ParticleTask):
     hlsl = Path(__file__).with_name("soft_body_push.hlsl")
-    observation_space = Space((5,))
-    action_space = Space((2,), -1.0, 1.0)
+    single_observation_space = box((5,))
+    single_action_space = box((2,), -1.0, 1.0)
     max_episode_steps = 180
     particle_iterations = 32
     contact_iterations = 16
@@ -43,11 +43,15 @@ class SoftBodyPush(ParticleTask):
     pusher_speed = 1.0  # m/s per unit action
     success_occupancy = 0.7
     pusher_start = (-0.6, 0.0)  # x, y
+    video_view = ((0.0, -2.6, 1.6), (0.1, 0.0, 0.2))
 
     def build_world(self, num_envs: int) -> cressim.World:
         world = cressim.World(cressim.SceneLayout(num_envs))
         mesh = cressim.TetMesh.box((CUBE_HALF,) * 3, (self.cells,) * 3)
         self.particles_per_env = len(mesh.positions)
+        if self.render_mode is not None:  # visuals in the envs render() shows
+            ground_mesh = world.add_mesh(cressim.Mesh.box(GROUND))
+            pusher_mesh = world.add_mesh(cressim.Mesh.capsule(*PUSHER))
         for env in range(num_envs):
             ground = world.create_entity(env=env, name="ground")
             ground.add(cressim.Transform(position=(0, 0, -GROUND[2])))
@@ -56,6 +60,9 @@ class SoftBodyPush(ParticleTask):
             pusher.add(cressim.Transform(position=(*self.pusher_start, PUSHER[1] + PUSHER[0] + 0.01)))
             pusher.add(cressim.RigidBody(kinematic=True))
             pusher.add(cressim.Collider(cressim.Shape.capsule(*PUSHER)))
+            if self.rendered(env):
+                ground.add(cressim.Renderable(ground_mesh, color=(0.4, 0.45, 0.4, 1)))
+                pusher.add(cressim.Renderable(pusher_mesh, color=(0.2, 0.35, 0.75, 1)))
             cube = world.create_entity(env=env, name="cube")
             cube.add(cressim.Transform(position=(0, 0, CUBE_HALF + 0.04)))
             cube.add(cressim.SoftBody(mesh, mass=0.01, radius=0.04, distance_compliance=8e-4, volume_compliance=8e-4,

@@ -1,8 +1,10 @@
 // TargetCenter task logic. `act`: one thread per env: the action turns the camera (yaw, pitch),
 // the reward comes from the target's projected offset from the image centre, finished episodes
 // start again at once (new target and aim), and the kinematic bodies get their targets (the
-// physics step puts them there exactly). `observe` (one pass per camera group): one thread per
-// output word: RGB bytes of each env's camera layer into observations (envs, H, W, 3) uint8.
+// physics step puts them there exactly). With final observations (pc.defer_start), `act` leaves
+// finished envs at their last aim for the final image, and `start` begins their next episodes
+// after it. `observe` (one pass per camera group): one thread per output word: RGB bytes of each
+// env's camera layer into observations (envs, H, W, 3) uint8.
 #include "cressim/layout.h"
 #include "cressim/quat.h"
 
@@ -23,6 +25,7 @@ struct Params {
   uint first_env;        // observe: the group's first env (layer 0)
   uint group_envs;       // observe: its envs (layers)
   uint pixels;           // observe: H W
+  uint defer_start;      // 1: finished envs begin their next episode in `start`, not in `act`
   uint env_offset;      // env 0's index in the whole batch: a shard draws that batch's numbers (vector_env.py)
 };
 [[vk::push_constant]] ConstantBuffer<Params> pc;
@@ -65,14 +68,32 @@ float offset(float yaw, float pitch, float3 eye, float3 target) {
   return min(length(p.xy / p.z) / pc.tan_half_fov, 2.0);
 }
 
+// the next episode: a new target, the camera aimed near it
+void begin_episode(uint env, float3 eye, inout float4 s) {
+  const uint episode = uint(s.w) + 1;
+  const float3 target = float3(pc.area_x * (2 * uniform01(env, episode, 0) - 1),
+                               lerp(pc.area_y0, pc.area_y1, uniform01(env, episode, 1)), pc.target_z);
+  const float3 v = target - eye;
+  s.x = atan2(-v.x, v.y) + pc.start_offset * (2 * uniform01(env, episode, 2) - 1);
+  s.y = atan2(-v.z, length(v.xy)) + pc.start_offset * (2 * uniform01(env, episode, 3) - 1);
+  s.z = offset(s.x, s.y, eye, target);
+  s.w = float(episode);
+  task_target[env] = float4(target, 0);
+}
+
+// the kinematic bodies' targets: the camera's aim and the target cube
+void place_bodies(uint env, float4 s) {
+  target_rotations[task_bodies[2 * env]] = camera_rotation(s.x, s.y);
+  target_positions[task_bodies[2 * env + 1]] = float4(task_target[env].xyz, 0);
+}
+
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
 void act(uint3 id : SV_DispatchThreadID) {
   const uint env = id.x;
   if (env >= pc.envs) return;
-  const uint camera = task_bodies[2 * env], target_body = task_bodies[2 * env + 1];
-  const float3 eye = body_positions[camera].xyz;
+  const float3 eye = body_positions[task_bodies[2 * env]].xyz;
   float4 s = task_state[env];
-  float3 target = task_target[env].xyz;
+  const float3 target = task_target[env].xyz;
   bool done = pc.reset_all != 0;
   if (!done) {
     s.x += clamp(actions[2 * env], -1.0, 1.0) * pc.action_scale;
@@ -94,20 +115,20 @@ void act(uint3 id : SV_DispatchThreadID) {
     finished_length[env] = 0;
     episode_length[env] = 0;
   }
-  if (done) {  // the next episode: a new target, the camera aimed near it
-    const uint episode = uint(s.w) + 1;
-    target = float3(pc.area_x * (2 * uniform01(env, episode, 0) - 1),
-                    lerp(pc.area_y0, pc.area_y1, uniform01(env, episode, 1)), pc.target_z);
-    const float3 v = target - eye;
-    s.x = atan2(-v.x, v.y) + pc.start_offset * (2 * uniform01(env, episode, 2) - 1);
-    s.y = atan2(-v.z, length(v.xy)) + pc.start_offset * (2 * uniform01(env, episode, 3) - 1);
-    s.z = offset(s.x, s.y, eye, target);
-    s.w = float(episode);
-    task_target[env] = float4(target, 0);
-  }
+  if (done && (pc.reset_all != 0 || pc.defer_start == 0)) begin_episode(env, eye, s);
   task_state[env] = s;
-  target_rotations[camera] = camera_rotation(s.x, s.y);
-  target_positions[target_body] = float4(target, 0);
+  place_bodies(env, s);
+}
+
+// after the final image: the envs that finished this step begin their next episode
+[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
+void start(uint3 id : SV_DispatchThreadID) {
+  const uint env = id.x;
+  if (env >= pc.envs || finished_length[env] == 0) return;
+  float4 s = task_state[env];
+  begin_episode(env, body_positions[task_bodies[2 * env]].xyz, s);
+  task_state[env] = s;
+  place_bodies(env, s);
 }
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]

@@ -23,7 +23,7 @@ import torch
 
 import cressim
 
-from .vector_env import Space, VectorEnv, tensor_view
+from .vector_env import VectorEnv, box, tensor_view
 
 EYE = (0.0, -1.0, 0.6)
 CUBE = 0.1  # half extent
@@ -31,7 +31,8 @@ CUBE = 0.1  # half extent
 
 class TargetCenter(VectorEnv):
     hlsl = Path(__file__).with_name("target_center.hlsl")
-    action_space = Space((2,), -1.0, 1.0)
+    single_action_space = box((2,), -1.0, 1.0)
+    own_cameras = True  # render() shows the task's camera
     max_episode_steps = 120
     action_scale = math.radians(0.2)
     fov_y = 50.0
@@ -40,7 +41,7 @@ class TargetCenter(VectorEnv):
 
     def __init__(self, num_envs: int, *, image_size: int = 64, **kwargs):
         self.image_size = image_size
-        self.observation_space = Space((image_size, image_size, 3), 0, 255, torch.uint8)
+        self.single_observation_space = box((image_size, image_size, 3), 0, 255, np.uint8)
         super().__init__(num_envs, **kwargs)
 
     def build_world(self, num_envs: int) -> cressim.World:
@@ -101,7 +102,8 @@ class TargetCenter(VectorEnv):
                 "reset_all": int(reset_all), "action_scale": self.action_scale,
                 "tan_half_fov": math.tan(math.radians(self.fov_y / 2)), "success": self.success,
                 "start_offset": self.start_offset, "area_x": 0.4, "area_y0": 0.0, "area_y1": 0.6, "target_z": CUBE,
-                "words_per_env": s * s * 3 // 4, "first_env": 0, "group_envs": self.num_envs, "pixels": s * s}
+                "words_per_env": s * s * 3 // 4, "first_env": 0, "group_envs": self.num_envs, "pixels": s * s,
+                "defer_start": int(self.final_observation), "env_offset": self.env_offset}
 
     def _create_passes(self) -> dict:
         b = self.buffers
@@ -110,33 +112,37 @@ class TargetCenter(VectorEnv):
         source = self.hlsl.read_text()
         words = self.image_size ** 2 * 3 // 4
 
-        def act(reset_all):
-            return self.engine.create_compute_pass(source, name="TargetCenter.act", entry="act", threads=self.num_envs,
-                                                   bindings=bindings, constants=self.task_constants(reset_all))
+        def act(entry, reset_all=False):
+            return self.engine.create_compute_pass(source, name=f"TargetCenter.{entry}", entry=entry,
+                                                   threads=self.num_envs, bindings=bindings,
+                                                   constants=self.task_constants(reset_all))
 
-        observe = [self.engine.create_compute_pass(
-            source, name=f"TargetCenter.observe{g}", entry="observe", threads=count * words,
-            bindings={"observations": b.observations, "rgb": f"camera{g}.rgb"},
-            constants={**self.task_constants(False), "first_env": first, "group_envs": count})
-            for g, (first, count) in enumerate(self._groups)]
-        return {"act": act(False), "act_reset_all": act(True), "observe": observe}
+        passes = {"act": act("act"), "act_reset_all": act("act", reset_all=True), "start": act("start"),
+                  "observe": [], "observe_final": []}
+        for g, (first, count) in enumerate(self._groups):
+            observe, final = self.observe_passes(
+                source, "observe", count * words, {"rgb": f"camera{g}.rgb"},
+                {**self.task_constants(False), "first_env": first, "group_envs": count}, name=f"TargetCenter.observe{g}")
+            passes["observe"] += observe
+            passes["observe_final"] += final
+        return passes
 
     def _frame(self, reset_all: bool):
         e, p = self.engine, self.passes
         e.execute_compute_pass(p["act_reset_all" if reset_all else "act"])
         e.step_physics()
         e.step_visual_sensors()
-        for observe in p["observe"]:
-            e.execute_compute_pass(observe)
+        if self.final_observation and not reset_all:  # the final image, then the finished envs' next start
+            self.observe(final=True)
+            e.execute_compute_pass(p["start"])
+            e.step_physics()  # the kinematic bodies to the new starts (the others stay where they are)
+            e.step_visual_sensors()
+        self.observe()
         e.end_frame()
 
-    def reset(self, *, seed: int | None = None):
-        if seed is not None and seed != self.seed:
-            self.seed = seed
-            for key in ("act", "act_reset_all"):
-                self.passes[key].set_constant("seed", seed)
-        self._frame(reset_all=True)
-        return self.obs, self._info()
+    def _set_seed(self, seed: int):
+        for key in ("act", "act_reset_all", "start"):
+            self.passes[key].set_constant("seed", seed)
 
     def centre_offset(self) -> torch.Tensor:
         """The target's current normalised distance from the image centre, per env."""

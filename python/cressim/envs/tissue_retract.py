@@ -67,7 +67,7 @@ import numpy as np
 import cressim
 from cressim.passes.grasp import Grasp
 
-from .vector_env import Space, VectorEnv, checked_number, tensor_view
+from .vector_env import box, VectorEnv, checked_number, tensor_view
 
 SCENE = "psm_retraction.yaml"  # the twin's scene: its world, the arm's base and the grasp
 FLAP = "flap"  # the scene's entity whose free edge is grasped
@@ -83,9 +83,10 @@ OBSERVATIONS = ("state", "crtk")
 class TissueRetract(VectorEnv):
     hlsl = Path(__file__).with_name("tissue_retract.hlsl")
     entries = ("apply_action", "evaluate", "observe")
-    observation_space = Space((29,))
-    action_space = Space((7,), -1.0, 1.0)
+    single_observation_space = box((29,))
+    single_action_space = box((7,), -1.0, 1.0)
     max_episode_steps = 180
+    video_view = ((0.07, -0.1, 0.23), (0.0, -0.005, 0.16))  # the twin's camera
 
     def __init__(self, num_envs: int, *, scene: str = SCENE, observation: str = "state", target_lift: float = 0.02,
                  grasp_reach: float | None = None, absorbing_success: bool = False, **kwargs):
@@ -118,11 +119,14 @@ class TissueRetract(VectorEnv):
         from cressim.scene_file import add_scene
 
         scene = self.scene
-        world = cressim.World(cressim.SceneLayout(num_envs, max_renderables_per_env=2))  # the table, the flap
+        # the table and the flap; rendered envs also draw the arm's links
+        world = cressim.World(cressim.SceneLayout(num_envs, max_renderables_per_env=2 if self.render_mode is None else 16))
         self.arm = ArmBodies(
             robot_dir() / f"{scene.robot}.urdf", num_envs, base_position=scene.base_position,
             base_rotation=scene.base_rotation, publish_rate=1 / FRAME, physics_rate=4 / FRAME,
             initial_q=np.array(self.start_q), initial_jaw=JAW_OPEN, dof=6, world=world)
+        if self.render_mode is not None:
+            self.arm.show(world, self.render_envs)
         added = add_scene(world, scene.world, skip=SKIPPED)
         if FLAP not in added.labels.values():
             raise ValueError(f"TissueRetract: {scene.world} has no entity '{FLAP}' to grasp")

@@ -16,6 +16,7 @@ struct Params {
   uint pixels;         // H * W of one image
   uint frames;         // stacked frames
   uint reset_all;
+  uint final_obs;      // observe: 1 in the pass that writes the final observations (before evaluate)
 };
 [[vk::push_constant]] ConstantBuffer<Params> pc;
 
@@ -31,6 +32,7 @@ RWStructuredBuffer<float> prev_distance;
 RWStructuredBuffer<float4> body_targets;      // control.body_target_positions
 RWStructuredBuffer<uint> reset_mask;
 RWStructuredBuffer<float> observations;       // (envs, frames, H, W)
+StructuredBuffer<float> last_observations;    // the last step's observations (the final pass's stack)
 RWStructuredBuffer<float> rewards;
 RWStructuredBuffer<uint> terminated;
 RWStructuredBuffer<uint> truncated;
@@ -79,9 +81,12 @@ void observe(uint3 id : SV_DispatchThreadID) {
   if (env >= pc.envs) return;
   const float now = image[env * pc.pixels + pixel];
   const uint base = env * pc.frames * pc.pixels + pixel;
-  const bool fresh = episode_length[env] == 0;
-  for (uint f = 0; f + 1 < pc.frames; ++f)
-    observations[base + f * pc.pixels] = fresh ? now : observations[base + (f + 1) * pc.pixels];
+  // the final pass runs before evaluate: it continues the episode's stack and leaves the reward's state
+  const bool final_obs = pc.final_obs != 0, fresh = !final_obs && episode_length[env] == 0;
+  for (uint f = 0; f + 1 < pc.frames; ++f) {
+    const uint older = base + (f + 1) * pc.pixels;
+    observations[base + f * pc.pixels] = fresh ? now : final_obs ? last_observations[older] : observations[older];
+  }
   observations[base + (pc.frames - 1) * pc.pixels] = now;
-  if (pixel == 0) prev_distance[env] = target_distance(env);
+  if (pixel == 0 && !final_obs) prev_distance[env] = target_distance(env);
 }

@@ -32,7 +32,7 @@ import numpy as np
 
 import cressim
 
-from .vector_env import Space, VectorEnv
+from .vector_env import box, VectorEnv
 
 CUBE = 0.225  # half extent
 CELLS = 6     # tet-mesh cubes along each edge (even: a particle sits at the centre)
@@ -44,18 +44,20 @@ FRAMES = 4
 
 class UltrasoundScan(VectorEnv):
     hlsl = Path(__file__).with_name("ultrasound_scan.hlsl")
-    observation_space = Space((FRAMES, HEIGHT, WIDTH), 0.0, 1.0)
-    action_space = Space((2,), -1.0, 1.0)
+    single_observation_space = box((FRAMES, HEIGHT, WIDTH), 0.0, 1.0)
+    single_action_space = box((2,), -1.0, 1.0)
     max_episode_steps = 160
     step_size = 0.01
     limit = 0.22
     success = 0.06
     start_range = 0.15
     density = 1e6
+    video_view = ((0.6, -1.2, 0.7), (0.0, 0.0, 0.0))
 
     def __init__(self, num_envs: int, **kwargs):
         super().__init__(num_envs, **kwargs)
-        self.passes["observe"].set_threads((num_envs * HEIGHT * WIDTH, 1, 1))
+        for observe in self.passes["observe"] + self.passes["observe_final"]:  # a thread per pixel
+            observe.set_threads((num_envs * HEIGHT * WIDTH, 1, 1))
 
     @staticmethod
     def probe() -> cressim.UltrasoundProbe:

@@ -1,11 +1,14 @@
 """Batched environments on torch tensors, stepped as one GPU frame per step.
 
-The conventions are Isaac Lab's and gymnasium's VectorEnv: `reset() -> (obs, info)`,
-`step(actions) -> (obs, reward, terminated, truncated, info)`, finished envs reset
-automatically on the GPU (the returned obs of a finished env is its next episode's first).
-Task logic runs in HLSL custom passes; this class only records the frame and exposes the
-task's shared buffers as tensors without copies (host memory on lavapipe, CUDA memory on
-NVIDIA through Vulkan external memory).
+Every task is a `gymnasium.vector.VectorEnv` (gymnasium 1.x): `reset() -> (obs, info)`,
+`step(actions) -> (obs, reward, terminated, truncated, info)`, spaces from `gymnasium.spaces`
+(`single_observation_space` per env, `observation_space` batched). Finished envs reset on the GPU
+within the step (autoreset mode SAME_STEP, declared in `metadata`): the returned obs of a finished
+env is its next episode's first, and its last one is in `info["final_obs"]` (rows where
+`info["_final_obs"]`), written by the task's observe pass before the reset. Task logic runs in
+HLSL custom passes; this class only records the frame and exposes the task's shared buffers as
+tensors without copies (host memory on lavapipe, CUDA memory on NVIDIA through Vulkan external
+memory).
 """
 from __future__ import annotations
 
@@ -14,24 +17,19 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import gymnasium
 import numpy as np
 import torch
+from gymnasium.spaces import Box
+from gymnasium.vector import AutoresetMode
+from gymnasium.vector.utils import batch_space
 
 import cressim
 
 
-@dataclass
-class Space:
-    """A box space: shape, bounds, dtype (what gymnasium.spaces.Box says, without the import)."""
-
-    shape: tuple
-    low: float = -np.inf
-    high: float = np.inf
-    dtype: torch.dtype = torch.float32
-
-    def sample(self, batch: int, device) -> torch.Tensor:
-        lo, hi = max(self.low, -1.0), min(self.high, 1.0)
-        return lo + (hi - lo) * torch.rand((batch, *self.shape), device=device, dtype=self.dtype)
+def box(shape: tuple, low: float = -np.inf, high: float = np.inf, dtype=np.float32) -> Box:
+    """A task's per-env space: a gymnasium Box of `shape` with the same bounds everywhere."""
+    return Box(low, high, shape, dtype)
 
 
 @dataclass
@@ -45,6 +43,7 @@ class TaskBuffers:
     truncated: cressim.Buffer
     episode_length: cressim.Buffer
     finished_length: cressim.Buffer
+    final_observations: cressim.Buffer | None = None  # each env's observation before this step's reset
     extra: dict = field(default_factory=dict)
 
 
@@ -57,26 +56,60 @@ def tensor_view(buffer: cressim.Buffer, device: torch.device) -> torch.Tensor:
     return t
 
 
-class VectorEnv:
+class VectorEnv(gymnasium.vector.VectorEnv):
     """Base of the batched tasks. Subclasses build the scene (`build_world`), name their HLSL
-    file and its three entry points, and fill the task constants."""
+    file and its three entry points, give their per-env spaces and fill the task constants."""
 
+    # every task's frame is 1/60 s: render() gives 60 images a second of simulated time
+    metadata = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": ["rgb_array"], "render_fps": 60}
     hlsl: Path  # task passes: `entries` (evaluate also as evaluate_reset_all)
     entries = ("apply_action", "evaluate", "observe")
-    observation_space: Space
-    action_space: Space
+    single_observation_space: Box
+    single_action_space: Box
     max_episode_steps: int
+    # render_mode="rgb_array": the video camera's eye and target (m, z up) in each rendered env, or
+    # (own_cameras) the task's own camera in every env is what render() shows
+    video_view: tuple = ((0.0, -3.0, 2.0), (0.0, 0.0, 0.0))
+    own_cameras = False
 
     def __init__(self, num_envs: int, *, device: str | torch.device | None = None, seed: int = 0,
                  validation: bool | None = None, vulkan_device: str | None = None, cuda_sync: str = "semaphore",
-                 env_offset: int = 0):
-        """`env_offset`: where env 0 sits in a larger batch that this one is a shard of (one process's
-        part under torch.distributed): env k draws the random numbers of env env_offset + k there,
-        so the shards together run exactly the envs of the one large batch."""
+                 final_observation: bool = True, render_mode: str | None = None, render_envs=(0,),
+                 render_size: tuple = (320, 240), env_offset: int = 0):
+        """`final_observation`: each step also observes every env before its reset (for
+        `info["final_obs"]`); off, a step skips that observe pass and, in image tasks, a second
+        render (learners that never read the final observation: `cressim train`, `cressim bench`).
+        `render_mode="rgb_array"`: `render()` returns the images of the envs `render_envs` after
+        each step, from a camera (`render_size`, width and height) added to those envs only, or
+        from the task's own cameras. `env_offset`: where env 0 sits in a larger batch that this one
+        is a shard of (one process's part under torch.distributed): env k draws the random numbers
+        of env env_offset + k there, so the shards together run exactly the envs of the one large
+        batch."""
+        name = type(self).__name__
+        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+            raise ValueError(f"{name}: num_envs must be a positive integer, got {num_envs!r}")
         if isinstance(env_offset, bool) or not isinstance(env_offset, (int, np.integer)) or env_offset < 0:
-            raise ValueError(f"{type(self).__name__}: env_offset must be an integer >= 0, got {env_offset!r}")
-        self.num_envs, self.env_offset = num_envs, int(env_offset)
-        world = self.build_world(num_envs)
+            raise ValueError(f"{name}: env_offset must be an integer >= 0, got {env_offset!r}")
+        if not isinstance(final_observation, bool):
+            raise ValueError(f"{name}: final_observation must be True or False, got {final_observation!r}")
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"{name}: render_mode must be None or 'rgb_array', got {render_mode!r}")
+        envs = list(render_envs) if isinstance(render_envs, (list, tuple, range)) else None
+        if (not envs or len(set(envs)) != len(envs)
+                or not all(isinstance(i, (int, np.integer)) and 0 <= i < num_envs for i in envs)):
+            raise ValueError(f"{name}: render_envs must be distinct env indices in [0, {num_envs}), got {render_envs!r}")
+        if (not isinstance(render_size, (list, tuple)) or len(render_size) != 2
+                or not all(isinstance(v, (int, np.integer)) and 16 <= v <= 4096 and v % 2 == 0 for v in render_size)):
+            raise ValueError(f"{name}: render_size must be (width, height), even integers in [16, 4096] "
+                             f"(video frames), got {render_size!r}")
+        self.num_envs, self.env_offset = int(num_envs), int(env_offset)
+        self.final_observation = final_observation
+        self.render_mode, self.render_envs, self.render_size = render_mode, [int(i) for i in envs], tuple(render_size)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        world = self.build_world(self.num_envs)
+        if render_mode is not None and not self.own_cameras:
+            self._add_video_cameras(world)
         self.engine = cressim.Engine(world, validation=validation, device=vulkan_device)
         self.engine.physics = self.physics_settings()
         self.engine.prepare()
@@ -94,12 +127,14 @@ class VectorEnv:
                                         host_sync=cuda_sync == "host")
         self.actions = tensor_view(self.buffers.actions, self.device)
         self.obs = tensor_view(self.buffers.observations, self.device)
+        self.final_obs = tensor_view(self.buffers.final_observations, self.device) if final_observation else None
         self.reward = tensor_view(self.buffers.rewards, self.device)
         self.terminated = _bool_view(tensor_view(self.buffers.terminated, self.device))
         self.truncated = _bool_view(tensor_view(self.buffers.truncated, self.device))
         self.episode_length = tensor_view(self.buffers.episode_length, self.device)
         self.finished_length = tensor_view(self.buffers.finished_length, self.device)
         self.health = tensor_view(self.engine.buffer("env.health"), self.device).view(torch.int32)
+        self._video = self._video_cameras() if render_mode is not None else []
 
     # --- what a task provides -------------------------------------------------------------
     def build_world(self, num_envs: int) -> cressim.World:
@@ -128,43 +163,103 @@ class VectorEnv:
         probe = self.engine.buffer("env.health")
         return torch.device("cpu") if probe.host_visible else torch.device("cuda", 0)
 
-    def reset(self, *, seed: int | None = None):
-        """Starts a new episode in every env; returns (obs, info)."""
-        if seed is not None and seed != self.seed:
-            self.seed = seed
-            for key in ("evaluate", "evaluate_reset_all"):
-                self.passes[key].set_constant("seed", seed)
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        """Starts a new episode in every env; returns (obs, info). `seed` (an int) seeds every
+        env's reset noise; `options` are not used (None)."""
+        if options is not None:
+            raise ValueError(f"{type(self).__name__}.reset: options are not used, got {options!r}")
+        if seed is not None:
+            if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2 ** 32:
+                raise ValueError(f"{type(self).__name__}.reset: seed must be an integer in [0, 2**32), got {seed!r}")
+            if seed != self.seed:
+                self.seed = int(seed)
+                self._set_seed(self.seed)
         self._frame(reset_all=True)
         return self.obs, self._info()
 
-    def step(self, actions: torch.Tensor):
-        """Applies `actions` (num_envs, *action_space.shape) and advances one frame. Writing the
-        actions into `env.actions` in place and passing that tensor saves the copy."""
+    def step(self, actions):
+        """Applies `actions` (num_envs, *single_action_space.shape; a tensor or an array) and
+        advances one frame. Writing the actions into `env.actions` in place and passing that
+        tensor saves the copy."""
+        if not torch.is_tensor(actions):
+            actions = torch.as_tensor(np.asarray(actions, np.float32))
+        if actions.shape != self.actions.shape and actions.numel() != self.actions.numel():
+            raise ValueError(f"{type(self).__name__}.step: actions of shape {tuple(actions.shape)}, expected "
+                             f"{tuple(self.actions.shape)} (num_envs, *single_action_space.shape)")
         if actions.data_ptr() != self.actions.data_ptr():
             self.actions.copy_(actions.reshape(self.actions.shape))
         self._frame(reset_all=False)
-        return self.obs, self.reward, self.terminated, self.truncated, self._info()
+        info = self._info()
+        if self.final_obs is not None:  # gymnasium's SAME_STEP: finished envs' last obs and info
+            done = self.terminated | self.truncated
+            info.update(final_obs=self.final_obs, _final_obs=done, _final_info=done,
+                        final_info={"episode_length": self.finished_length, "_episode_length": done})
+        return self.obs, self.reward, self.terminated, self.truncated, info
 
-    def close(self):
+    def render(self) -> np.ndarray | None:
+        """With render_mode="rgb_array": the last step's images of `render_envs`, (envs, H, W, 3)
+        uint8 on the host; else None."""
+        if self.render_mode is None:
+            return None
+        return np.stack([image[..., :3].cpu().numpy() for image in self._video])
+
+    def rendered(self, env: int) -> bool:
+        """Whether env `env` is drawn for render() (a task gives its bodies visuals there)."""
+        return self.render_mode is not None and env in self.render_envs
+
+    def close_extras(self, **kwargs):
         self.engine = None
+        self._video = []
 
     # --- internals ---------------------------------------------------------------------------
     def _info(self) -> dict:
         return {"episode_length": self.episode_length, "finished_length": self.finished_length,
                 "health": self.health}
 
+    def _add_video_cameras(self, world: cressim.World):
+        """A camera (looking from video_view's eye at its target) and a light in each rendered env."""
+        from cressim.scene_file import _quat_look_at
+
+        eye, target = self.video_view
+        width, height = self.render_size
+        for env in self.render_envs:
+            camera = world.create_entity(env=env, name="video_camera")
+            camera.add(cressim.Transform(position=eye, rotation=_quat_look_at(eye, target)))
+            camera.add(cressim.Camera(width=width, height=height, fov_y=45.0, products=["rgb"]))
+            light = world.create_entity(env=env, name="video_light")
+            light.add(cressim.Transform(rotation=(0.2, 0.1, 0.0, 0.97)))  # mostly downwards
+            light.add(cressim.Light(intensity=1.0, ambient=0.35))
+
+    def _video_cameras(self) -> list:
+        """Each rendered env's image, a view of its camera's layer (RGBA)."""
+        cams = self.engine.cameras
+        views = []
+        for env in self.render_envs:
+            rows = np.flatnonzero(cams["env"] == env)
+            if not len(rows):
+                raise RuntimeError(f"{type(self).__name__}: env {env} has no camera to render")
+            group, layer = int(cams["group"][rows[0]]), int(cams["layer"][rows[0]])
+            views.append(tensor_view(self.engine.buffer(f"camera{group}.rgb"), self.device)[layer])  # (H, W, 4) uint8
+        return views
+
+    def _set_seed(self, seed: int):
+        for key in ("evaluate", "evaluate_reset_all"):
+            self.passes[key].set_constant("seed", seed)
+
     def _create_buffers(self) -> TaskBuffers:
         # flags and counters are int32: torch's uint32 support on CUDA is partial
         n, e = self.num_envs, self.engine
+        obs_shape, obs_dtype = (n, *self.single_observation_space.shape), str(self.single_observation_space.dtype)
         return TaskBuffers(
-            actions=e.create_shared_buffer("actions", (n, *self.action_space.shape), "float32"),
-            observations=e.create_shared_buffer("observations", (n, *self.observation_space.shape),
-                                                str(self.observation_space.dtype).removeprefix("torch.")),
+            actions=e.create_shared_buffer("actions", (n, *self.single_action_space.shape), "float32"),
+            observations=e.create_shared_buffer("observations", obs_shape, obs_dtype),
             rewards=e.create_shared_buffer("rewards", n, "float32"),
             terminated=e.create_shared_buffer("terminated", n, "int32"),
             truncated=e.create_shared_buffer("truncated", n, "int32"),
             episode_length=e.create_shared_buffer("episode_length", n, "int32"),
-            finished_length=e.create_shared_buffer("finished_length", n, "float32"))
+            finished_length=e.create_shared_buffer("finished_length", n, "float32"),
+            final_observations=e.create_shared_buffer("final_observations", obs_shape, obs_dtype)
+            if self.final_observation else None)
 
     def _create_passes(self) -> dict:
         b = self.buffers
@@ -178,6 +273,10 @@ class VectorEnv:
         passes = {}
         # named by the file: compiler errors give its path and line, and "episode.hlsli" beside it resolves
         for entry in self.entries:
+            if entry == "observe":
+                passes["observe"], passes["observe_final"] = self.observe_passes(
+                    source, entry, self.num_envs, common, {**self.task_constants(reset_all=False), **shard})
+                continue
             passes[entry] = self.engine.create_compute_pass(
                 source, name=str(self.hlsl), entry=entry, threads=self.num_envs,
                 bindings={k: v for k, v in common.items() if k in declared},
@@ -188,6 +287,29 @@ class VectorEnv:
             constants={**self.task_constants(reset_all=True), **shard})
         return passes
 
+    def observe_passes(self, source: str, entry: str, threads: int, bindings: dict, constants: dict,
+                       name: str | None = None) -> tuple[list, list]:
+        """The observe pass `entry` as ([the pass], [its final twin]): the twin runs the same code
+        with `observations` bound to the final observations and, where the task declares them,
+        the constant `final_obs` = 1 and `last_observations` = the last step's observations (a
+        frame stack); no twin ([]) with final observations off."""
+        declared = _declared(source)
+
+        def create(out, final: bool):
+            b = {**bindings, "observations": out, "last_observations": self.buffers.observations}
+            c = {**constants, "final_obs": int(final)} if "final_obs" in declared else constants
+            return self.engine.create_compute_pass(source, name=name or str(self.hlsl), entry=entry, threads=threads,
+                                                   bindings={k: v for k, v in b.items() if k in declared},
+                                                   constants=c)
+
+        final = [create(self.buffers.final_observations, True)] if self.final_observation else []
+        return [create(self.buffers.observations, False)], final
+
+    def observe(self, final: bool = False) -> None:
+        """Records the observe passes: into the observations, or (`final`) the final observations."""
+        for observe in self.passes["observe_final" if final else "observe"]:
+            self.engine.execute_compute_pass(observe)
+
     def _frame(self, reset_all: bool):
         e, p = self.engine, self.passes
         if reset_all:  # no physics: flag and randomise every env, reset, observe
@@ -195,10 +317,15 @@ class VectorEnv:
         else:
             self.act()
             e.step_physics()
+            if self.final_observation:  # every env's observation before evaluate starts the next episodes
+                self.sense()
+                self.observe(final=True)
             e.execute_compute_pass(p["evaluate"])
         e.reset_flagged_envs()
         self.sense()
-        e.execute_compute_pass(p["observe"])
+        self.observe()
+        if self.render_mode is not None and not self.own_cameras:  # the video cameras
+            e.step_visual_sensors()
         e.end_frame()
 
 

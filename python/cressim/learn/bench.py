@@ -72,7 +72,8 @@ def _make(task, num_envs, device, seed=0):
     from cressim import envs
 
     gc.collect()  # the previous count's env (and its Vulkan memory) goes before the next is built
-    return envs.make(task, num_envs=num_envs, device=resolve_device(device), seed=seed)
+    # the paper's step: no final observation (its learners never read it; image tasks would render twice)
+    return envs.make(task, num_envs=num_envs, device=resolve_device(device), seed=seed, final_observation=False)
 
 
 def bench_step(task: str, num_envs: int, device=None, warmup: int = 64, steps: int = 256) -> dict:

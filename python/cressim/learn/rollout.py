@@ -39,9 +39,9 @@ class EpisodeStats:
                 "mean_return": ret / n if n else math.nan, "terminated": terminated / n if n else math.nan}
 
 
-def collect_rollout(venv, alg, steps: int, stats: EpisodeStats | None = None) -> None:
+def collect_rollout(venv, alg, steps: int, stats: EpisodeStats | None = None, after_step=None) -> None:
     """Steps every env `steps` times with the current policy, storing the rollout in `alg`,
-    and computes its returns."""
+    and computes its returns; `after_step()` runs after each step (a video's capture)."""
     obs = venv.get_observations()
     with torch.inference_mode():
         for _ in range(steps):
@@ -50,6 +50,8 @@ def collect_rollout(venv, alg, steps: int, stats: EpisodeStats | None = None) ->
             alg.process_env_step(obs, rewards, dones, extras)
             if stats is not None:
                 stats.add(rewards, dones, extras["finished_length"], extras["time_outs"])
+            if after_step is not None:
+                after_step()
         alg.compute_returns(obs)
 
 

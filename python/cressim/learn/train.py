@@ -15,6 +15,7 @@ from .learner import make_learner
 from .plot import plot_training
 from .rollout import EpisodeStats, collect_rollout, sync
 from .vec_env import CressimVecEnv
+from .video import EnvVideo
 
 
 def _progress(total: int, enabled: bool):
@@ -48,13 +49,14 @@ def _fmt(x: float) -> str:
 
 def train(task: str = "CartPole", num_envs: int = 4096, iterations: int = 200, device=None, seed: int = 0,
           out_dir="runs/cartpole", *, rollout: int | None = None, save_every: int = 50, backend: str = "auto",
-          progress: bool = True, task_options: dict | None = None, **ppo_overrides) -> dict:
+          progress: bool = True, task_options: dict | None = None, video_envs=None, **ppo_overrides) -> dict:
     """Trains a PPO policy; returns a summary with the per-update history.
 
     device: the env's torch device (None: what the env picks, cuda where Vulkan shares memory
     with CUDA, else cpu); the learner runs there too. rollout and `ppo_overrides` (fields of
     PPOConfig) override TASKS.md's settings, e.g. for a short smoke run. task_options: keywords
-    of the task's constructor (TissueRetract's observation="crtk").
+    of the task's constructor (TissueRetract's observation="crtk"). video_envs: env indices whose
+    rollout in each checkpoint's update is written as `video_<k>_env<i>.mp4` (PyAV; rank 0's envs).
 
     Under torchrun (WORLD_SIZE > 1) each process runs num_envs / WORLD_SIZE of the envs on its
     own GPU (or the cpu) and the learner's gradients are all-reduced; statistics cover every
@@ -70,8 +72,12 @@ def train(task: str = "CartPole", num_envs: int = 4096, iterations: int = 200, d
     if shard.leader:
         out.mkdir(parents=True, exist_ok=True)
     torch.manual_seed(seed)
+    filmed = video_envs is not None and shard.leader
+    rendering = {"render_mode": "rgb_array", "render_envs": tuple(video_envs)} if filmed else {}
+    # PPO here bootstraps time-outs from the current value: the final observation is not read
     env = envs.make(task, num_envs=local_envs, device=env_device, seed=seed, env_offset=offset, vulkan_device=vulkan,
-                    **(task_options or {}))
+                    final_observation=False, **rendering, **(task_options or {}))
+    video = EnvVideo(env) if filmed else None
     venv = CressimVecEnv(env)
     cfg = ppo_config(task, rollout=rollout, **ppo_overrides)
     alg, backend = make_learner(venv, cfg, backend)
@@ -101,7 +107,9 @@ def train(task: str = "CartPole", num_envs: int = 4096, iterations: int = 200, d
     checkpoint = None
     for it in range(1, iterations + 1):
         t0 = time.perf_counter()
-        collect_rollout(venv, alg, cfg.rollout, stats)
+        checkpointed = it % save_every == 0 or it == iterations
+        filming = video is not None and checkpointed
+        collect_rollout(venv, alg, cfg.rollout, stats, after_step=video.capture if filming else None)
         sync(env.device)
         t1 = time.perf_counter()
         losses = alg.update()
@@ -115,8 +123,10 @@ def train(task: str = "CartPole", num_envs: int = 4096, iterations: int = 200, d
                          "term": _fmt(rec["terminated"]),
                          "sps": f"{rec['steps_per_s']:,.0f}"})
         bar.update(1)
-        if shard.leader and (it % save_every == 0 or it == iterations):
+        if shard.leader and checkpointed:
             checkpoint = save(it)
+            if filming:
+                video.write(out / f"video_{it}")
             (out / "metrics.json").write_text(json.dumps({**meta, "history": history}, indent=1))  # so far
     bar.close()
     title = f"PPO ({backend}) {task}, {num_envs} envs" + (f" on {shard.world} processes" if shard.world > 1 else "")

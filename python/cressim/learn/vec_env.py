@@ -24,10 +24,10 @@ class CressimVecEnv(_Base):
     def __init__(self, env):
         self.env = env
         self.num_envs = env.num_envs
-        self.obs_shape = tuple(env.observation_space.shape)
+        self.obs_shape = tuple(env.single_observation_space.shape)
         self.num_obs = math.prod(self.obs_shape)
-        self.obs_dtype = env.observation_space.dtype  # uint8 images stay uint8 in rollouts
-        self.num_actions = math.prod(env.action_space.shape)
+        self.obs_dtype = env.obs.dtype  # uint8 images stay uint8 in rollouts
+        self.num_actions = math.prod(env.single_action_space.shape)
         self.max_episode_length = env.max_episode_steps
         self.device = env.device
         self.cfg = {"task": type(env).__name__, "num_envs": env.num_envs}

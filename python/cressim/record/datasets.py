@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..io import read_mp4, write_mp4
 from .rollouts import read
 
 LEROBOT_VERSION = "v2.1"
@@ -110,7 +111,9 @@ def to_lerobot(src, dst, *, instruction: str | None = None) -> Path:
                    "index": pa.array(np.arange(frame, frame + n, dtype=np.int64)),
                    "task_index": pa.array(np.zeros(n, np.int64))}
         if image:
-            _write_video(dst / "videos" / f"chunk-{e // CHUNK:03d}" / obs_key / f"episode_{e:06d}.mp4", obs, fps)
+            # lossless, so that a replay can compare images exactly
+            write_mp4(dst / "videos" / f"chunk-{e // CHUNK:03d}" / obs_key / f"episode_{e:06d}.mp4", obs, fps,
+                      lossless=True)
         else:
             state = obs.reshape(n, -1).astype(np.float32)
             columns[obs_key] = pa.array(list(state), type=pa.list_(pa.float32(), state.shape[1]))
@@ -144,25 +147,6 @@ def _stats(v: np.ndarray) -> dict:
 
 def _jsonl(path: Path, lines: list) -> None:
     path.write_text("".join(json.dumps(line) + "\n" for line in lines))
-
-
-def _write_video(path: Path, frames: np.ndarray, fps: float) -> None:
-    """H.264 at constant quality 0 in yuv444p: lossless, so a replay can compare images exactly."""
-    import fractions
-
-    import av
-
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with av.open(str(path), "w") as container:
-        stream = container.add_stream("libx264", rate=fractions.Fraction(fps).limit_denominator(1000))
-        stream.height, stream.width = frames.shape[1], frames.shape[2]
-        stream.pix_fmt = "yuv444p"
-        stream.options = {"qp": "0", "preset": "veryfast"}
-        for f in frames:
-            for packet in stream.encode(av.VideoFrame.from_ndarray(np.ascontiguousarray(f), format="rgb24")):
-                container.mux(packet)
-        for packet in stream.encode():
-            container.mux(packet)
 
 
 def to_robomimic(src, dst) -> Path:
@@ -219,7 +203,7 @@ def load(path) -> tuple[dict, list[tuple[dict, np.ndarray, np.ndarray]]]:
             table = pq.read_table(path / info["data_path"].format(episode_chunk=e // CHUNK, episode_index=e))
             actions = np.stack(table.column("action").to_numpy(zero_copy_only=False))
             if image:
-                obs = _read_video(path / info["video_path"].format(episode_chunk=e // CHUNK, episode_index=e,
+                obs = read_mp4(path / info["video_path"].format(episode_chunk=e // CHUNK, episode_index=e,
                                                                    video_key="observation.image"))
             else:
                 obs = np.stack(table.column("observation.state").to_numpy(zero_copy_only=False))
@@ -238,13 +222,6 @@ def load(path) -> tuple[dict, list[tuple[dict, np.ndarray, np.ndarray]]]:
     return episodes_out[0][0], episodes_out
 
 
-def _read_video(path: Path) -> np.ndarray:
-    import av
-
-    with av.open(str(path)) as container:
-        return np.stack([frame.to_ndarray(format="rgb24") for frame in container.decode(video=0)])
-
-
 def replay(path, *, device=None) -> dict:
     """Runs a dataset's episodes again in one batch of the recorded task (each source env's
     episodes one after the other, the recorded seed, the recorded actions) and compares the
@@ -261,11 +238,11 @@ def replay(path, *, device=None) -> dict:
     # envs 0..count-1 of the recorded batch, so every env draws what it drew when recorded
     env = envs.make(source["task"], num_envs=count, seed=source["seed"], device=device, **source["task_options"])
     steps = max(start + len(a) for eps in by_env.values() for start, a, _ in eps)
-    actions = torch.zeros((steps, count, *env.action_space.shape), device=env.device)
+    actions = torch.zeros((steps, count, *env.single_action_space.shape), device=env.device)
     recorded = {}
     for e, eps in by_env.items():
         for start, a, obs in eps:
-            actions[start:start + len(a), e] = torch.as_tensor(a.reshape(len(a), *env.action_space.shape))
+            actions[start:start + len(a), e] = torch.as_tensor(a.reshape(len(a), *env.single_action_space.shape))
             for k in range(len(a)):
                 recorded[(start + k, e)] = obs[k]
     worst, compared = 0.0, 0

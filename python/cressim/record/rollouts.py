@@ -69,7 +69,7 @@ def generate(task: str, num_envs: int, steps: int, out_dir, *, policy=None, seed
     noise.manual_seed(seed)
     dt = env.engine.physics.dt
     dt_ns = round(dt * 1e9)
-    action_shape = tuple(env.action_space.shape)
+    action_shape = tuple(env.single_action_space.shape)
     obs, _ = env.reset()
     with BagWriter(bag_dir, on_full="block", custom_data={"cressim.task": task, "cressim.first_env": str(offset)}) as bag:
         for k in range(steps):
@@ -93,7 +93,7 @@ def generate(task: str, num_envs: int, steps: int, out_dir, *, policy=None, seed
     shards = distributed.gather(entry)
     index = {"task": task, "task_options": dict(task_options or {}), "num_envs": num_envs, "steps": steps, "seed": seed,
              "dt": dt, "policy": str(policy) if policy else "uniform",
-             "observation_shape": list(env.observation_space.shape), "action_shape": list(action_shape),
+             "observation_shape": list(env.single_observation_space.shape), "action_shape": list(action_shape),
              "processes": shard.world, "shards": shards}
     if shard.leader:
         (out / "index.json").write_text(json.dumps(index, indent=1))

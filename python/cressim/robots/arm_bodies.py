@@ -158,7 +158,7 @@ class ArmBodies:
         self.num_envs, self.dof, self.dynamics = num_envs, dof, dynamics
         self.dynamic = dynamics == "dynamic"
         urdf = yourdfpy.URDF.load(str(urdf_path), build_scene_graph=False, load_meshes=False)
-        self.urdf = urdf
+        self.urdf, self.urdf_dir = urdf, Path(urdf_path).parent
         joints = {j.name: j for j in urdf.robot.joints}
         self.chain = pk.build_chain_from_urdf(open(urdf_path, "rb").read()).to(dtype=torch.float64)
         self.has_jaw = "jaw" in joints and joints["jaw"].type != "fixed"
@@ -663,6 +663,29 @@ class ArmBodies:
         T[:, :3, :3] = quaternion_to_matrix(q[:, [3, 0, 1, 2]])  # the engine's xyzw as w, x, y, z
         T[:, :3, 3] = p
         return T
+
+    def show(self, world: cressim.World, envs, links=None):
+        """Renderables for cameras on a kinematic arm's bodies in `envs`: each named link's URDF
+        visuals (ArmVisuals; `links` in this order, default every body), one mesh a link added to
+        `world` once. In kinematic mode each body is one link in that link's frame; a dynamic arm
+        (the twin's) gets its visuals with its scenery."""
+        from types import SimpleNamespace
+
+        if self.dynamic:
+            raise ValueError("ArmBodies.show: a dynamic arm is drawn by its scenery (twin), not show()")
+        urdf_links = {link.name: link for link in self.urdf.robot.links}
+        for name in self.body_names if links is None else links:
+            body = SimpleNamespace(links=[urdf_links[name]], pose=np.eye(4), name=name)
+            visuals = ArmVisuals(self.urdf, self.urdf_dir, [body], {name: np.eye(4)})
+            m = visuals.meshes[0]
+            if m is None:  # a link without visual geometry
+                continue
+            mesh = world.add_mesh(cressim.Mesh(np.asarray(m.vertices, np.float32), np.asarray(m.faces, np.uint32),
+                                               np.asarray(m.vertex_normals, np.float32)))
+            k = self.body_names.index(name)
+            for env in envs:
+                world.entity(int(self.body_entity_ids[env, k])).add(
+                    cressim.Renderable(mesh, color=visuals.colors[0], metallic=0.3, roughness=0.4))
 
     def link_point(self, link: str, point) -> tuple[np.ndarray, np.ndarray]:
         """Where a point given in `link`'s frame sits on the body that carries the link: (each env's
