@@ -40,7 +40,8 @@ TEST(UltrasoundModel, ProbePulseAndGeometryFollowThePhysics) {
   EXPECT_NEAR(d.pulse.x, dz, 1e-7);
   EXPECT_NEAR(d.pulse.y, 1540.0 * sigma_t / 2 / 0.1, 1e-6);
   EXPECT_NEAR(d.pulse.z, 2 * 2 * std::numbers::pi * 3.5e6 / 1540 * 0.1, 1e-2);
-  EXPECT_EQ(m.samples, uint32_t(std::ceil(0.7 / dz)));
+  ASSERT_EQ(m.groups.size(), 1u);
+  EXPECT_EQ(m.groups[0].samples, uint32_t(std::ceil(0.7 / dz)));
   EXPECT_NEAR(d.geometry.w, -47.5f * 0.006f, 1e-6);  // line 0 at -x, lines centred
   EXPECT_NEAR(d.image.z * 130, 96 * 0.006f, 1e-5);   // the image spans the lines
   EXPECT_EQ(d.ids.z, shader::PROBE_LINEAR);
@@ -69,18 +70,19 @@ TEST(UltrasoundModel, ScatterersFillTheRegionLessAnechoicInclusions) {
   }
 }
 
-TEST(UltrasoundModel, ProbesOfOneWorldMustShareTheirOutputShape) {
-  World w(SceneLayout{2});
+TEST(UltrasoundModel, ProbesOfOtherSizesFormGroupsOfTheirOwn) {
+  World w(SceneLayout{3});
   w.add(w.create_entity(0, "a"), linear_probe());
   auto other = linear_probe();
   other.width = 64;
   w.add(w.create_entity(1, "b"), other);
-  try {
-    model(w);
-    FAIL() << "expected an error";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("entity 1 'b' in env 1: every UltrasoundProbe"), std::string::npos) << e.what();
-  }
+  w.add(w.create_entity(2, "c"), linear_probe());
+  auto m = model(w);
+  ASSERT_EQ(m.groups.size(), 2u);
+  EXPECT_EQ(m.probe_group, (std::vector<uint32_t>{0, 1, 0}));
+  EXPECT_EQ(m.groups[0].layers, 2u);  // a and c share one set of outputs
+  EXPECT_EQ(m.groups[1].width, 64u);
+  EXPECT_EQ(m.probes[2].ids.w, 1u);  // c is its group's second layer
 }
 
 TEST(UltrasoundModel, SoftTissueScatterersFillItsTetsByBarycentricWeights) {
