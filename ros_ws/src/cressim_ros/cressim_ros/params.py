@@ -23,7 +23,7 @@ class Spec:
     description: str
     runtime: bool  # may change while the node runs
     high: float = 0.0  # numbers: the largest value (0: MAX_RATE for rates, 8192 for integers)
-    zero: bool = False  # rates: 0 is a value too (particle_rate 0: the physics rate)
+    zero: bool = False  # 0 is a value too (particle_rate 0: the physics rate; live_view 0: off)
 
 
 MAX_RATE = 2000.0
@@ -46,6 +46,8 @@ SPECS = (
     Spec("camera_height", int, "camera image height, pixels (sizes the engine's render targets)", False),
     Spec("sensors", list, f"sensor groups to publish: {', '.join(SENSORS)}", True),
     Spec("record", str, "MCAP recording (rosbag2 folder) path; empty: not recording", True),
+    Spec("live_view", int, "port of the Foxglove WebSocket live view on this host (docs/twin.md); 0: off", False,
+         high=65535, zero=True),
 )
 BY_NAME = {s.name: s for s in SPECS}
 
@@ -55,7 +57,8 @@ def defaults(scene: Scene) -> dict:
             "physics_rate": scene.physics_rate, "particle_rate": scene.particle_rate,
             "publish_rate": scene.publish_rate, "tf_rate": scene.tf_rate,
             "camera_rate": scene.camera_rate, "ultrasound_rate": scene.ultrasound_rate, "camera_width": scene.camera_width,
-            "camera_height": scene.camera_height, "sensors": list(scene.sensors), "record": scene.record}
+            "camera_height": scene.camera_height, "sensors": list(scene.sensors), "record": scene.record,
+            "live_view": 0}
 
 
 def check(changes: dict, current: dict, *, running: bool) -> str | None:
@@ -91,6 +94,8 @@ def _check_one(spec: Spec, value) -> str | None:
         if isinstance(value, bool) or not isinstance(value, int):
             return f"an integer expected, got {value!r}"
         high = int(spec.high) or 8192
+        if spec.zero and value == 0:
+            return None
         if not 1 <= value <= high:
             return f"{value} is outside [1, {high}]"
     elif spec.kind is list:

@@ -195,6 +195,14 @@ class TwinNode(Node):
                 recorder = open_recorder(cfg["record"])
             except (RecordingUnavailable, OSError, ValueError) as exc:
                 raise ConfigError(f"record: {exc}") from None
+        self.live_view = None
+        if cfg["live_view"]:
+            from .live_view import LiveView  # foxglove-sdk: imported only when asked for
+
+            try:
+                self.live_view = LiveView(self, cfg["live_view"])
+            except Exception as exc:  # noqa: BLE001 - the port taken, say
+                raise ConfigError(f"live_view: port {cfg['live_view']}: {exc}") from None
         self._sync_sensor_groups()
         self.sensors.render_now()  # builds every pipeline before the first tick (can take a minute cold)
         if recorder is not None:
@@ -664,6 +672,8 @@ class TwinNode(Node):
     def close(self):
         self.sensors.close()
         self._close_recorder()
+        if self.live_view is not None:
+            self.live_view.close()
         if self.refusals:
             summary = ", ".join(f"{self.arms.label(env)} {kind}: {n}" for (env, kind), n in sorted(self.refusals.items()))
             self.get_logger().info(f"refused commands: {summary}")

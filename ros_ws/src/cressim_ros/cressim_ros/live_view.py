@@ -1,0 +1,89 @@
+"""A live view of the twin for people: a Foxglove WebSocket server (foxglove-sdk) that streams what
+the twin publishes, for Foxglove (app.foxglove.dev or the desktop app: "Open connection",
+ws://HOST:PORT). docs/twin.md, "Live view", shows how.
+
+It listens to the twin's own topics (env 0's: one env is what a person watches) on a node of its
+own in the twin's process and hands them on in Foxglove's schemas, so that the 3D, Image and
+Plot panels need no ROS on the viewer's side:
+
+    /camera/color/image_raw, /camera/depth/image_raw   foxglove.RawImage (rgb8, 32FC1)
+    /camera/color/camera_info                          foxglove.CameraCalibration
+    /tf, /tf_static                                    foxglove.FrameTransforms
+    /joint_states                                      foxglove.JointStates
+    /robot_description                                 the URDF (JSON {"data": ...}, std_msgs/String's shape)
+"""
+from __future__ import annotations
+
+import foxglove
+from foxglove.channels import CameraCalibrationChannel, FrameTransformsChannel, JointStatesChannel, RawImageChannel
+from foxglove.messages import (CameraCalibration, FrameTransform, FrameTransforms, JointState, JointStates,
+                               Quaternion, RawImage, Timestamp, Vector3)
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import CameraInfo, Image
+from sensor_msgs.msg import JointState as RosJointState
+from std_msgs.msg import String
+from tf2_msgs.msg import TFMessage
+
+from .topics import LATCHED_QOS
+
+STREAM_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT, durability=DurabilityPolicy.VOLATILE)
+STRING_SCHEMA = {"type": "object", "properties": {"data": {"type": "string"}}}
+
+
+def _time(stamp) -> Timestamp:
+    return Timestamp(sec=stamp.sec, nsec=stamp.nanosec)
+
+
+def _transforms(msg: TFMessage) -> FrameTransforms:
+    return FrameTransforms(transforms=[
+        FrameTransform(timestamp=_time(t.header.stamp), parent_frame_id=t.header.frame_id, child_frame_id=t.child_frame_id,
+                       translation=Vector3(x=t.transform.translation.x, y=t.transform.translation.y,
+                                           z=t.transform.translation.z),
+                       rotation=Quaternion(x=t.transform.rotation.x, y=t.transform.rotation.y,
+                                           z=t.transform.rotation.z, w=t.transform.rotation.w))
+        for t in msg.transforms])
+
+
+class LiveView:
+    def __init__(self, node, port: int, host: str = "127.0.0.1"):
+        self.context = foxglove.Context()
+        self.server = foxglove.start_server(name="cressim twin", host=host, port=port, context=self.context)
+        self.port = self.server.port
+        c = self.context
+        self.images = {"/camera/color/image_raw": RawImageChannel("/camera/color/image_raw", context=c),
+                       "/camera/depth/image_raw": RawImageChannel("/camera/depth/image_raw", context=c)}
+        self.calibration = CameraCalibrationChannel("/camera/color/camera_info", context=c)
+        self.tf = FrameTransformsChannel("/tf", context=c)
+        self.tf_static = FrameTransformsChannel("/tf_static", context=c)
+        self.joints = JointStatesChannel("/joint_states", context=c)
+        self.urdf = foxglove.Channel("/robot_description", schema=STRING_SCHEMA, context=c)
+        self.subscriptions = [node.create_subscription(Image, topic, lambda m, t=topic: self._image(t, m), STREAM_QOS)
+                              for topic in self.images]
+        self.subscriptions += [
+            node.create_subscription(CameraInfo, "/camera/color/camera_info", self._camera_info, STREAM_QOS),
+            node.create_subscription(TFMessage, "/tf", lambda m: self.tf.log(_transforms(m)), STREAM_QOS),
+            node.create_subscription(TFMessage, "/tf_static", lambda m: self.tf_static.log(_transforms(m)), LATCHED_QOS),
+            node.create_subscription(RosJointState, "/joint_states", self._joint_states, STREAM_QOS),
+            node.create_subscription(String, "/robot_description", lambda m: self.urdf.log({"data": m.data}),
+                                     LATCHED_QOS)]
+
+    def _image(self, topic: str, m: Image):
+        self.images[topic].log(RawImage(timestamp=_time(m.header.stamp), frame_id=m.header.frame_id, width=m.width,
+                                        height=m.height, encoding=m.encoding, step=m.step, data=bytes(m.data)))
+
+    def _camera_info(self, m: CameraInfo):
+        self.calibration.log(CameraCalibration(timestamp=_time(m.header.stamp), frame_id=m.header.frame_id,
+                                               width=m.width, height=m.height, distortion_model=m.distortion_model,
+                                               D=list(m.d), K=list(m.k), R=list(m.r), P=list(m.p)))
+
+    def _joint_states(self, m: RosJointState):
+        def at(values, i):
+            return float(values[i]) if i < len(values) else None
+
+        self.joints.log(JointStates(timestamp=_time(m.header.stamp), joints=[
+            JointState(name=name, position=at(m.position, i), velocity=at(m.velocity, i), effort=at(m.effort, i))
+            for i, name in enumerate(m.name)]))
+
+    def close(self):
+        self.server.stop()
+

@@ -1,0 +1,69 @@
+"""The twin's live view: a client speaking the Foxglove WebSocket protocol (the `websockets`
+library, the protocol written out here) connects to the twin node's server, sees the channels it
+advertises, subscribes and receives the twin's joint states, URDF and camera images."""
+import json
+import socket
+import struct
+import threading
+
+import pytest
+
+pytest.importorskip("foxglove")
+pytestmark = pytest.mark.ros
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_a_foxglove_client_sees_the_twin(make_node):
+    from rclpy.executors import SingleThreadedExecutor
+    from websockets.sync.client import connect
+
+    port = _free_port()
+    node = make_node(live_view=port, sensors=["joints", "tf", "color", "depth"], camera_rate=50.0)
+    executor = SingleThreadedExecutor(context=node.context)
+    executor.add_node(node)
+    spinner = threading.Thread(target=executor.spin, daemon=True)
+    spinner.start()
+    try:
+        with connect(f"ws://127.0.0.1:{port}", subprotocols=["foxglove.sdk.v1", "foxglove.websocket.v1"],
+                     open_timeout=60) as ws:
+            info = json.loads(ws.recv(timeout=60))
+            assert info["op"] == "serverInfo" and info["name"] == "cressim twin"
+            channels = {}
+            while len(channels) < 7:  # each advertise names some channels
+                msg = json.loads(ws.recv(timeout=60))
+                if msg["op"] == "advertise":
+                    channels.update({c["topic"]: c for c in msg["channels"]})
+            assert {"/camera/color/image_raw", "/camera/depth/image_raw", "/camera/color/camera_info", "/tf",
+                    "/tf_static", "/joint_states", "/robot_description"} == set(channels)
+            assert channels["/joint_states"]["schemaName"] == "foxglove.JointStates"
+            assert channels["/camera/color/image_raw"]["schemaName"] == "foxglove.RawImage"
+            wanted = {1: "/joint_states", 2: "/robot_description", 3: "/camera/color/image_raw"}
+            ws.send(json.dumps({"op": "subscribe", "subscriptions": [
+                {"id": sid, "channelId": channels[topic]["id"]} for sid, topic in wanted.items()]}))
+            got = {}
+            while len(got) < len(wanted):  # message data: opcode 1, subscription id, log time, payload
+                frame = ws.recv(timeout=120)
+                if isinstance(frame, bytes) and frame[0] == 1:
+                    sid = struct.unpack_from("<I", frame, 1)[0]
+                    got.setdefault(sid, frame[13:])
+        assert b"outer_yaw" in got[1]  # the PSM's joint names in the JointStates message
+        assert json.loads(got[2])["data"].lstrip().startswith("<")  # the URDF, as robot_state_publisher's
+        assert b"rgb8" in got[3] and len(got[3]) > 64 * 48 * 3  # the whole 64 x 48 image
+    finally:
+        executor.shutdown()
+        spinner.join(timeout=30)
+
+
+def test_a_taken_port_is_a_clear_error(make_node):
+    from cressim.twin import ConfigError
+
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        with pytest.raises(ConfigError, match=f"live_view: port {taken.getsockname()[1]}"):
+            make_node(live_view=taken.getsockname()[1], sensors=["joints"])
