@@ -51,7 +51,7 @@ def test_a_foxglove_client_sees_the_twin(make_node):
                 if isinstance(frame, bytes) and frame[0] == 1:
                     sid = struct.unpack_from("<I", frame, 1)[0]
                     got.setdefault(sid, frame[13:])
-        assert b"outer_yaw" in got[1]  # the PSM's joint names in the JointStates message
+        assert b"pitch_bottom" in got[1]  # the URDF joints (robot_state_publisher's) in the JointStates message
         assert json.loads(got[2])["data"].lstrip().startswith("<")  # the URDF, as robot_state_publisher's
         assert b"rgb8" in got[3] and len(got[3]) > 64 * 48 * 3  # the whole 64 x 48 image
     finally:
