@@ -181,7 +181,8 @@ def _export(args: argparse.Namespace) -> int:
     if not args.out:
         raise SystemExit("cressim export: --out is needed (a new folder for lerobot, a new .hdf5 file for robomimic)")
     write = datasets.to_lerobot if args.format == "lerobot" else datasets.to_robomimic
-    print(write(args.source, args.out))
+    bag = {} if (Path(args.source) / "index.json").is_file() else {"fps": args.fps, "ns": args.ns}
+    print(write(args.source, args.out, **bag))
     return 0
 
 
@@ -258,7 +259,10 @@ def main(argv: list[str] | None = None) -> int:
 
     p = sub.add_parser("export", help="generated rollouts as a LeRobot (v2.1) or robomimic (HDF5) dataset; "
                                       "--replay runs a dataset again and compares")
-    p.add_argument("source", help="`cressim generate`'s folder (or, with --replay, an exported dataset)")
+    p.add_argument("source", help="`cressim generate`'s folder or a twin recording (rosbag2 folder); "
+                                   "with --replay, an exported dataset")
+    p.add_argument("--fps", type=float, default=30.0, help="a twin recording's frames per second (default 30)")
+    p.add_argument("--ns", default="PSM1", help="a twin recording's arm namespace (default PSM1)")
     p.add_argument("--format", default="lerobot", choices=("lerobot", "robomimic"))
     p.add_argument("--out", help="lerobot: a new folder; robomimic: a new .hdf5 file")
     p.add_argument("--replay", action="store_true", help="replay SOURCE (a dataset) in a batch and compare observations")

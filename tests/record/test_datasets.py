@@ -75,3 +75,39 @@ def test_image_observations_become_lossless_videos(tmp_path):
     assert frames.shape == (6, 32, 32, 3) and frames.dtype == np.uint8 and frames.std() > 0
     back = read_mp4(write_mp4(tmp_path / "v.mp4", frames, 50.0, lossless=True))
     assert back.shape == frames.shape and np.abs(back.astype(int) - frames).max() <= 1
+
+
+def test_a_twin_recording_becomes_one_episode_of_aligned_states_and_commands(tmp_path):
+    """The synthetic PSM session (cressim.record.synthetic: servo_jp commands, the arm's lagged
+    measured_js) as LeRobot and robomimic datasets at 50 Hz: each frame holds the latest measured
+    joints and jaw and the latest command, at its time from the first command."""
+    from cressim.record.reader import read_messages
+    from cressim.record.synthetic import record_synthetic
+
+    bag = tmp_path / "session"
+    record_synthetic(bag, duration=2.0)
+    dst = datasets.to_lerobot(bag, tmp_path / "lerobot", fps=50.0)
+    info = json.loads((dst / "meta" / "info.json").read_text())
+    assert info["total_episodes"] == 1 and info["fps"] == 50.0 and info["robot_type"] == "dvrk_psm"
+    table = pq.read_table(dst / info["data_path"].format(episode_chunk=0, episode_index=0))
+    state = np.stack(table.column("observation.state").to_numpy(zero_copy_only=False))
+    action = np.stack(table.column("action").to_numpy(zero_copy_only=False))
+    stamps = table.column("timestamp").to_numpy()
+    assert state.shape == (table.num_rows, 7) and action.shape == (table.num_rows, 7)
+    assert table.num_rows == pytest.approx(1.5 * 50, abs=2)  # commands from 0.5 s to 2 s
+    assert np.allclose(np.diff(stamps), 0.02)
+    # frame k: the last command at or before its time, from the bag itself
+    commands = [(m.log_time, np.asarray(msg.position)) for m, msg in read_messages(bag, "/PSM1/servo_jp", decode=True)]
+    t0 = commands[0][0]
+    for k in (0, 10, table.num_rows - 1):
+        t = t0 + round(stamps[k] * 1e9)
+        latest = [q for when, q in commands if when <= t + 1000][-1]
+        np.testing.assert_allclose(action[k, :6], latest, atol=1e-6)
+    assert np.abs(state[10:, :6] - action[10:, :6]).max() < 0.05  # after its lag the arm follows its commands
+    with pytest.raises(ValueError, match="twin recording"):
+        datasets.replay(dst)
+    h5 = datasets.to_robomimic(bag, tmp_path / "session.hdf5", fps=50.0)
+    with h5py.File(h5, "r") as f:
+        assert f["data/demo_0/obs/state"].shape == (table.num_rows, 7)
+        np.testing.assert_array_equal(f["data/demo_0/actions"][()], action)
+        assert json.loads(f["data"].attrs["env_args"])["env_name"] == "cressim_twin"

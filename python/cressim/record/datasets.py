@@ -1,5 +1,7 @@
-"""Rollouts recorded by `cressim generate` (rollouts.py) as imitation-learning datasets:
-LeRobot's v2.1 layout and robomimic's HDF5, and either replayed in a batch of envs.
+"""Rollouts recorded by `cressim generate` (rollouts.py) and recordings of the twin as
+imitation-learning datasets: LeRobot's v2.1 layout and robomimic's HDF5; a rollout dataset
+replayed in a batch of envs. Both sources become clips (`Clip`: one episode's arrays), which the
+two writers take.
 
 An episode is one env's steps from a reset to the step that ended it (terminated or truncated);
 an env's steps after its last ending (an episode cut off by the recording's end) are left out.
@@ -10,7 +12,8 @@ recorded.
 
 Observations of shape (H, W, 3) are images (LeRobot: an MP4 per episode, `observation.image`;
 robomimic: obs/image, uint8); any other observation is a flat state (`observation.state`,
-obs/state). Timestamps are the simulated time from the episode's start, k dt.
+obs/state). Timestamps are the simulated time from the episode's start, k dt. A twin recording
+is one episode sampled at a fixed rate from its first to its last arm command (`bag_clips`).
 """
 from __future__ import annotations
 
@@ -65,27 +68,116 @@ def _source(index: dict, episode: Episode) -> dict:
             "num_envs": index["num_envs"], "env": episode.env, "start_step": episode.start}
 
 
-def to_lerobot(src, dst, *, instruction: str | None = None) -> Path:
-    """Writes the episodes of generated folder `src` as a LeRobot v2.1 dataset in `dst` (new)."""
+@dataclass
+class Clip:
+    """One episode as the writers take it: per step the observation (a flat state, or an (H, W, 3)
+    uint8 image), the action, the reward and the time from the episode's start (s); the
+    observation after each step where the recording holds it; a state beside an image observation;
+    where the episode came from."""
+    obs: np.ndarray
+    action: np.ndarray
+    reward: np.ndarray
+    time: np.ndarray
+    source: dict
+    next_obs: np.ndarray | None = None
+    state: np.ndarray | None = None
+
+    def states(self) -> np.ndarray | None:
+        """The flat state of each step: `state`, or the observation where that is no image."""
+        return self.state if self.state is not None else (None if _is_image(self.obs.shape[1:]) else self.obs)
+
+
+def rollout_clips(src) -> tuple[dict, list[Clip]]:
+    """A `cressim generate` folder's complete episodes: (what the dataset is, its clips)."""
+    index, arrays, found = _load(src)
+    out = []
+    for ep in found:
+        n = ep.stop - ep.start
+        obs = arrays["observation"][ep.start:ep.stop, ep.env]
+        # the observation after the last step is the next episode's first (reset within the step)
+        after = arrays["observation"][ep.start + 1:ep.stop + 1, ep.env]
+        flat = (lambda a: a) if _is_image(obs.shape[1:]) else (lambda a: a.reshape(len(a), -1).astype(np.float32))
+        out.append(Clip(flat(obs), arrays["action"][ep.start:ep.stop, ep.env].reshape(n, -1).astype(np.float32),
+                          arrays["reward"][ep.start:ep.stop, ep.env].astype(np.float32), np.arange(n) * index["dt"],
+                        _source(index, ep), flat(after) if len(after) == n else None))
+    about = {"name": index["task"], "fps": 1.0 / index["dt"], "robot": f"cressim.{index['task']}",
+             "env_args": {"env_name": index["task"], "type": "cressim",
+                          "env_kwargs": {**index["task_options"], "seed": index["seed"]}}}
+    return about, out
+
+
+def bag_clips(bag, *, fps: float = 30.0, ns: str = "PSM1") -> tuple[dict, list[Clip]]:
+    """A recording of the twin (`cressim_twin -p record:=BAG`, or `cressim record`) as one episode
+    sampled at `fps` from its first to its last arm command: the state is the latest measured
+    joints and jaw (7), the action the latest servo_jp and jaw/servo_jp command (7; the measured
+    values before any), the image the latest camera image where the bag has one; the reward is
+    0 (a recording has none)."""
+    from .reader import read_messages
+
+    p = f"/{ns.strip('/')}/"
+    topics = {f"{p}measured_js": "q", f"{p}jaw/measured_js": "jaw", f"{p}servo_jp": "cmd", f"{p}jaw/servo_jp": "jaw_cmd",
+              "/camera/color/image_raw": "image"}
+    series: dict = {k: ([], []) for k in topics.values()}
+    for m, msg in read_messages(bag, list(topics), decode=True):
+        key = topics[m.topic]
+        value = (np.frombuffer(bytes(msg.data), np.uint8).reshape(msg.height, msg.width, 3) if key == "image"
+                 else np.asarray(msg.position, dtype=np.float64))
+        series[key][0].append(m.log_time)
+        series[key][1].append(value)
+    if not series["cmd"][0] or not series["q"][0]:
+        raise ValueError(f"{bag}: no {p}servo_jp commands or no {p}measured_js: nothing to learn from")
+    t0, t1 = series["cmd"][0][0], series["cmd"][0][-1]
+    times = np.arange(t0, t1 + 1, int(round(1e9 / fps)), dtype=np.int64)
+
+    def latest(key, fallback=None):
+        stamps, values = series[key]
+        if not stamps:
+            return None if fallback is None else latest(fallback)
+        idx = np.searchsorted(np.asarray(stamps), times, side="right") - 1
+        first = values[0]
+        return np.stack([values[i] if i >= 0 else first for i in idx])
+
+    state = np.concatenate([latest("q"), latest("jaw") if series["jaw"][0] else np.zeros((len(times), 1))], 1)
+    action = np.concatenate([latest("cmd"), latest("jaw_cmd", "jaw") if series["jaw"][0] or series["jaw_cmd"][0]
+                             else np.zeros((len(times), 1))], 1)
+    image = latest("image")
+    n = len(times)
+    source = {"bag": str(bag), "namespace": ns, "start_ns": int(t0), "fps": fps}
+    state = state.astype(np.float32)
+    clip = Clip(image if image is not None else state, action.astype(np.float32), np.zeros(n, np.float32),
+                (times - t0) * 1e-9, source, state=state if image is not None else None)
+    about = {"name": f"dVRK {ns} (cressim twin)", "fps": fps, "robot": "dvrk_psm",
+             "env_args": {"env_name": "cressim_twin", "type": "ros2", "env_kwargs": {"namespace": ns}}}
+    return about, [clip]
+
+
+def clips(src, **kwargs) -> tuple[dict, list[Clip]]:
+    """`src` as clips: a `cressim generate` folder (index.json) or a twin recording (a rosbag2 folder)."""
+    src = Path(src)
+    if (src / "index.json").is_file():
+        return rollout_clips(src)
+    if (src / "metadata.yaml").is_file() or list(src.glob("*.mcap")):
+        return bag_clips(src, **kwargs)
+    raise ValueError(f"{src}: neither a `cressim generate` folder (index.json) nor a rosbag2 recording (*.mcap)")
+
+
+def to_lerobot(src, dst, *, instruction: str | None = None, **kwargs) -> Path:
+    """Writes the episodes of `src` (clips) as a LeRobot v2.1 dataset in `dst` (new)."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    index, arrays, found = _load(src)
+    about, found = clips(src, **kwargs)
     dst = Path(dst)
     if dst.exists():
         raise FileExistsError(f"{dst} exists: export into a new folder")
     (dst / "meta").mkdir(parents=True)
-    fps = 1.0 / index["dt"]
-    obs_shape = tuple(index["observation_shape"])
-    image = _is_image(obs_shape)
+    fps = about["fps"]
+    image = _is_image(found[0].obs.shape[1:])
     obs_key = "observation.image" if image else "observation.state"
-    action_size = int(np.prod(index["action_shape"]))
-    task_text = instruction or f"cressim {index['task']}"
+    states = found[0].states()
+    action_size = found[0].action.shape[1]
+    task_text = instruction or f"cressim {about['name']}"
     features = {
-        obs_key: ({"dtype": "video", "shape": list(obs_shape), "names": ["height", "width", "channels"],
-                   "info": {"video.fps": fps, "video.codec": "h264", "video.pix_fmt": "yuv444p",
-                            "video.is_depth_map": False, "has_audio": False}} if image else
-                  {"dtype": "float32", "shape": [int(np.prod(obs_shape))], "names": None}),
         "action": {"dtype": "float32", "shape": [action_size], "names": None},
         "next.reward": {"dtype": "float32", "shape": [1], "names": None},
         "next.done": {"dtype": "bool", "shape": [1], "names": None},
@@ -95,38 +187,40 @@ def to_lerobot(src, dst, *, instruction: str | None = None) -> Path:
         "index": {"dtype": "int64", "shape": [1], "names": None},
         "task_index": {"dtype": "int64", "shape": [1], "names": None},
     }
-    rows, stats_lines, episode_lines, frame = 0, [], [], 0
-    for e, ep in enumerate(found):
-        n = ep.stop - ep.start
-        obs = arrays["observation"][ep.start:ep.stop, ep.env]
-        action = arrays["action"][ep.start:ep.stop, ep.env].reshape(n, -1).astype(np.float32)
-        reward = arrays["reward"][ep.start:ep.stop, ep.env].astype(np.float32)
+    if image:
+        features[obs_key] = {"dtype": "video", "shape": list(found[0].obs.shape[1:]),
+                             "names": ["height", "width", "channels"],
+                             "info": {"video.fps": fps, "video.codec": "h264", "video.pix_fmt": "yuv444p",
+                                      "video.is_depth_map": False, "has_audio": False}}
+    if states is not None:
+        features["observation.state"] = {"dtype": "float32", "shape": [states.shape[1]], "names": None}
+    stats_lines, episode_lines, frame = [], [], 0
+    for e, clip in enumerate(found):
+        n = len(clip.action)
         done = np.zeros(n, bool)
         done[-1] = True
-        columns = {"action": pa.array(list(action), type=pa.list_(pa.float32(), action_size)),
-                   "next.reward": pa.array(reward), "next.done": pa.array(done),
-                   "timestamp": pa.array((np.arange(n) * index["dt"]).astype(np.float32)),
+        columns = {"action": pa.array(list(clip.action), type=pa.list_(pa.float32(), action_size)),
+                   "next.reward": pa.array(clip.reward), "next.done": pa.array(done),
+                   "timestamp": pa.array(clip.time.astype(np.float32)),
                    "frame_index": pa.array(np.arange(n, dtype=np.int64)),
                    "episode_index": pa.array(np.full(n, e, np.int64)),
                    "index": pa.array(np.arange(frame, frame + n, dtype=np.int64)),
                    "task_index": pa.array(np.zeros(n, np.int64))}
+        values = {"action": clip.action, "next.reward": clip.reward[:, None]}
         if image:
-            # lossless, so that a replay can compare images exactly
-            write_mp4(dst / "videos" / f"chunk-{e // CHUNK:03d}" / obs_key / f"episode_{e:06d}.mp4", obs, fps,
+            write_mp4(dst / "videos" / f"chunk-{e // CHUNK:03d}" / obs_key / f"episode_{e:06d}.mp4", clip.obs, fps,
                       lossless=True)
-        else:
-            state = obs.reshape(n, -1).astype(np.float32)
-            columns[obs_key] = pa.array(list(state), type=pa.list_(pa.float32(), state.shape[1]))
+        if states is not None:
+            state = clip.states()
+            columns["observation.state"] = pa.array(list(state), type=pa.list_(pa.float32(), state.shape[1]))
+            values["observation.state"] = state
         path = dst / "data" / f"chunk-{e // CHUNK:03d}" / f"episode_{e:06d}.parquet"
         path.parent.mkdir(parents=True, exist_ok=True)
         pq.write_table(pa.table(columns), path)
-        episode_lines.append({"episode_index": e, "tasks": [task_text], "length": n, "cressim": _source(index, ep)})
-        values = {"action": action, "next.reward": reward[:, None]}
-        if not image:
-            values[obs_key] = obs.reshape(n, -1).astype(np.float32)
+        episode_lines.append({"episode_index": e, "tasks": [task_text], "length": n, "cressim": clip.source})
         stats_lines.append({"episode_index": e, "stats": {k: _stats(v) for k, v in values.items()}})
         frame += n
-    info = {"codebase_version": LEROBOT_VERSION, "robot_type": f"cressim.{index['task']}",
+    info = {"codebase_version": LEROBOT_VERSION, "robot_type": about["robot"],
             "total_episodes": len(found), "total_frames": frame, "total_tasks": 1,
             "total_videos": len(found) if image else 0, "total_chunks": (len(found) - 1) // CHUNK + 1,
             "chunks_size": CHUNK, "fps": fps, "splits": {"train": f"0:{len(found)}"},
@@ -149,38 +243,37 @@ def _jsonl(path: Path, lines: list) -> None:
     path.write_text("".join(json.dumps(line) + "\n" for line in lines))
 
 
-def to_robomimic(src, dst) -> Path:
-    """Writes the episodes of generated folder `src` as a robomimic HDF5 file `dst` (new): data/demo_k
-    with actions, rewards, dones, obs/<state|image> and next_obs, and its source in attributes."""
+def to_robomimic(src, dst, **kwargs) -> Path:
+    """Writes the episodes of `src` (clips) as a robomimic HDF5 file `dst` (new): data/demo_k with
+    actions, rewards, dones, obs/<state|image> (and obs/state beside an image), next_obs where
+    the recording holds it, and its source in attributes."""
     import h5py
 
-    index, arrays, found = _load(src)
+    about, found = clips(src, **kwargs)
     dst = Path(dst)
     if dst.exists():
         raise FileExistsError(f"{dst} exists: export to a new file")
     dst.parent.mkdir(parents=True, exist_ok=True)
-    key = "image" if _is_image(tuple(index["observation_shape"])) else "state"
+    key = "image" if _is_image(found[0].obs.shape[1:]) else "state"
     with h5py.File(dst, "w") as f:
         data = f.create_group("data")
-        data.attrs["env_args"] = json.dumps({"env_name": index["task"], "type": "cressim",
-                                             "env_kwargs": {**index["task_options"], "seed": index["seed"]}})
+        data.attrs["env_args"] = json.dumps(about["env_args"])
         total = 0
-        for e, ep in enumerate(found):
-            n = ep.stop - ep.start
-            obs = arrays["observation"][ep.start:ep.stop, ep.env]
-            # the observation after the last step is the next episode's first (reset within the step)
-            after = arrays["observation"][ep.start + 1:ep.stop + 1, ep.env]
+        for e, clip in enumerate(found):
+            n = len(clip.action)
             g = data.create_group(f"demo_{e}")
             g.attrs["num_samples"] = n
-            g.attrs["cressim"] = json.dumps(_source(index, ep))
-            g.create_dataset("actions", data=arrays["action"][ep.start:ep.stop, ep.env].reshape(n, -1))
-            g.create_dataset("rewards", data=arrays["reward"][ep.start:ep.stop, ep.env])
+            g.attrs["cressim"] = json.dumps(clip.source)
+            g.create_dataset("actions", data=clip.action)
+            g.create_dataset("rewards", data=clip.reward)
             dones = np.zeros(n, np.uint8)
             dones[-1] = 1
             g.create_dataset("dones", data=dones)
-            g.create_dataset(f"obs/{key}", data=obs if key == "image" else obs.reshape(n, -1))
-            if len(after) == n:  # the recording holds the step after: next_obs of the last is its reset
-                g.create_dataset(f"next_obs/{key}", data=after if key == "image" else after.reshape(n, -1))
+            g.create_dataset(f"obs/{key}", data=clip.obs)
+            if key == "image" and clip.state is not None:
+                g.create_dataset("obs/state", data=clip.state)
+            if clip.next_obs is not None:
+                g.create_dataset(f"next_obs/{key}", data=clip.next_obs)
             total += n
         data.attrs["total"] = total
         f.create_dataset("mask/train", data=np.array([f"demo_{e}".encode() for e in range(len(found))]))
@@ -231,6 +324,9 @@ def replay(path, *, device=None) -> dict:
     import torch
 
     source, found = load(path)
+    if "env" not in source:
+        raise ValueError(f"{path}: exported from a twin recording ({source.get('bag')}); replay runs `cressim generate` "
+                         "datasets (a recording's arm answered a person, not a policy the envs can run again)")
     by_env: dict[int, list] = {}
     for meta, actions, obs in found:
         by_env.setdefault(meta["env"], []).append((meta["start_step"], actions, obs))
