@@ -97,6 +97,18 @@ def _torchrun(nproc: int, argv: list[str]) -> int:
     return subprocess.run(command).returncode
 
 
+def _relaunched(args: argparse.Namespace) -> int | None:
+    """`--nproc N` outside a launcher: this command again in N processes under torchrun (its exit
+    status); None where this process is to do the work itself."""
+    from cressim.learn.distributed import launched
+
+    if args.nproc < 1:
+        raise SystemExit(f"--nproc {args.nproc}: at least 1 process")
+    if args.nproc > 1 and not launched():
+        return _torchrun(args.nproc, _without_nproc(args.argv))
+    return None
+
+
 def _leader() -> bool:
     """Rank 0 of a torchrun launch, or the only process: the one that reports."""
     return os.environ.get("RANK", "0") == "0"
@@ -116,12 +128,10 @@ def _without_nproc(argv: list[str]) -> list[str]:
 
 def _train(args: argparse.Namespace) -> int:
     from cressim.learn import train
-    from cressim.learn.distributed import launched
 
-    if args.nproc < 1:
-        raise SystemExit(f"--nproc {args.nproc}: at least 1 process")
-    if args.nproc > 1 and not launched():
-        return _torchrun(args.nproc, _without_nproc(args.argv))
+    rc = _relaunched(args)
+    if rc is not None:
+        return rc
 
     result = train(args.task, num_envs=args.envs, iterations=args.iterations, device=args.device, seed=args.seed,
                    out_dir=args.out or f"runs/{args.task.lower()}", rollout=args.rollout, save_every=args.save_every,
@@ -156,13 +166,11 @@ def _eval(args: argparse.Namespace) -> int:
 
 
 def _generate(args: argparse.Namespace) -> int:
-    from cressim.learn.distributed import launched
     from cressim.record.rollouts import generate
 
-    if args.nproc < 1:
-        raise SystemExit(f"--nproc {args.nproc}: at least 1 process")
-    if args.nproc > 1 and not launched():
-        return _torchrun(args.nproc, _without_nproc(args.argv))
+    rc = _relaunched(args)
+    if rc is not None:
+        return rc
     index = generate(args.task, args.envs, args.steps, args.out, policy=args.policy, seed=args.seed,
                      task_options=_task_options(args.task_option), device=args.device)
     if _leader():

@@ -46,6 +46,17 @@ def build(make_engine, envs, tissues, probe_kwargs=None):
     return engine, world
 
 
+def sensed_iq(make_engine, world) -> np.ndarray:
+    """One frame of `world`'s probes: their IQ as complex numbers (probes, lines, samples), float64."""
+    engine = make_engine(world)
+    engine.prepare()
+    engine.upload_world()
+    engine.step_simulation_sensors()
+    engine.end_frame()
+    iq = engine.buffer("ultrasound0.iq").read().astype(np.float64)
+    return iq[..., 0] + 1j * iq[..., 1]
+
+
 def frame(engine):
     engine.step_simulation_sensors()
     engine.end_frame()

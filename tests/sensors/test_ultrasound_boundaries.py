@@ -14,7 +14,7 @@ import pytest
 
 import cressim
 
-from .test_ultrasound import FS, MM, C, F0, point, probe
+from .test_ultrasound import FS, MM, C, F0, point, probe, sensed_iq
 
 SPECULAR = 1000.0  # the probe's plane-reflector echo, in scatterer amplitudes
 DZ = C / (2 * FS) * 4
@@ -39,13 +39,7 @@ def imaged(make_engine, world, **fields):
     p = world.create_entity(env=0, name="probe")
     p.add(cressim.Transform())
     p.add(probe(specular_amplitude=SPECULAR, **fields))
-    engine = make_engine(world)
-    engine.prepare()
-    engine.upload_world()
-    engine.step_simulation_sensors()
-    engine.end_frame()
-    iq = engine.buffer("ultrasound0.iq").read().astype(np.float64)
-    return iq[0, ..., 0] + 1j * iq[0, ..., 1]
+    return sensed_iq(make_engine, world)[0]
 
 
 @pytest.mark.parametrize("kind", ["linear", "sector"])
@@ -97,13 +91,7 @@ def test_media_follow_their_region_and_pose(make_engine):
         p = world.create_entity(env=env, name="probe")
         p.add(cressim.Transform())
         p.add(probe())
-    engine = make_engine(world)
-    engine.prepare()
-    engine.upload_world()
-    engine.step_simulation_sensors()
-    engine.end_frame()
-    iq = engine.buffer("ultrasound0.iq").read().astype(np.float64)
-    peak = np.hypot(iq[:, 48, :, 0], iq[:, 48, :, 1]).max(axis=1)
+    peak = np.abs(sensed_iq(make_engine, world)[:, 48]).max(axis=1)
     losses = 20 * np.log10(peak[2] / peak[:2])
     expected = [2 * F0 / 1e6 * 3.0 * 0.2, 2 * F0 / 1e6 * 3.0 * 0.2 / math.cos(math.radians(30))]
     print(f"cylinder {losses[0]:.3f} dB (formula {expected[0]:.3f}), tilted slab {losses[1]:.3f} dB "

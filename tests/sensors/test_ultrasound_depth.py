@@ -13,7 +13,7 @@ import numpy as np
 
 import cressim
 
-from .test_ultrasound import FS, FWHM, MM, C, F0, half_max_width, phantom, point, probe
+from .test_ultrasound import FS, FWHM, MM, C, F0, half_max_width, phantom, point, probe, sensed_iq
 
 ON_LINE = 0.075 * MM  # scanline 48 of the test probe: peaks are not cut by a line's lateral offset
 
@@ -26,13 +26,7 @@ def engine_with(make_engine, envs):
         p = world.create_entity(env=env, name="probe")
         p.add(cressim.Transform())
         p.add(probe(**fields))
-    engine = make_engine(world)
-    engine.prepare()
-    engine.upload_world()
-    engine.step_simulation_sensors()
-    engine.end_frame()
-    iq = engine.buffer("ultrasound0.iq").read()
-    return np.hypot(iq[..., 0], iq[..., 1])
+    return np.abs(sensed_iq(make_engine, world))
 
 
 def test_attenuation_darkens_speckle_with_depth_and_tgc_flattens_it(make_engine):

@@ -20,7 +20,7 @@ import pytest
 
 import cressim
 
-from .test_ultrasound import FS, FWHM, MM, B, C, F0, sigma_z
+from .test_ultrasound import FS, FWHM, MM, B, C, F0, sensed_iq, sigma_z
 
 RAYLEIGH_SNR, RAYLEIGH_LOG_STD = math.sqrt(math.pi / (4 - math.pi)), 5.57
 SL, SE = 0.6 * MM / FWHM, 1.0 * MM / FWHM  # two-way beam sigmas of the probe below
@@ -54,13 +54,7 @@ def test_speckle_is_rayleigh_at_any_density_and_thickness(make_engine, kind):
         p = world.create_entity(env=env, name="probe")
         p.add(cressim.Transform())
         p.add(probe(kind))
-    engine = make_engine(world)
-    engine.prepare()
-    engine.upload_world()
-    engine.step_simulation_sensors()
-    engine.end_frame()
-    iq = engine.buffer("ultrasound0.iq").read().astype(np.float64)
-    intensity = iq[..., 0] ** 2 + iq[..., 1] ** 2
+    intensity = np.abs(sensed_iq(make_engine, world)) ** 2
     # away from the slab's edges by more than the beam's and pulse's reach
     rows = slice(8, 40)
     samples = slice(int(2.5 * MM / DZ), int(13.5 * MM / DZ))

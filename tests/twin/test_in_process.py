@@ -68,25 +68,17 @@ def test_runtime_parameter_changes(make_node):
 def test_forward_kinematics_service_equals_the_urdf_model(make_node):
     """The forward_kinematics services over DDS, for 1,000 random joint vectors, against the URDF
     chain (pytorch-kinematics); local/ is in the RCM frame, the other in the base frame."""
-    import threading
-
     import numpy as np
-    import rclpy
     import torch
     from crtk_msgs.srv import QueryForwardKinematics
     from rclpy.executors import MultiThreadedExecutor
 
     from cressim.robots import PSM, pose7_to_matrix
+    from twin_fixtures import spinning
 
     node = make_node()
     node.timer.cancel()  # services only: no ticks on the executor's threads
-    client_node = rclpy.create_node("fk_client", context=node.context)
-    executor = MultiThreadedExecutor(context=node.context)
-    executor.add_node(node)
-    executor.add_node(client_node)
-    spinner = threading.Thread(target=executor.spin, daemon=True)
-    spinner.start()
-    try:
+    with spinning(node, "fk_client", MultiThreadedExecutor) as client_node:
         urdf = PSM(node.arms.psm.urdf_path, dtype=torch.float64)
         q = np.random.default_rng(3).uniform(node.arms.kin.lower_np, node.arms.kin.upper_np, size=(1000, 6))
         expected = urdf.forward_kinematics(torch.as_tensor(q)).numpy()
@@ -103,10 +95,6 @@ def test_forward_kinematics_service_equals_the_urdf_model(make_node):
             assert np.abs(T - expected[k]).max() < 1e-6, (k, T, expected[k])
         bad = clients["forward_kinematics"].call(QueryForwardKinematics.Request(jp=[0.0] * 5), timeout_sec=60)
         assert not bad.result and "expected 6" in bad.message
-    finally:
-        executor.shutdown()
-        spinner.join(timeout=30)
-        client_node.destroy_node()
 
 
 def test_diagnostics_are_published(make_node):

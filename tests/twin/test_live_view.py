@@ -4,12 +4,13 @@ advertises, subscribes and receives the twin's joint states, URDF and camera ima
 import json
 import socket
 import struct
-import threading
 
 import pytest
 
 pytest.importorskip("foxglove")
 pytestmark = pytest.mark.ros
+
+from twin_fixtures import spinning  # noqa: E402
 
 
 def _free_port() -> int:
@@ -19,16 +20,11 @@ def _free_port() -> int:
 
 
 def test_a_foxglove_client_sees_the_twin(make_node):
-    from rclpy.executors import SingleThreadedExecutor
     from websockets.sync.client import connect
 
     port = _free_port()
     node = make_node(live_view=port, sensors=["joints", "tf", "color", "depth"], camera_rate=50.0)
-    executor = SingleThreadedExecutor(context=node.context)
-    executor.add_node(node)
-    spinner = threading.Thread(target=executor.spin, daemon=True)
-    spinner.start()
-    try:
+    with spinning(node, "live_view_peer"):
         with connect(f"ws://127.0.0.1:{port}", subprotocols=["foxglove.sdk.v1", "foxglove.websocket.v1"],
                      open_timeout=60) as ws:
             info = json.loads(ws.recv(timeout=60))
@@ -54,9 +50,6 @@ def test_a_foxglove_client_sees_the_twin(make_node):
         assert b"pitch_bottom" in got[1]  # the URDF joints (robot_state_publisher's) in the JointStates message
         assert json.loads(got[2])["data"].lstrip().startswith("<")  # the URDF, as robot_state_publisher's
         assert b"rgb8" in got[3] and len(got[3]) > 64 * 48 * 3  # the whole 64 x 48 image
-    finally:
-        executor.shutdown()
-        spinner.join(timeout=30)
 
 
 def test_a_taken_port_is_a_clear_error(make_node):

@@ -2,7 +2,6 @@
 twin node on one executor's thread, as the twin's own main spins it, the twin's timer running):
 pause, step, reset, stop, play, and the needle's pose set and read."""
 import math
-import threading
 
 import numpy as np
 import pytest
@@ -10,28 +9,20 @@ import pytest
 pytest.importorskip("simulation_interfaces.srv", reason="ros_ws's simulation_interfaces is not built")
 pytestmark = pytest.mark.ros
 
+from twin_fixtures import spinning  # noqa: E402
+
 
 @pytest.fixture
 def control(make_node):
     """(node, call): the twin node ticking on an executor's thread, and call(name, request) through
     a client node over DDS."""
-    import rclpy
-    from rclpy.executors import SingleThreadedExecutor
     from simulation_interfaces import srv
 
     node = make_node(scene="psm_suture.yaml", sensors=["joints"])
-    client_node = rclpy.create_node("sim_client", context=node.context)
-    executor = SingleThreadedExecutor(context=node.context)
-    executor.add_node(node)
-    executor.add_node(client_node)
-    spinner = threading.Thread(target=executor.spin, daemon=True)
-    spinner.start()
     types = {"get_simulator_features": srv.GetSimulatorFeatures, "get_simulation_state": srv.GetSimulationState,
              "set_simulation_state": srv.SetSimulationState, "step_simulation": srv.StepSimulation,
              "reset_simulation": srv.ResetSimulation, "get_entities": srv.GetEntities,
              "get_entity_state": srv.GetEntityState, "set_entity_state": srv.SetEntityState}
-    clients = {name: client_node.create_client(t, f"/{name}") for name, t in types.items()}
-
     def call(name, **fields):
         client = clients[name]
         assert client.wait_for_service(timeout_sec=120), name
@@ -42,10 +33,9 @@ def control(make_node):
         assert response is not None, f"{name}: no response"
         return response
 
-    yield node, call
-    executor.shutdown()
-    spinner.join(timeout=30)
-    client_node.destroy_node()
+    with spinning(node, "sim_client") as client_node:
+        clients = {name: client_node.create_client(t, f"/{name}") for name, t in types.items()}
+        yield node, call
 
 
 def _set(call, state):

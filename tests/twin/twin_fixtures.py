@@ -1,6 +1,9 @@
-"""A twin shared by a test module (teardown registered with pytest's request); where the dVRK's
-own Python clients are and the environment a script of theirs runs in."""
+"""A twin shared by a test module (teardown registered with pytest's request); an in-process twin
+node spun beside a client node; where the dVRK's own Python clients are and the environment a
+script of theirs runs in."""
+import contextlib
 import os
+import threading
 from pathlib import Path
 
 from cressim_ros.twin_process import Twin
@@ -19,6 +22,27 @@ def keeps_publishing(arm, ticks: int = 50, timeout: float = 120.0) -> bool:
     """measured_js keeps coming: `ticks` more messages (one per tick, however slowly the machine
     runs the twin; the timeout only catches a stalled twin)."""
     return arm.wait_measured(ticks, timeout=timeout)
+
+
+@contextlib.contextmanager
+def spinning(node, client_name: str, executor_class=None):
+    """A client node on the twin node's context, both spun by one executor (default: single
+    threaded, as the twin's own main) on a thread of its own; yields the client node."""
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+
+    client = rclpy.create_node(client_name, context=node.context)
+    executor = (executor_class or SingleThreadedExecutor)(context=node.context)
+    executor.add_node(node)
+    executor.add_node(client)
+    spinner = threading.Thread(target=executor.spin, daemon=True)
+    spinner.start()
+    try:
+        yield client
+    finally:
+        executor.shutdown()
+        spinner.join(timeout=30)
+        client.destroy_node()
 
 
 def module_twin(request, tmp_path_factory, domain, *params):

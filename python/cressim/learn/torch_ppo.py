@@ -9,7 +9,6 @@ would cost more than running them."""
 from __future__ import annotations
 
 import math
-from itertools import chain
 
 import torch
 from torch import nn
@@ -170,7 +169,7 @@ class TorchPPO:
         self._shuffle = torch.Generator(self.device)
         self._shuffle.manual_seed(torch.initial_seed() + 1)
         # capturable: the step count stays on the device, so the update can be a CUDA graph
-        self.optimizer = torch.optim.Adam(chain(self.actor_params, self.critic.parameters()), lr=cfg.lr,
+        self.optimizer = torch.optim.Adam(self.learned, lr=cfg.lr,
                                           capturable=self.device.type == "cuda")
         self.learning_rate = cfg.lr
         self.num_mini_batches = cfg.num_mini_batches(num_envs)  # per process, as DDP's batch size is
