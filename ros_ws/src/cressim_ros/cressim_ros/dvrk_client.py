@@ -147,7 +147,7 @@ class _Jaw:
         self._move = ral.publisher(JointState, f"{ns}/jaw/move_jp", COMMAND)
         self._servo = ral.publisher(JointState, f"{ns}/jaw/servo_jp", COMMAND)
 
-    def measured_jp(self, age: float = 0.5) -> np.ndarray:
+    def measured_jp(self, age: float | None = None) -> np.ndarray:
         return np.array(self.arm._fresh(self._measured, age, "jaw/measured_js").position)
 
     def move_jp(self, q) -> MoveHandle:
@@ -160,8 +160,9 @@ class _Jaw:
 
 
 class Arm:
-    def __init__(self, ral: Ral, ns: str = "/PSM1"):
-        self.ral, self.ns = ral, ns
+    def __init__(self, ral: Ral, ns: str = "/PSM1", stale_after: float = 0.5):
+        """`stale_after`: the age (s) past which a reading raises, the dVRK clients' 0.5 s by default."""
+        self.ral, self.ns, self.stale_after = ral, ns, stale_after
         self._state = _Latest(keep=200)
         # a few seconds of joint states, to pair each tick's measured and setpoint (same stamp)
         self._measured_js, self._setpoint_js = _Latest(keep=1000), _Latest(keep=1000)
@@ -208,28 +209,29 @@ class Arm:
                                     and m.state == "ENABLED", timeout)
 
     # ---- data (raise when stale, like the dVRK clients)
-    def _fresh(self, latest: _Latest, age: float, name: str):
+    def _fresh(self, latest: _Latest, age: float | None, name: str):
         msg = latest.msg
         if msg is None:
             raise RuntimeError(f"{self.ns}/{name}: no data received")
+        age = self.stale_after if age is None else age
         lag = self.ral.now() - stamp_s(msg.header)
         if lag > age:
             raise RuntimeError(f"{self.ns}/{name}: newest sample is {lag:.3f} s old")
         return msg
 
-    def measured_jp(self, age: float = 0.5) -> np.ndarray:
+    def measured_jp(self, age: float | None = None) -> np.ndarray:
         return np.array(self._fresh(self._measured_js, age, "measured_js").position)
 
-    def measured_jv(self, age: float = 0.5) -> np.ndarray:
+    def measured_jv(self, age: float | None = None) -> np.ndarray:
         return np.array(self._fresh(self._measured_js, age, "measured_js").velocity)
 
-    def setpoint_jp(self, age: float = 0.5) -> np.ndarray:
+    def setpoint_jp(self, age: float | None = None) -> np.ndarray:
         return np.array(self._fresh(self._setpoint_js, age, "setpoint_js").position)
 
-    def measured_cp(self, age: float = 0.5) -> np.ndarray:
+    def measured_cp(self, age: float | None = None) -> np.ndarray:
         return pose_to_matrix(self._fresh(self._measured_cp, age, "measured_cp").pose)
 
-    def spatial_measured_cf(self, age: float = 0.5, timeout: float = 10.0) -> np.ndarray:
+    def spatial_measured_cf(self, age: float | None = None, timeout: float = 10.0) -> np.ndarray:
         """Force (N) and torque (N m) on the tool about its tip, in the measured_cp frame."""
         if self._spatial_cf is None:
             self._spatial_cf = _Latest()
