@@ -1,9 +1,11 @@
 """The twin's live view: a client speaking the Foxglove WebSocket protocol (the `websockets`
 library, the protocol written out here) connects to the twin node's server, sees the channels it
-advertises, subscribes and receives the twin's joint states, URDF and camera images."""
+advertises, subscribes and receives the twin's joint states, URDF and camera images. The viewer
+joins after the URDF was published: Foxglove keeps nothing for late joiners, the live view must."""
 import json
 import socket
 import struct
+import time
 
 import pytest
 
@@ -25,8 +27,10 @@ def test_a_foxglove_client_sees_the_twin(make_node):
     port = _free_port()
     node = make_node(live_view=port, sensors=["joints", "tf", "color", "depth"], camera_rate=50.0)
     with spinning(node, "live_view_peer"):
+        while set(node.live_view.latch.last) != {"/robot_description", "/tf_static"}:  # the late joiner's case
+            time.sleep(0.05)
         with connect(f"ws://127.0.0.1:{port}", subprotocols=["foxglove.sdk.v1", "foxglove.websocket.v1"],
-                     open_timeout=60) as ws:
+                     open_timeout=60, proxy=None) as ws:  # loopback: never through a proxy from the environment
             info = json.loads(ws.recv(timeout=60))
             assert info["op"] == "serverInfo" and info["name"] == "cressim twin"
             channels = {}
@@ -42,11 +46,14 @@ def test_a_foxglove_client_sees_the_twin(make_node):
             ws.send(json.dumps({"op": "subscribe", "subscriptions": [
                 {"id": sid, "channelId": channels[topic]["id"]} for sid, topic in wanted.items()]}))
             got = {}
-            while len(got) < len(wanted):  # message data: opcode 1, subscription id, log time, payload
+            for _ in range(100_000):  # message data: opcode 1, subscription id, log time, payload
+                if len(got) == len(wanted):
+                    break
                 frame = ws.recv(timeout=120)
                 if isinstance(frame, bytes) and frame[0] == 1:
                     sid = struct.unpack_from("<I", frame, 1)[0]
                     got.setdefault(sid, frame[13:])
+        assert set(got) == set(wanted), f"received only {sorted(wanted[i] for i in got)}"
         assert b"pitch_bottom" in got[1]  # the URDF joints (robot_state_publisher's) in the JointStates message
         assert json.loads(got[2])["data"].lstrip().startswith("<")  # the URDF, as robot_state_publisher's
         assert b"rgb8" in got[3] and len(got[3]) > 64 * 48 * 3  # the whole 64 x 48 image

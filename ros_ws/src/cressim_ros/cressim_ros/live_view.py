@@ -11,11 +11,17 @@ Plot panels need no ROS on the viewer's side:
     /tf, /tf_static                                    foxglove.FrameTransforms
     /joint_states                                      foxglove.JointStates
     /robot_description                                 the URDF (JSON {"data": ...}, std_msgs/String's shape)
+
+Foxglove keeps no message for late joiners, so the latched topics (the URDF, /tf_static) are kept
+here and logged again whenever a viewer subscribes to them.
 """
 from __future__ import annotations
 
+import threading
+
 import foxglove
 from foxglove.channels import CameraCalibrationChannel, FrameTransformsChannel, JointStatesChannel, RawImageChannel
+from foxglove.websocket import ServerListener
 from foxglove.messages import (CameraCalibration, FrameTransform, FrameTransforms, JointState, JointStates,
                                Quaternion, RawImage, Timestamp, Vector3)
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -44,10 +50,36 @@ def _transforms(msg: TFMessage) -> FrameTransforms:
         for t in msg.transforms])
 
 
+class _Latch(ServerListener):
+    """The last message of each latched channel, logged again when a viewer subscribes to it. The
+    log happens on a thread of its own: the server calls on_subscribe from its own runtime."""
+
+    def __init__(self):
+        self.channels = {}  # topic: channel
+        self.last = {}  # topic: message
+        self.lock = threading.Lock()
+
+    def log(self, topic: str, msg):
+        with self.lock:
+            self.last[topic] = msg
+            self.channels[topic].log(msg)
+
+    def on_subscribe(self, client, channel):
+        if channel.topic in self.channels:
+            threading.Thread(target=self._again, args=(channel.topic,), daemon=True).start()
+
+    def _again(self, topic: str):
+        with self.lock:
+            if topic in self.last:
+                self.channels[topic].log(self.last[topic])
+
+
 class LiveView:
     def __init__(self, node, port: int, host: str = "127.0.0.1"):
         self.context = foxglove.Context()
-        self.server = foxglove.start_server(name="cressim twin", host=host, port=port, context=self.context)
+        self.latch = _Latch()
+        self.server = foxglove.start_server(name="cressim twin", host=host, port=port, context=self.context,
+                                            server_listener=self.latch)
         self.port = self.server.port
         c = self.context
         self.images = {"/camera/color/image_raw": RawImageChannel("/camera/color/image_raw", context=c),
@@ -57,15 +89,16 @@ class LiveView:
         self.tf_static = FrameTransformsChannel("/tf_static", context=c)
         self.joints = JointStatesChannel("/joint_states", context=c)
         self.urdf = foxglove.Channel("/robot_description", schema=STRING_SCHEMA, context=c)
+        self.latch.channels.update({"/tf_static": self.tf_static, "/robot_description": self.urdf})
         self.subscriptions = [node.create_subscription(Image, topic, lambda m, t=topic: self._image(t, m), STREAM_QOS)
                               for topic in self.images]
         self.subscriptions += [
             node.create_subscription(CameraInfo, "/camera/color/camera_info", self._camera_info, STREAM_QOS),
             node.create_subscription(TFMessage, "/tf", lambda m: self.tf.log(_transforms(m)), STREAM_QOS),
-            node.create_subscription(TFMessage, "/tf_static", lambda m: self.tf_static.log(_transforms(m)), LATCHED_QOS),
+            node.create_subscription(TFMessage, "/tf_static", lambda m: self.latch.log("/tf_static", _transforms(m)),
+                                     LATCHED_QOS),
             node.create_subscription(RosJointState, "/joint_states", self._joint_states, STREAM_QOS),
-            node.create_subscription(String, "/robot_description", lambda m: self.urdf.log({"data": m.data}),
-                                     LATCHED_QOS)]
+            node.create_subscription(String, "/robot_description", lambda m: self.latch.log("/robot_description", {"data": m.data}), LATCHED_QOS)]
 
     def _image(self, topic: str, m: Image):
         self.images[topic].log(RawImage(timestamp=_time(m.header.stamp), frame_id=m.header.frame_id, width=m.width,
