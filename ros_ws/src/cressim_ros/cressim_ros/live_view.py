@@ -98,7 +98,8 @@ class LiveView:
             node.create_subscription(TFMessage, "/tf_static", lambda m: self.latch.log("/tf_static", _transforms(m)),
                                      LATCHED_QOS),
             node.create_subscription(RosJointState, "/joint_states", self._joint_states, STREAM_QOS),
-            node.create_subscription(String, "/robot_description", lambda m: self.latch.log("/robot_description", {"data": m.data}), LATCHED_QOS)]
+            node.create_subscription(String, "/robot_description",
+                                     lambda m: self.latch.log("/robot_description", {"data": m.data}), LATCHED_QOS)]
 
     def _image(self, topic: str, m: Image):
         self.images[topic].log(RawImage(timestamp=_time(m.header.stamp), frame_id=m.header.frame_id, width=m.width,
