@@ -5,6 +5,7 @@
 #include <cstring>
 #include <regex>
 
+#include "compute/dispatch_stamps.h"
 #include "compute/element_type.h"
 #include "gpu/context.h"
 #include "gpu/embedded_shaders.h"
@@ -107,6 +108,7 @@ void ComputePass::set_threads(std::array<uint64_t, 3> threads) {
 
 void ComputePass::record(VkCommandBuffer cmd) const {
   gpu::record_dispatch(cmd, pipeline, constants.data(), groups.data());
+  if (auto* stamps = active_dispatch_stamps(); stamps && stamps->passes) stamps->stamp(cmd, name);
 }
 
 std::shared_ptr<ComputePass> create_compute_pass(std::shared_ptr<gpu::Context> ctx, const PassSpec& spec) {

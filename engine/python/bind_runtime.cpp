@@ -249,7 +249,13 @@ void bind_runtime(py::module_& m) {
         d["reason"] = why;
         return d;
       })
-      .def_property_readonly("last_timings", &Engine::last_timings);
+      .def_property_readonly("last_timings", &Engine::last_timings)
+      .def_property("profile_passes", &Engine::profile_passes, &Engine::set_profile_passes,
+                    "With profiling on, also time every compute pass inside the frame's ops "
+                    "(last_pass_timings). The extra timestamps cost a little GPU time themselves.")
+      .def_property_readonly("last_pass_timings", &Engine::last_pass_timings,
+                             "(op, pass, ms) of the last frame profiled with profile_passes, in recorded order; "
+                             "'(rest)' is an op's work after its last pass (draws, copies, barriers).");
 }
 
 }  // namespace cressim::python
