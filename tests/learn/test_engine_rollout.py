@@ -1,0 +1,76 @@
+"""PPO rollouts on the engine's queue (cressim.learn.engine_rollout): several steps per submit
+give the trajectories of single steps, the stored rollout is the env's, and PPO learns on it."""
+import math
+
+import pytest
+import torch
+
+import cressim.envs
+from cressim.learn import ppo_config, train
+from cressim.learn.engine_rollout import EngineRollout
+from cressim.learn.torch_ppo import TorchPPO
+
+
+def rollout(steps_per_submit, num_envs=6, steps=8, seed=4):
+    torch.manual_seed(0)
+    env = cressim.envs.make("CartPole", num_envs=num_envs, seed=seed, final_observation=False, validation=True)
+    alg = TorchPPO(4, 1, num_envs, ppo_config("CartPole", rollout=steps, hidden=(16, 16)), env.device)
+    r = EngineRollout(env, alg, steps_per_submit=steps_per_submit, seed=seed)
+    before = env.engine.submits
+    r.collect()
+    r.submits = env.engine.submits - before
+    return env, alg, r
+
+
+def test_k_steps_per_submit_equal_single_steps_with_the_same_actions():
+    """One submit of 8 steps, 4 of 2 and 8 of 1 store the same rollout, bit for bit; a fresh env
+    stepped one frame at a time by env.step() with the stored actions walks the same states."""
+    runs = [rollout(k) for k in (8, 2, 1)]
+    env, alg, r = runs[0]
+    assert [run[2].submits for run in runs] == [1, 4, 8]
+    for other_env, other, other_r in runs[1:]:
+        for key in ("obs", "actions", "log_prob", "values", "rewards", "dones", "returns"):
+            assert torch.equal(getattr(alg, key), getattr(other, key)), key
+        assert torch.equal(r.episode_stats, other_r.episode_stats)
+    assert alg.dones.any() and not alg.dones.all()  # random actions drop poles within 8 steps
+    single = cressim.envs.make("CartPole", num_envs=6, seed=4, final_observation=False)
+    obs, _ = single.reset()
+    for t in range(8):
+        assert torch.equal(obs, alg.obs[t]), t
+        obs, reward, terminated, truncated, _ = single.step(alg.actions[t])
+        assert torch.equal(reward, r.rewards[t]) and torch.equal(terminated | truncated, r.dones[t] != 0)
+    assert torch.equal(obs, env.obs)
+    assert env.engine.validation_messages == []
+
+
+def test_the_rollout_is_the_learners_with_values_and_returns():
+    env, alg, r = rollout(4)
+    with torch.no_grad():
+        values = alg.critic(alg.obs.flatten(0, 1)).view(8, 6)
+        dist = alg._dist(alg.obs.flatten(0, 1))
+    torch.testing.assert_close(alg.values, values)
+    torch.testing.assert_close(alg.log_prob.flatten(), dist.log_prob(alg.actions.flatten(0, 1)).sum(-1), atol=1e-4,
+                               rtol=1e-5)
+    assert torch.isfinite(alg.returns).all() and torch.isfinite(alg.advantages).all()
+    stats = r.pop_stats()
+    assert stats["episodes"] == int(alg.dones.sum()) and stats["terminated"] == 1.0
+    assert 1 <= stats["mean_length"] <= 8 and stats["mean_return"] == stats["mean_length"]
+    assert r.pop_stats()["episodes"] == 0  # popped
+    losses = alg.update()
+    assert all(math.isfinite(v) for v in losses.values())
+
+
+def test_steps_per_submit_must_divide_the_rollout():
+    env = cressim.envs.make("CartPole", num_envs=2)
+    alg = TorchPPO(4, 1, 2, ppo_config("CartPole", rollout=8, hidden=(8,)), env.device)
+    with pytest.raises(ValueError, match="divisor of the rollout"):
+        EngineRollout(env, alg, steps_per_submit=3)
+
+
+def test_ppo_with_the_policy_in_the_engine_learns_cartpole(tmp_path):
+    """A short CPU run: the episodes grow well past a random policy's (about 20 steps)."""
+    result = train("CartPole", num_envs=64, iterations=30, seed=0, out_dir=tmp_path, rollout=32, save_every=100,
+                   progress=False, engine_rollout=True, hidden=(32, 32), minibatch=512, lr=1e-3)
+    lengths = [h["mean_length"] for h in result["history"]]
+    assert result["engine_rollout"] and result["backend"] == "torch"
+    assert lengths[0] < 40 and max(lengths[-5:]) > 2 * lengths[0], lengths
