@@ -68,9 +68,10 @@ def test_steps_per_submit_must_divide_the_rollout():
 
 
 def test_ppo_with_the_policy_in_the_engine_learns_cartpole(tmp_path):
-    """A short CPU run: the episodes grow well past a random policy's (about 20 steps)."""
-    result = train("CartPole", num_envs=64, iterations=30, seed=0, out_dir=tmp_path, rollout=32, save_every=100,
+    """A short CPU run: the episodes grow well past the first policy's (about 5 steps: its noise
+    drops the pole); 30 updates reach about 65 steps."""
+    result = train("CartPole", num_envs=64, iterations=12, seed=0, out_dir=tmp_path, rollout=32, save_every=100,
                    progress=False, engine_rollout=True, hidden=(32, 32), minibatch=512, lr=1e-3)
     lengths = [h["mean_length"] for h in result["history"]]
     assert result["engine_rollout"] and result["backend"] == "torch"
-    assert lengths[0] < 40 and max(lengths[-5:]) > 2 * lengths[0], lengths
+    assert lengths[0] < 10 and max(lengths[-3:]) > 2.5 * lengths[0], lengths
