@@ -100,6 +100,18 @@ def variants(n: int, warmup: int, steps: int) -> dict:
         out[f"engine_{k}"] = {"sps": r["sps"], "ms_per_step": r["ms_per_step"] / k}
         print(f"{'engine_' + str(k):>17}: {r['sps']:>14,.0f} env-steps/s, {r['ms_per_step'] / k:.3f} ms a step "
               f"(policy in the loop)", flush=True)
+        if k == 8:  # GPU time of a step's parts, from the frame's timestamps
+            env.engine.profiling = True
+            frame()
+            frame()
+            parts = {}
+            for label, ms in env.engine.last_timings:
+                part = ("policy pass" if "engine_policy" in label else "store pass" if "engine_rollout" in label
+                        else "task step")
+                parts[part] = parts.get(part, 0.0) + ms / k
+            env.engine.profiling = False
+            out["gpu_ms_per_step"] = parts
+            print("     GPU ms a step: " + ", ".join(f"{p} {ms:.4f}" for p, ms in parts.items()), flush=True)
         env.close()
     return out
 

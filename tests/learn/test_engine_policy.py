@@ -21,7 +21,7 @@ def actor(widths, activation):
 
 def run_pass(env, policy, obs):
     """Writes `obs` into the task's observations, runs the policy pass alone; the actions."""
-    env.obs.copy_(obs)
+    env.obs.copy_(obs.to(env.device))
     policy.record()
     env.engine.end_frame()
     return env.actions.clone()
@@ -35,17 +35,18 @@ def test_mean_actions_equal_the_torch_forward(hidden, activation, normalized):
     a tile)."""
     torch.manual_seed(len(hidden) + hidden[0])
     env = cressim.envs.make("CartPole", num_envs=13, validation=True)
-    net = actor((4, *hidden, 1), activation)
+    dev = env.device
+    net = actor((4, *hidden, 1), activation).to(dev)
     if normalized:
-        net = Normalized(ObsNormalizer(4, 4), net)
-        net.normalizer.update(torch.randn(50, 4) * torch.tensor([1.0, 3.0, 0.2, 5.0]) + 0.5)
+        net = Normalized(ObsNormalizer(4, 4), net).to(dev)
+        net.normalizer.update(torch.randn(50, 4, device=dev) * torch.tensor([1.0, 3.0, 0.2, 5.0], device=dev) + 0.5)
     with torch.no_grad():  # weights large enough that every unit's activation matters
         for p in net.parameters():
             p.normal_(0.0, 0.6)
-    log_std = nn.Parameter(torch.full((1,), -0.5))
+    log_std = nn.Parameter(torch.full((1,), -0.5, device=dev))
     policy = EnginePolicy(env, net, log_std, explore=False)
     for _ in range(2):
-        obs = torch.randn(13, 4) * 2
+        obs = torch.randn(13, 4, device=dev) * 2
         got = run_pass(env, policy, obs)
         with torch.no_grad():
             want = net(obs)
@@ -60,10 +61,10 @@ def test_samples_are_gaussian_about_the_mean_with_their_log_prob():
     torch.manual_seed(0)
     n = 256
     env = cressim.envs.make("CartPole", num_envs=n, validation=True)
-    net = actor((4, 16, 1), nn.Tanh)
-    log_std = nn.Parameter(torch.full((1,), -0.7))
+    net = actor((4, 16, 1), nn.Tanh).to(env.device)
+    log_std = nn.Parameter(torch.full((1,), -0.7, device=env.device))
     policy = EnginePolicy(env, net, log_std, rollout=2)
-    obs = torch.randn(n, 4)
+    obs = torch.randn(n, 4, device=env.device)
     actions = run_pass(env, policy, obs)
     with torch.no_grad():
         dist = Normal(net(obs), log_std.exp())
@@ -79,11 +80,11 @@ def test_samples_are_gaussian_about_the_mean_with_their_log_prob():
 
 def test_a_shard_draws_the_noise_of_its_envs_in_the_whole_batch():
     torch.manual_seed(1)
-    net, log_std = actor((4, 8, 1), nn.Tanh), nn.Parameter(torch.zeros(1))
-    obs = torch.randn(8, 4)
     whole = cressim.envs.make("CartPole", num_envs=8)
+    net, log_std = actor((4, 8, 1), nn.Tanh).to(whole.device), nn.Parameter(torch.zeros(1, device=whole.device))
+    obs = torch.randn(8, 4, device=whole.device)
     want = run_pass(whole, EnginePolicy(whole, net, log_std, seed=5), obs)
-    shard = cressim.envs.make("CartPole", num_envs=3, env_offset=4)
+    shard = cressim.envs.make("CartPole", num_envs=3, env_offset=4)  # the weights move into its engine now
     got = run_pass(shard, EnginePolicy(shard, net, log_std, seed=5), obs[4:7])
     torch.testing.assert_close(got, want[4:7], atol=1e-5, rtol=1e-5)
 
@@ -93,12 +94,13 @@ def test_an_optimizer_step_is_seen_without_a_copy():
     next frame's pass reads."""
     torch.manual_seed(2)
     env = cressim.envs.make("CartPole", num_envs=8, validation=True)
-    net, log_std = actor((4, 32, 32, 1), nn.Tanh), nn.Parameter(torch.full((1,), -0.5))
+    net = actor((4, 32, 32, 1), nn.Tanh).to(env.device)
+    log_std = nn.Parameter(torch.full((1,), -0.5, device=env.device))
     optimizer = torch.optim.Adam([*net.parameters(), log_std], lr=0.05)
     policy = EnginePolicy(env, net, log_std, explore=False)
     base, end = policy.weights.data_ptr(), policy.weights.data_ptr() + 4 * policy.weights.numel()
     assert all(base <= p.data_ptr() < end for p in [*net.parameters(), log_std])
-    obs = torch.randn(8, 4)
+    obs = torch.randn(8, 4, device=env.device)
     before = run_pass(env, policy, obs)
     loss = net(obs).square().sum() + log_std.sum()
     optimizer.zero_grad()
