@@ -75,3 +75,28 @@ def test_ppo_with_the_policy_in_the_engine_learns_cartpole(tmp_path):
     lengths = [h["mean_length"] for h in result["history"]]
     assert result["engine_rollout"] and result["backend"] == "torch"
     assert lengths[0] < 10 and max(lengths[-3:]) > 2.5 * lengths[0], lengths
+
+
+@pytest.mark.parametrize("task", ["TissueRetract", "SoftBodyPush"])
+def test_other_tasks_roll_out_in_the_engine(task):
+    """TASKS.md's actor for the task (TissueRetract: 29 observations, 7 actions, 2 x 256 units)
+    in the engine: the stored log-probabilities are torch's for the stored actions about the
+    module's means, and a fresh env stepped with the stored actions walks the same states."""
+    torch.manual_seed(0)
+    env = cressim.envs.make(task, num_envs=3, seed=1, final_observation=False, validation=True)
+    num_obs, num_actions = env.single_observation_space.shape[0], env.single_action_space.shape[0]
+    alg = TorchPPO(num_obs, num_actions, 3, ppo_config(task, rollout=4), env.device)
+    r = EngineRollout(env, alg, steps_per_submit=4, seed=1)
+    r.collect()
+    with torch.no_grad():
+        dist = alg._dist(alg.obs.flatten(0, 1))
+    log_prob = dist.log_prob(alg.actions.flatten(0, 1)).sum(-1)
+    torch.testing.assert_close(alg.log_prob.flatten(), log_prob, atol=2e-4, rtol=1e-5)
+    assert alg.actions.std() > 0.3  # sampled about the means (std exp(-0.5))
+    single = cressim.envs.make(task, num_envs=3, seed=1, final_observation=False)
+    obs, _ = single.reset()
+    for t in range(4):
+        torch.testing.assert_close(obs, alg.obs[t], atol=1e-5, rtol=1e-5)
+        obs, reward, terminated, truncated, _ = single.step(alg.actions[t])
+        torch.testing.assert_close(reward, r.rewards[t], atol=1e-5, rtol=1e-5)
+    assert env.engine.validation_messages == []
