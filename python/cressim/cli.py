@@ -136,7 +136,7 @@ def _train(args: argparse.Namespace) -> int:
     result = train(args.task, num_envs=args.envs, iterations=args.iterations, device=args.device, seed=args.seed,
                    out_dir=args.out or f"runs/{args.task.lower()}", rollout=args.rollout, save_every=args.save_every,
                    backend=args.backend, minibatch=args.minibatch, task_options=_task_options(args.task_option),
-                   obs_normalization=args.obs_normalization or None,
+                   obs_normalization=args.obs_normalization or None, compile=args.compile or None,
                    video_envs=_env_list(args.video_envs) if args.video else None, engine_rollout=args.engine_rollout)
     if not _leader():
         return 0
@@ -198,7 +198,7 @@ def _bench(args: argparse.Namespace) -> int:
     from cressim.learn.bench import run
 
     run(args.task, [int(n) for n in args.envs.split(",")] if args.envs else None, mode=args.mode, out_dir=args.out, device=args.device,
-        backend=args.backend, extend=args.extend, minibatch=args.minibatch, policy=args.policy)
+        backend=args.backend, extend=args.extend, minibatch=args.minibatch, policy=args.policy, compile=args.compile)
     return 0
 
 
@@ -251,6 +251,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--video", action="store_true",
                    help="MP4s of the --video-envs in each checkpoint's rollout (--out/video_<k>_env<i>.mp4, PyAV)")
     p.add_argument("--video-envs", default="0", help="comma-separated env indices filmed (default 0)")
+    p.add_argument("--compile", action="store_true",
+                   help="the built-in learner's minibatch loss through torch.compile, Adam fused (PPOConfig.compile)")
     p.add_argument("--engine-rollout", action="store_true",
                    help="the actor (an MLP) runs inside the engine's frame, a whole rollout a submit; torch only learns")
     p.set_defaults(run=_train)
@@ -301,6 +303,8 @@ def main(argv: list[str] | None = None) -> int:
                         "the loop, in torch and in the engine; ppo: PPO end to end; both: step and ppo; all: the three")
     p.add_argument("--policy", default="auto", choices=("auto", "engine", "torch"),
                    help="where PPO's actor runs (auto: in the engine where the task's actor is an MLP)")
+    p.add_argument("--compile", action="store_true",
+                   help="the built-in learner's minibatch loss through torch.compile, Adam fused (PPOConfig.compile)")
     p.add_argument("--out", default="benchmarks/results", help="folder for the JSON and PNG")
     p.add_argument("--device", help="torch device (default: what the env picks)")
     p.add_argument("--backend", default="auto", choices=("auto", "rsl_rl", "torch"), help="PPO learner")
