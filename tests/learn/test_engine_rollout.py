@@ -8,6 +8,7 @@ import torch
 import cressim.envs
 from cressim.learn import ppo_config, train
 from cressim.learn.engine_rollout import EngineRollout
+from cressim.learn.policy import load_policy
 from cressim.learn.torch_ppo import TorchPPO
 
 
@@ -75,6 +76,10 @@ def test_ppo_with_the_policy_in_the_engine_learns_cartpole(tmp_path):
     lengths = [h["mean_length"] for h in result["history"]]
     assert result["engine_rollout"] and result["backend"] == "torch"
     assert lengths[0] < 10 and max(lengths[-3:]) > 2.5 * lengths[0], lengths
+    # the checkpoint holds the weights the engine ran (torch.save reads them from engine memory)
+    policy = load_policy(tmp_path / "policy.pt")
+    saved = torch.load(tmp_path / "model_12.pt", weights_only=False)["actor_state_dict"]
+    assert torch.equal(policy.actor[0].weight, saved["0.weight"]) and saved["0.weight"].abs().sum() > 0
 
 
 @pytest.mark.parametrize("task", ["TissueRetract", "SoftBodyPush"])

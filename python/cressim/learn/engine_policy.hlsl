@@ -4,7 +4,8 @@
 // network's shape (OBS, ACTIONS, LAYERS, WIDTHS, MAX_WIDTH, ENV_TILE, ACTIVATION, NORMALIZED).
 //
 // One group computes ENV_TILE envs together, layer by layer, the activations in groupshared
-// memory: each thread owns output units and reads each weight once for the whole tile.
+// memory: each thread owns output units and reads each weight once for the whole tile (a layer
+// narrower than the group, such as the means, gets a thread per unit and env).
 
 struct Params {
   uint envs;
@@ -25,7 +26,7 @@ RWStructuredBuffer<float> rollout_actions;  // (rollout, envs, ACTIONS)
 RWStructuredBuffer<float> rollout_log_prob; // (rollout, envs)
 RWStructuredBuffer<uint> rollout_step;    // (envs) steps taken so far, advanced by the store pass
 
-static const uint GROUP = 64;
+static const uint GROUP = 128;  // every Vulkan device runs 128 invocations a group
 static const uint TILE_FLOATS = ENV_TILE * MAX_WIDTH;
 groupshared float hidden[2 * TILE_FLOATS];  // ping-pong: layer l reads half l % 2, writes the other
 
@@ -77,7 +78,14 @@ void act(uint3 group_id : SV_GroupID, uint3 thread_id : SV_GroupThreadID) {
   [unroll] for (uint l = 0; l < LAYERS; ++l) {
     const uint fan_in = WIDTHS[l], fan_out = WIDTHS[l + 1];
     const uint src = (l % 2) * TILE_FLOATS, dst = TILE_FLOATS - src;
-    for (uint j = tid; j < fan_out; j += GROUP) {
+    if (fan_out * ENV_TILE <= GROUP) {  // a narrow layer (the means): a thread per (unit, env)
+      if (tid < fan_out * ENV_TILE) {
+        const uint j = tid % fan_out, e = tid / fan_out;
+        float acc = weights[w + fan_out * fan_in + j];
+        for (uint k = 0; k < fan_in; ++k) acc += weights[w + j * fan_in + k] * hidden[src + e * MAX_WIDTH + k];
+        hidden[dst + e * MAX_WIDTH + j] = l + 1 < LAYERS ? activate(acc) : acc;
+      }
+    } else for (uint j = tid; j < fan_out; j += GROUP) {  // a thread per unit, each weight read once a tile
       float acc[ENV_TILE];
       const float bias = weights[w + fan_out * fan_in + j];
       [unroll] for (uint e = 0; e < ENV_TILE; ++e) acc[e] = bias;
