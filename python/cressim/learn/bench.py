@@ -1,7 +1,9 @@
 """Throughput of a batched task, as TASKS.md's protocol: pure stepping (zero actions, 64
-warm-up and 256 measured steps, a device sync after every step) and PPO (5 warm-up and 10
-measured updates of 128 steps; env steps counted, wall time includes learning). Each
-(env count, mode) runs in a fresh env, the previous one freed first."""
+warm-up and 256 measured steps, a device sync after every step; the actions copied each step and
+written in place), a rollout with the PPO actor in the loop (in torch, and as an engine pass),
+and PPO (5 warm-up and 10 measured updates of 128 steps; env steps counted, wall time includes
+learning). Each (env count, mode) runs in a fresh env, the previous one freed first; MEASURED
+says what each number is, and the JSON carries it."""
 from __future__ import annotations
 
 import gc
