@@ -61,11 +61,16 @@ def test_the_rollout_is_the_learners_with_values_and_returns():
     assert all(math.isfinite(v) for v in losses.values())
 
 
-def test_steps_per_submit_must_divide_the_rollout():
+def test_steps_per_submit_must_divide_the_rollout_and_rollouts_start_at_row_0():
     env = cressim.envs.make("CartPole", num_envs=2)
     alg = TorchPPO(4, 1, 2, ppo_config("CartPole", rollout=8, hidden=(8,)), env.device)
     with pytest.raises(ValueError, match="divisor of the rollout"):
         EngineRollout(env, alg, steps_per_submit=3)
+    r = EngineRollout(env, alg, steps_per_submit=4)
+    r.record_steps(2)
+    env.engine.end_frame()
+    with pytest.raises(RuntimeError, match="not a whole number of rollouts"):
+        r.collect()
 
 
 def test_ppo_with_the_policy_in_the_engine_learns_cartpole(tmp_path):

@@ -40,6 +40,7 @@ class EngineRollout:
             raise ValueError(f"EngineRollout: the learner must be fresh, for {n} envs on {env.device} "
                              f"(got {alg.obs.shape[1]} envs on {alg.device})")
         self.env, self.alg, self.steps_per_submit = env, alg, k
+        self.steps_recorded = 0
         self.policy = EnginePolicy(env, alg.actor, alg.log_std, rollout=T, seed=seed)
         e = env.engine
         buffers = {"rollout_rewards": e.create_shared_buffer("rollout_rewards", (T, n), "float32"),
@@ -62,6 +63,7 @@ class EngineRollout:
 
     def record_steps(self, steps: int) -> None:
         """Records `steps` env steps (policy, task step, store) into the frame being built."""
+        self.steps_recorded += steps
         for _ in range(steps):
             self.policy.record()
             self.env.record_step()
@@ -70,6 +72,9 @@ class EngineRollout:
     def collect(self) -> None:
         """A whole rollout in rollout / steps_per_submit submits, then its values and returns."""
         alg, T, k = self.alg, self.alg.cfg.rollout, self.steps_per_submit
+        if self.steps_recorded % T:  # step t of an env goes to row t % T: the rollout must start at row 0
+            raise RuntimeError(f"EngineRollout.collect: {self.steps_recorded} steps recorded so far, not a whole "
+                               f"number of rollouts ({T}); record_steps() in multiples of the rollout")
         for _ in range(T // k):
             self.record_steps(k)
             self.env.engine.end_frame()
