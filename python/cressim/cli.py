@@ -252,7 +252,7 @@ def main(argv: list[str] | None = None) -> int:
                    help="MP4s of the --video-envs in each checkpoint's rollout (--out/video_<k>_env<i>.mp4, PyAV)")
     p.add_argument("--video-envs", default="0", help="comma-separated env indices filmed (default 0)")
     p.add_argument("--compile", action="store_true",
-                   help="the built-in learner's minibatch loss through torch.compile, Adam fused (PPOConfig.compile)")
+                   help="the built-in learner's minibatch step through torch.compile (PPOConfig.compile)")
     p.add_argument("--engine-rollout", action="store_true",
                    help="the actor (an MLP) runs inside the engine's frame, a whole rollout a submit; torch only learns")
     p.set_defaults(run=_train)
@@ -304,7 +304,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--policy", default="auto", choices=("auto", "engine", "torch"),
                    help="where PPO's actor runs (auto: in the engine where the task's actor is an MLP)")
     p.add_argument("--compile", action="store_true",
-                   help="the built-in learner's minibatch loss through torch.compile, Adam fused (PPOConfig.compile)")
+                   help="the built-in learner's minibatch step through torch.compile (PPOConfig.compile)")
     p.add_argument("--out", default="benchmarks/results", help="folder for the JSON and PNG")
     p.add_argument("--device", help="torch device (default: what the env picks)")
     p.add_argument("--backend", default="auto", choices=("auto", "rsl_rl", "torch"), help="PPO learner")

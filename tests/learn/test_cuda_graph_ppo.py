@@ -97,7 +97,7 @@ def test_replayed_policy_step_follows_the_weights(case):
 
 
 def test_compiled_update_equals_plain():
-    """PPOConfig.compile (the minibatch loss through torch.compile, Adam's fused kernel), replayed
+    """PPOConfig.compile (the minibatch step through torch.compile), replayed
     as a graph, gives the plain learner's update."""
     from dataclasses import replace
 

@@ -31,10 +31,10 @@ class PPOConfig:
     # the numbers of the observation (not an image) by their running mean and std over the
     # rollouts so far, for actor and critic (rsl-rl's empirical normalisation)
     obs_normalization: bool = False
-    # the built-in learner's minibatch loss through torch.compile (forward and backward as a few
-    # fused kernels) and Adam's fused kernel: TASKS.md's small minibatches make an update
-    # thousands of optimizer steps of ~150 tiny kernels each; the first update compiles (minutes
-    # on a CPU, less with Triton on a GPU)
+    # the built-in learner's minibatch step through torch.compile (the loss's forward and backward,
+    # and the gradient clipping with Adam's step, as a few fused kernels): TASKS.md's small
+    # minibatches make an update thousands of optimizer steps of ~150 tiny kernels each; the
+    # first update compiles (about a minute)
     compile: bool = False
 
     def num_mini_batches(self, num_envs: int) -> int:
