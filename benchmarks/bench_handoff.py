@@ -85,7 +85,8 @@ def variants(n: int, warmup: int, steps: int) -> dict:
         else:
             step = lambda: env.step(zeros)  # noqa: E731
         out[name] = measure(step, n, warmup, steps)
-        print(f"{name:>17}: {out[name]['sps']:>14,.0f} env-steps/s, {out[name]['ms_per_step']:.3f} ms a step", flush=True)
+        r = out[name]
+        print(f"{name:>17}: {r['sps']:>14,.0f} env-steps/s, {r['ms_per_step']:.3f} ms a step", flush=True)
         env.close()
     for k in (1, 8, 128):
         env = cressim.envs.make("CartPole", num_envs=n, final_observation=False)

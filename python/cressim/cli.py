@@ -197,8 +197,9 @@ def _export(args: argparse.Namespace) -> int:
 def _bench(args: argparse.Namespace) -> int:
     from cressim.learn.bench import run
 
-    run(args.task, [int(n) for n in args.envs.split(",")] if args.envs else None, mode=args.mode, out_dir=args.out, device=args.device,
-        backend=args.backend, extend=args.extend, minibatch=args.minibatch, policy=args.policy, compile=args.compile)
+    run(args.task, [int(n) for n in args.envs.split(",")] if args.envs else None, mode=args.mode, out_dir=args.out,
+        device=args.device, backend=args.backend, extend=args.extend, minibatch=args.minibatch, policy=args.policy,
+        compile=args.compile)
     return 0
 
 

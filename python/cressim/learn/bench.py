@@ -263,7 +263,9 @@ def run(task: str = "CartPole", env_counts=None, mode: str = "both", out_dir="be
         rows.append(row)
         print(f"  {n} envs: " + ", ".join(f"{k} {_num(row[k])}" for k in MEASURED if k in row)
               + (f", {row['scatterers'] // n:,} scatterers per env" if "scatterers" in row else ""), flush=True)
-        if extend and not counts and "step" in MODES[mode] and (len(rows) < 2 or row["step_sps"] >= 1.05 * rows[-2]["step_sps"]):
+        stepped = "step" in MODES[mode]
+        rising = stepped and (len(rows) < 2 or row["step_sps"] >= 1.05 * rows[-2]["step_sps"])
+        if extend and not counts and rising:
             counts.append(2 * n)
 
     ref = REFERENCE.get(task, {})
@@ -291,13 +293,15 @@ def run(task: str = "CartPole", env_counts=None, mode: str = "both", out_dir="be
         "torch": torch.__version__, "python": platform.python_version(), "time": time.strftime("%Y-%m-%dT%H:%M:%S"),
         "memory_note": "engine_bytes: sum of the engine's buffer sizes (internal + shared) on the Vulkan device; "
                        "excludes driver overhead and torch allocations",
-        "measured": {k: MEASURED[k] for k in keys}, "results": rows, "reference": {k: {str(n): v for n, v in s.items()} for k, s in ref.items()},
+        "measured": {k: MEASURED[k] for k in keys}, "results": rows,
+        "reference": {k: {str(n): v for n, v in s.items()} for k, s in ref.items()},
         "reference_note": "paper: TASKS.md (RTX 4090, Vulkan); MJX: H100, step-only, figures as given in the brief",
     }
     (out / f"{stem}.json").write_text(json.dumps(result, indent=1))
     series = {}
     for key in keys:
-        series[f"ours {key.removesuffix('_sps').replace('_', ' ')} ({name})"] = {r["envs"]: r[key] for r in rows if key in r}
+        label = f"ours {key.removesuffix('_sps').replace('_', ' ')} ({name})"
+        series[label] = {r["envs"]: r[key] for r in rows if key in r}
     series.update(ref)
     plot_throughput(series, out / f"{stem}.png", f"{task} throughput")
     print(f"wrote {out / stem}.json and .png")

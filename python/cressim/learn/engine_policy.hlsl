@@ -95,7 +95,8 @@ void act(uint3 group_id : SV_GroupID, uint3 thread_id : SV_GroupThreadID) {
         const float weight = weights[w + j * fan_in + k];
         [unroll] for (uint e = 0; e < ENV_TILE; ++e) acc[e] += weight * hidden[src + e * MAX_WIDTH + k];
       }
-      [unroll] for (uint e = 0; e < ENV_TILE; ++e) hidden[dst + e * MAX_WIDTH + j] = l + 1 < LAYERS ? activate(acc[e]) : acc[e];
+      [unroll] for (uint e = 0; e < ENV_TILE; ++e)
+        hidden[dst + e * MAX_WIDTH + j] = l + 1 < LAYERS ? activate(acc[e]) : acc[e];
     }
     w += fan_out * fan_in + fan_out;
     GroupMemoryBarrierWithGroupSync();

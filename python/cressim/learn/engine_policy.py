@@ -52,7 +52,8 @@ def share_into(engine, name: str, tensors: list, device: torch.device) -> torch.
     with torch.no_grad():
         for t in tensors:
             if t.dtype != torch.float32 or t.device != device:
-                raise ValueError(f"share_into({name!r}): tensors must be float32 on {device}, got {t.dtype} on {t.device}")
+                raise ValueError(f"share_into({name!r}): tensors must be float32 on {device}, "
+                                 f"got {t.dtype} on {t.device}")
             view = flat[offset:offset + t.numel()].view(t.shape)
             view.copy_(t)
             t.data = view
@@ -73,8 +74,8 @@ class EnginePolicy:
                  explore: bool = True):
         obs_shape, act_shape = env.single_observation_space.shape, env.single_action_space.shape
         if env.obs.dtype != torch.float32 or len(act_shape) != 1:
-            raise ValueError(f"EnginePolicy: {type(env).__name__} has {env.obs.dtype} observations of shape {obs_shape} "
-                             f"and actions of shape {act_shape}; the engine pass takes flat float32 vectors")
+            raise ValueError(f"EnginePolicy: {type(env).__name__} has {env.obs.dtype} observations of shape "
+                             f"{obs_shape} and actions of shape {act_shape}; the engine pass takes flat float32 vectors")
         if isinstance(rollout, bool) or not isinstance(rollout, int) or rollout < 1:
             raise ValueError(f"EnginePolicy: rollout must be a positive integer, got {rollout!r}")
         normalizer, linears, activation = mlp_layers(actor)

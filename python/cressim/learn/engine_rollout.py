@@ -35,7 +35,8 @@ class EngineRollout:
         T, n = alg.cfg.rollout, env.num_envs
         k = T if steps_per_submit is None else steps_per_submit
         if isinstance(k, bool) or not isinstance(k, int) or k < 1 or T % k:
-            raise ValueError(f"EngineRollout: steps_per_submit must be a positive divisor of the rollout ({T}), got {k!r}")
+            raise ValueError(f"EngineRollout: steps_per_submit must be a positive divisor of the rollout ({T}), "
+                             f"got {k!r}")
         if alg.device != env.device or alg.step != 0 or alg.obs.shape[1] != n:
             raise ValueError(f"EngineRollout: the learner must be fresh, for {n} envs on {env.device} "
                              f"(got {alg.obs.shape[1]} envs on {alg.device})")
@@ -55,7 +56,8 @@ class EngineRollout:
                       **buffers},
             constants={"envs": n, "rollout": T})
         view = lambda key: tensor_view(buffers[key], env.device)  # noqa: E731
-        self.rewards, self.dones, self.time_outs = view("rollout_rewards"), view("rollout_dones"), view("rollout_time_outs")
+        self.rewards, self.dones = view("rollout_rewards"), view("rollout_dones")
+        self.time_outs = view("rollout_time_outs")
         self.episode_stats = view("episode_stats")
         # the learner reads the rollout where the engine writes it (before any CUDA graph captures it)
         alg.obs, alg.actions, alg.log_prob = self.policy.obs, self.policy.actions, self.policy.log_prob

@@ -98,7 +98,8 @@ def train(task: str = "CartPole", num_envs: int = 4096, iterations: int = 200, d
             "vulkan_device": env.engine.device["name"], "ppo": cfg.to_dict()}
     if progress:
         where = f"{local_envs} envs on each of {shard.world} processes" if shard.world > 1 else f"{num_envs} envs"
-        print(f"PPO ({backend}{', policy in the engine' if engine_rollout else ''}) on {task}: {where} on {env.device} ({meta['vulkan_device']}), "
+        in_frame = ", policy in the engine" if engine_rollout else ""
+        print(f"PPO ({backend}{in_frame}) on {task}: {where} on {env.device} ({meta['vulkan_device']}), "
               f"{cfg.num_mini_batches(local_envs)} minibatches{' a process' if shard.world > 1 else ''} x {cfg.epochs} epochs, "
               f"rollout {cfg.rollout}")
 
