@@ -47,9 +47,12 @@ def measure(step, n: int, warmup: int, steps: int) -> dict:
     return {"sps": steps * n / dt, "ms_per_step": 1e3 * dt / steps}
 
 
-def variants(n: int, warmup: int, steps: int) -> dict:
+HANDOFFS = ("inplace", "copy_semaphore", "copy_host", "copy_synced", "copy_graph", "kernel_unordered")
+
+
+def variants(n: int, warmup: int, steps: int, handoffs=HANDOFFS, submits=(1, 8, 128)) -> dict:
     out = {}
-    for name in ("inplace", "copy_semaphore", "copy_host", "copy_synced", "copy_graph", "kernel_unordered"):
+    for name in handoffs:
         env = cressim.envs.make("CartPole", num_envs=n, final_observation=False,
                                 cuda_sync="host" if name == "copy_host" else "semaphore")
         env.reset()
@@ -88,7 +91,7 @@ def variants(n: int, warmup: int, steps: int) -> dict:
         r = out[name]
         print(f"{name:>17}: {r['sps']:>14,.0f} env-steps/s, {r['ms_per_step']:.3f} ms a step", flush=True)
         env.close()
-    for k in (1, 8, 128):
+    for k in submits:
         env = cressim.envs.make("CartPole", num_envs=n, final_observation=False)
         alg = TorchPPO(4, 1, n, ppo_config("CartPole", rollout=128), env.device)
         rollout = EngineRollout(env, alg, steps_per_submit=k)
@@ -124,6 +127,8 @@ def main():
     p.add_argument("--steps", type=int, default=512)
     p.add_argument("--json", help="write the results here")
     args = p.parse_args()
+    if not torch.cuda.is_available():
+        raise SystemExit("bench_handoff.py measures hand-offs between CUDA and Vulkan: it needs an NVIDIA GPU")
     result = {"device": torch.cuda.get_device_name(), "envs": args.envs, "steps": args.steps,
               "variants": variants(args.envs, args.warmup, args.steps)}
     if args.json:
