@@ -117,6 +117,19 @@ def variants(n: int, warmup: int, steps: int, handoffs=HANDOFFS, submits=(1, 8, 
             out["gpu_ms_per_step"] = parts
             print("     GPU ms a step: " + ", ".join(f"{p} {ms:.4f}" for p, ms in parts.items()), flush=True)
         env.close()
+    # the policy pass's GPU time a step by envs a group (TASKS.md's actor, 2 x 128 tanh)
+    for tile in (2, 4, 8, 16):
+        env = cressim.envs.make("CartPole", num_envs=n, final_observation=False)
+        alg = TorchPPO(4, 1, n, ppo_config("CartPole", rollout=128), env.device)
+        rollout = EngineRollout(env, alg, steps_per_submit=8, max_tile=tile)
+        env.engine.profiling = True
+        for _ in range(2):
+            rollout.record_steps(8)
+            env.engine.end_frame()
+        ms = sum(t for label, t in env.engine.last_timings if "engine_policy" in label) / 8
+        out[f"policy_pass_ms_tile{tile}"] = ms
+        print(f"  policy pass, {tile:>2} envs a group: {ms:.4f} GPU ms a step", flush=True)
+        env.close()
     return out
 
 

@@ -27,9 +27,10 @@ def run_pass(env, policy, obs):
     return env.actions.clone()
 
 
-@pytest.mark.parametrize("hidden, activation, normalized", [
-    ((16,), nn.Tanh, False), ((32, 8), nn.ELU, False), ((300,), nn.ReLU, False), ((64, 64), nn.Tanh, True)])
-def test_mean_actions_equal_the_torch_forward(hidden, activation, normalized):
+@pytest.mark.parametrize("hidden, activation, normalized, max_tile", [
+    ((16,), nn.Tanh, False, 16), ((32, 8), nn.ELU, False, 2), ((300,), nn.ReLU, False, 16),
+    ((64, 64), nn.Tanh, True, 16)])
+def test_mean_actions_equal_the_torch_forward(hidden, activation, normalized, max_tile):
     """Random weights and observations, 13 envs (a partial tile): the pass's mean actions are
     the module's forward within float tolerance (300 units: more than a group's threads, 4 envs
     a tile)."""
@@ -44,7 +45,8 @@ def test_mean_actions_equal_the_torch_forward(hidden, activation, normalized):
         for p in net.parameters():
             p.normal_(0.0, 0.6)
     log_std = nn.Parameter(torch.full((1,), -0.5, device=dev))
-    policy = EnginePolicy(env, net, log_std, explore=False)
+    policy = EnginePolicy(env, net, log_std, explore=False, max_tile=max_tile)
+    assert policy.env_tile == (4 if hidden[0] == 300 else max_tile)
     for _ in range(2):
         obs = torch.randn(13, 4, device=dev) * 2
         got = run_pass(env, policy, obs)

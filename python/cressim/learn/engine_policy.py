@@ -22,7 +22,7 @@ from cressim.envs.vector_env import tensor_view
 HLSL = Path(__file__).with_name("engine_policy.hlsl")
 ACTIVATIONS = {nn.Tanh: 0, nn.ELU: 1, nn.ReLU: 2}
 SHARED_BYTES = 16384  # groupshared memory every Vulkan device has (maxComputeSharedMemorySize's minimum)
-MAX_TILE = 16         # envs a group computes together
+MAX_TILE = 16         # envs a group computes together, at most
 
 
 def mlp_layers(actor: nn.Module) -> tuple:
@@ -67,11 +67,12 @@ class EnginePolicy:
     the task's step): it reads env.obs, writes env.actions and row t % rollout of `obs`,
     `actions`, `log_prob` (rollout, num_envs, ...) where t is the env's `step_count`, which the
     caller advances after the task's step (EngineRollout's store pass). `explore=False` writes
-    the mean actions. The actor and log_std must live on env.device; their tensors become views
+    the mean actions. A group computes up to `max_tile` envs (fewer for wide layers): more reuse
+    of each weight read, fewer groups in flight. The actor and log_std must live on env.device; their tensors become views
     of the engine buffer `policy_weights`."""
 
     def __init__(self, env, actor: nn.Module, log_std: torch.Tensor, *, rollout: int = 1, seed: int = 0,
-                 explore: bool = True):
+                 explore: bool = True, max_tile: int = MAX_TILE):
         obs_shape, act_shape = env.single_observation_space.shape, env.single_action_space.shape
         if env.obs.dtype != torch.float32 or len(act_shape) != 1:
             raise ValueError(f"EnginePolicy: {type(env).__name__} has {env.obs.dtype} observations of shape "
@@ -86,7 +87,9 @@ class EnginePolicy:
                              f"{tuple(log_std.shape)}; {type(env).__name__} has {num_obs} observations and "
                              f"{num_actions} actions")
         widest = max(widths)
-        tile = MAX_TILE
+        if max_tile not in (1, 2, 4, 8, 16):
+            raise ValueError(f"EnginePolicy: max_tile must be 1, 2, 4, 8 or 16, got {max_tile!r}")
+        tile = max_tile
         while tile > 1 and 2 * tile * widest * 4 > SHARED_BYTES:
             tile //= 2
         if 2 * tile * widest * 4 > SHARED_BYTES:

@@ -29,9 +29,10 @@ class EngineRollout:
     into `alg` (a TorchPPO on env.device, before its first update). Its actor's and log_std's
     tensors become views of engine memory, as do alg.obs, alg.actions and alg.log_prob.
     `steps_per_submit` (a divisor of the rollout; the whole rollout by default) steps run per
-    frame. `stats` sums the episodes that end (EpisodeStats.pop's keys)."""
+    frame; `policy_options` go to EnginePolicy (max_tile). pop_stats() gives the episodes that
+    ended (EpisodeStats.pop's keys)."""
 
-    def __init__(self, env, alg, *, steps_per_submit: int | None = None, seed: int = 0):
+    def __init__(self, env, alg, *, steps_per_submit: int | None = None, seed: int = 0, **policy_options):
         T, n = alg.cfg.rollout, env.num_envs
         k = T if steps_per_submit is None else steps_per_submit
         if isinstance(k, bool) or not isinstance(k, int) or k < 1 or T % k:
@@ -42,7 +43,7 @@ class EngineRollout:
                              f"(got {alg.obs.shape[1]} envs on {alg.device})")
         self.env, self.alg, self.steps_per_submit = env, alg, k
         self.steps_recorded = 0
-        self.policy = EnginePolicy(env, alg.actor, alg.log_std, rollout=T, seed=seed)
+        self.policy = EnginePolicy(env, alg.actor, alg.log_std, rollout=T, seed=seed, **policy_options)
         e = env.engine
         buffers = {"rollout_rewards": e.create_shared_buffer("rollout_rewards", (T, n), "float32"),
                    "rollout_dones": e.create_shared_buffer("rollout_dones", (T, n), "int32"),
