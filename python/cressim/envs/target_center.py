@@ -127,7 +127,7 @@ class TargetCenter(VectorEnv):
             passes["observe_final"] += final
         return passes
 
-    def _frame(self, reset_all: bool):
+    def record_step(self, reset_all: bool = False) -> None:
         e, p = self.engine, self.passes
         e.execute_compute_pass(p["act_reset_all" if reset_all else "act"])
         e.step_physics()
@@ -138,7 +138,6 @@ class TargetCenter(VectorEnv):
             e.step_physics()  # the kinematic bodies to the new starts (the others stay where they are)
             e.step_visual_sensors()
         self.observe()
-        e.end_frame()
 
     def _set_seed(self, seed: int):
         for key in ("act", "act_reset_all", "start"):

@@ -311,6 +311,13 @@ class VectorEnv(gymnasium.vector.VectorEnv):
             self.engine.execute_compute_pass(observe)
 
     def _frame(self, reset_all: bool):
+        self.record_step(reset_all)
+        self.engine.end_frame()
+
+    def record_step(self, reset_all: bool = False) -> None:
+        """Records one env step into the frame being built, without submitting it: a caller that
+        records several (with its own passes between them, e.g. a policy in the engine) runs
+        them all in one submit at `engine.end_frame()`; `step()` is this and end_frame."""
         e, p = self.engine, self.passes
         if reset_all:  # no physics: flag and randomise every env, reset, observe
             e.execute_compute_pass(p["evaluate_reset_all"])
@@ -326,7 +333,6 @@ class VectorEnv(gymnasium.vector.VectorEnv):
         self.observe()
         if self.render_mode is not None and not self.own_cameras:  # the video cameras
             e.step_visual_sensors()
-        e.end_frame()
 
 
 def checked_number(task: str, name: str, value, low: float = 0.0, high: float = math.inf, *,
