@@ -64,6 +64,9 @@ key optional unless said)::
                                          # in the budget's free slots; with an emitter the block is optional
       - name: thread
         strand: {line: {start: [0, 0, 0.5], end: [0.3, 0, 0.5], count: 20}, radius: 0.004, fixed: [0]}
+    randomization:                       # domain randomization (docs/envs.md, "Domain randomization")
+      - {param: mass, entity: ball, distribution: uniform, range: [0.5, 2], operation: scale, when: reset}
+      - {param: color, entity: ground, range: [0.2, 0.9], operation: abs, when: interval, every: 100}
 
 Surgical scenes built from these (docs/scenes.md): scenes/tissue_retraction.yaml,
 scenes/blood_suction.yaml, scenes/ultrasound_phantom.yaml.
@@ -262,7 +265,12 @@ class _Loader:
     def load(self, world: cressim.World | None = None) -> cressim.World:
         """A new world, or the file's entities added to every env of `world` (its envs and
         layout then stand; the file's are checked but not used)."""
-        top = self.root.keys(("envs", "layout", "environment", "meshes", "textures", "materials", "entities"))
+        top = self.root.keys(("envs", "layout", "environment", "meshes", "textures", "materials", "entities",
+                              "randomization"))
+        if "randomization" in top:  # checked here; used by the env that runs the scene (file_randomization)
+            from cressim.randomization import parse_terms
+
+            parse_terms(top["randomization"])
         envs = top["envs"].int(1) if "envs" in top else 1
         layout = {}
         if "layout" in top:
@@ -779,6 +787,18 @@ def add_scene(world: cressim.World, path, *, segmentation_offset: int = 0, skip:
     loader = _loader(Path(path), segmentation_offset=segmentation_offset, skip=skip)
     loader.load(world)
     return AddedScene(dict(loader.labels), list(loader.probes))
+
+
+def file_randomization(path) -> list:
+    """The domain randomization terms (cressim.randomization.Term) of a scene file's
+    `randomization:` section, or of a YAML file that is the list of terms itself; errors name
+    file:line and the field."""
+    from cressim.randomization import parse_terms
+
+    root = _loader(Path(path)).root
+    if root.is_map():
+        return parse_terms(root.items()["randomization"]) if "randomization" in root.items() else []
+    return parse_terms(root)
 
 
 def _loader(path: Path, **options) -> _Loader:
