@@ -340,7 +340,8 @@ class Randomizer:
     def _rows_probes(self, k: int, term: Term):
         out, rows_all, g = {}, [], 0
         while f"ultrasound{g}.probes" in self._keys:
-            data = self._read(f"ultrasound{g}.probes", 40)  # UltrasoundProbeData: 10 vectors
+            key = f"ultrasound{g}.probes"
+            data = self._read(key, self.engine.buffer(key).shape[1])  # UltrasoundProbeData: display.y at word 21
             for i, rec in enumerate(data):
                 r = int(rec[0:1].view(np.uint32)[0])
                 rows_all.append(r)
