@@ -1,0 +1,75 @@
+"""Randomization in a batched task (CartPole): reset terms redraw exactly in the envs whose
+episode ended (the others keep theirs), interval terms every `every` steps, the bodies carry the
+draws, `reset(seed=...)` reproduces the run, and a YAML file configures it (errors with file:line)."""
+import numpy as np
+import pytest
+import torch
+
+import cressim.envs
+from cressim.scene_file import SceneFileError
+
+TERMS = [dict(param="mass", entity="pole", range=[0.5, 2.0], operation="scale", name="pole_mass"),
+         dict(param="mass", entity="cart", distribution="log_uniform", range=[0.5, 2.0], operation="abs",
+              when="interval", every=20, name="cart_mass")]
+
+
+def inverse_masses(env, name):
+    """Each env's inverse mass of its body named `name`, from the engine's model buffer."""
+    e = env.engine
+    entity = e.buffer("rigid.body_entity").read().ravel()
+    bodies = e.buffer("rigid.bodies").read().view(np.float32).reshape(len(entity), -1)
+    rows = [b for b, ent in enumerate(entity) if e.world.entity(int(ent)).name == name]
+    return bodies[rows, 3]
+
+
+def test_reset_terms_redraw_in_finished_envs_only_and_interval_terms_on_schedule():
+    env = cressim.envs.make("CartPole", num_envs=6, seed=1, validation=True, randomization=TERMS)
+    env.reset()
+    pole, cart = env.randomized("pole_mass").clone(), env.randomized("cart_mass").clone()
+    assert env.randomized().shape == (6, 2)
+    ends = 0
+    for step in range(1, 61):
+        _, _, terminated, truncated, _ = env.step(torch.zeros(6, 1))
+        done = (terminated | truncated).numpy()
+        now_pole, now_cart = env.randomized("pole_mass").clone(), env.randomized("cart_mass").clone()
+        np.testing.assert_array_equal((now_pole != pole).numpy()[:, 0], done)  # a finished env's next episode draws
+        assert (now_cart != cart).all() if step % 20 == 0 else (now_cart == cart).all()
+        np.testing.assert_allclose(inverse_masses(env, "pole"), 1 / (2.0 * now_pole[:, 0].numpy()), rtol=1e-6)
+        np.testing.assert_allclose(inverse_masses(env, "cart"), 1 / now_cart[:, 0].numpy(), rtol=1e-6)
+        pole, cart = now_pole, now_cart
+        ends += int(done.sum())
+    assert ends >= 3  # poles fell (zero actions)
+    assert ((pole >= 0.5) & (pole <= 2.0)).all() and ((cart >= 0.5) & (cart <= 2.0)).all()
+    assert env.engine.validation_messages == []
+
+
+def test_the_same_seed_replays_the_same_draws_and_physics():
+    def run(seed):
+        env = cressim.envs.make("CartPole", num_envs=4, seed=0, randomization=TERMS)
+        obs, _ = env.reset(seed=seed)
+        out = [torch.cat([obs, env.randomized()], 1).clone()]
+        for _ in range(25):
+            obs, *_ = env.step(torch.full((4, 1), 0.3))
+            out.append(torch.cat([obs, env.randomized()], 1).clone())
+        return torch.stack(out)
+
+    a = run(7)
+    assert torch.equal(a, run(7))
+    assert not torch.equal(a[0, :, 4:], run(8)[0, :, 4:])
+    # the masses change the motion under the same actions: envs' carts differ in velocity
+    assert a[-1, :, 1].unique().numel() == 4
+
+
+def test_a_yaml_file_configures_the_task_and_its_errors_name_file_and_line(tmp_path):
+    path = tmp_path / "randomize.yaml"
+    path.write_text("- param: mass\n  entity: pole\n  range: [0.8, 1.2]\n  operation: scale\n")
+    env = cressim.envs.make("CartPole", num_envs=2, randomization=path)
+    env.reset()
+    assert ((env.randomized("mass/pole") >= 0.8) & (env.randomized("mass/pole") <= 1.2)).all()
+    path.write_text("- param: mass\n  entity: pole\n  range: [0.8, 1.2]\n  operation: scale\n  every: 3\n")
+    with pytest.raises(SceneFileError, match=rf"{path}:5: \[0\]\.every: 'every' is for when: interval"):
+        cressim.envs.make("CartPole", num_envs=2, randomization=path)
+    with pytest.raises(ValueError, match=r"CartPole\(randomization=...\): randomization\[0\].entity: expected a name"):
+        cressim.envs.make("CartPole", num_envs=2, randomization=[dict(param="mass", entity=3, range=[1, 2])])
+    with pytest.raises(KeyError, match="no term named 'mass/cart'"):
+        env.randomized("mass/cart")
