@@ -153,15 +153,28 @@ void apply_objects(uint3 id : SV_DispatchThreadID) {
 }
 
 RWStructuredBuffer<ParticleConstraint> tet_constraints;          // particles.tet_constraints
-RWStructuredBuffer<ParticleConstraint> tet_initial_constraints;  // as authored: coagulation scales these
+RWStructuredBuffer<ParticleConstraint> tet_initial_constraints;  // bodies with heat: coagulation scales these
+// the tet's Lame parameters for the drawn modulus (nominal: mu, lambda, Young's modulus): both
+// scale with it, the Poisson ratio kept
+bool tet_params(uint i, out uint row, out float2 lame) {
+  uint4 ids; uint param, op; float4 n; float3 v;
+  row = 0; lame = float2(0, 0);
+  if (!target(i, ids, param, op, n, v)) return false;
+  row = ids.z;
+  lame = n.xy * (operate(n.z, v.x, op) / n.z);
+  return true;
+}
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
 void apply_tets(uint3 id : SV_DispatchThreadID) {
-  uint4 ids; uint param, op; float4 n; float3 v;
-  if (!target(id.x, ids, param, op, n, v)) return;
-  // nominal: mu, lambda, Young's modulus; both Lame parameters scale with it (Poisson ratio kept)
-  const float f = operate(n.z, v.x, op) / n.z;
-  tet_constraints[ids.z].params.yz = n.xy * f;
-  tet_initial_constraints[ids.z].params.yz = n.xy * f;
+  uint row; float2 lame;
+  if (tet_params(id.x, row, lame)) tet_constraints[row].params.yz = lame;
+}
+[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
+void apply_tets_heated(uint3 id : SV_DispatchThreadID) {
+  uint row; float2 lame;
+  if (!tet_params(id.x, row, lame)) return;
+  tet_constraints[row].params.yz = lame;
+  tet_initial_constraints[row].params.yz = lame;
 }
 
 RWStructuredBuffer<RenderableData> renderables;  // render.renderables

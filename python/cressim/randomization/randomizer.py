@@ -408,9 +408,12 @@ class Randomizer:
                    "renderables": {"renderables": "render.renderables"}, "lights": {"lights": "render.lights"},
                    "transforms": {"positions": "transform.positions", "rotations": "transform.rotations"}}
         self._apply, self._noise = [], []
+        if "particles.tet_initial_constraints" not in self._keys:  # no heat: no authored copy to keep
+            del outputs["tets"]["tet_initial_constraints"]
         for kind, rows in self._targets.items():
             if kind in outputs:
-                self._apply.append(self._pass("apply_" + kind, len(rows), {**outputs[kind], **self._table(kind, rows)},
+                entry = "apply_tets_heated" if kind == "tets" and len(outputs[kind]) == 2 else "apply_" + kind
+                self._apply.append(self._pass(entry, len(rows), {**outputs[kind], **self._table(kind, rows)},
                                               outputs[kind].values(), items=len(rows)))
             elif kind == "probes":
                 for g in sorted({t.group for t in rows}):

@@ -1,0 +1,81 @@
+"""Randomization of particle objects: an elastic soft body's drawn Young's modulus sets its
+static sag (linear elasticity: sag x E constant, and the sag of a body authored with that
+modulus); a particle object's drawn damping d gives a falling particle the velocity of
+v <- (v + h g) / (1 + h d) per substep; each in its own env only."""
+import numpy as np
+
+import cressim
+from cressim.randomization import Randomizer
+
+from .frames import randomized_frame
+
+E, NU = 1e5, 0.3
+HALF, CELLS = (0.03, 0.015, 0.015), (8, 2, 2)
+
+
+def cantilevers(make_engine, moduli):
+    """Per env a 60 x 30 x 30 mm cantilever clamped at x = -30 mm (env 1's has another name)."""
+    mesh = cressim.TetMesh.box(HALF, CELLS)
+    rest = np.asarray(mesh.positions)
+    world = cressim.World(cressim.SceneLayout(len(moduli)))
+    for env, youngs_modulus in enumerate(moduli):
+        body = world.create_entity(env=env, name="tissue" if env != 1 else "other_tissue")
+        body.add(cressim.Transform(position=(0, 0, 1)))
+        body.add(cressim.SoftBody(mesh, fixed=np.nonzero(rest[:, 0] < -HALF[0] + 1e-6)[0],
+                                  youngs_modulus=float(youngs_modulus), poisson_ratio=NU, density=1000.0, damping=5.0))
+    engine = make_engine(world)
+    engine.prepare()
+    engine.upload_world()
+    return engine, rest
+
+
+def sags(engine, rest, envs, frames=180):
+    for _ in range(frames):
+        engine.step_physics()
+        engine.end_frame()
+    z = engine.buffer("particles.positions").read()[:, 2].reshape(envs, -1)
+    tip = rest[:, 0] > HALF[0] - 1e-6
+    return 1 - z[:, tip].mean(axis=1)
+
+
+def test_youngs_modulus_sets_each_envs_sag(make_engine):
+    engine, rest = cantilevers(make_engine, [E] * 3)
+    r = Randomizer(engine, [dict(param="youngs_modulus", entity="tissue", distribution="log_uniform",
+                                 range=[5e4, 4e5], operation="abs")], seed=3)
+    randomized_frame(engine, r, reset_all=True, physics=False)
+    drawn = r.read("youngs_modulus/tissue")[:, 0]
+    sag = sags(engine, rest, 3)
+    moduli = [drawn[0], E, drawn[2]]  # env 1's body is not randomized
+    reference = sags(*cantilevers(make_engine, moduli), 3)
+    np.testing.assert_allclose(sag, reference, rtol=2e-3)
+    # small strains: the sag goes as 1 / E
+    np.testing.assert_allclose(sag * np.array(moduli), sag[1] * E, rtol=0.03)
+    assert max(drawn[0], drawn[2]) / min(drawn[0], drawn[2]) > 1.15 and min(drawn[0], drawn[2]) > 1.5 * E
+
+
+def test_particle_damping_sets_each_envs_fall(make_engine):
+    world = cressim.World(cressim.SceneLayout(3))
+    for env in range(3):
+        drop = world.create_entity(env=env, name="drop")
+        drop.add(cressim.Transform(position=(0, 0, 10)))
+        drop.add(cressim.Fluid(np.zeros((1, 3), np.float32), radius=0.01, viscosity=0.0))
+    engine = make_engine(world)
+    settings = cressim.PhysicsSettings(dt=1 / 60, substeps=4)
+    engine.physics = settings
+    engine.prepare()
+    engine.upload_world()
+    r = Randomizer(engine, [dict(param="damping", entity="drop", range=[0.5, 5.0], operation="abs")], seed=1)
+    randomized_frame(engine, r, reset_all=True, physics=False)
+    d = r.read("damping/drop")[:, 0]
+    objects = engine.buffer("particles.objects").read().view(np.float32).reshape(3, -1)
+    np.testing.assert_allclose(objects[:, 10], d, rtol=1e-6)  # ParticleObject.material.z
+    frames = 30
+    for _ in range(frames):
+        engine.step_physics()
+        engine.end_frame()
+    v = engine.buffer("particles.velocities").read()[:, 2]
+    h, g = settings.dt / settings.substeps, settings.gravity[2]
+    expected = np.zeros(3)
+    for _ in range(frames * settings.substeps):
+        expected = (expected + h * g) / (1 + h * d)
+    np.testing.assert_allclose(v, expected, rtol=1e-3)
