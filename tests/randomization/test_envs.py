@@ -73,3 +73,33 @@ def test_a_yaml_file_configures_the_task_and_its_errors_name_file_and_line(tmp_p
         cressim.envs.make("CartPole", num_envs=2, randomization=[dict(param="mass", entity=3, range=[1, 2])])
     with pytest.raises(KeyError, match="no term named 'mass/cart'"):
         env.randomized("mass/cart")
+
+
+def test_target_center_redraws_its_looks_when_act_ends_an_episode():
+    class ShortTargetCenter(cressim.envs.TargetCenter):
+        max_episode_steps = 3  # every env ends an episode every third step
+
+    terms = [dict(param="color", entity="target", range=[[0.2, 1.0], [0.0, 0.3], [0.0, 0.3]], operation="abs"),
+             dict(param="light_intensity", entity="sun", range=[0.5, 1.5], operation="scale", when="interval",
+                  every=2)]
+    env = ShortTargetCenter(3, image_size=32, seed=2, validation=True, randomization=terms)
+    obs, _ = env.reset()
+    e = env.engine
+    names = [e.world.entity(int(e.mapping["entity_id"][int(row)])).name for row in
+             e.buffer("render.renderables").read().view(np.uint32).reshape(-1, 16)[:, 0]]
+    target_rows = [i for i, n in enumerate(names) if n == "target"]
+    color = env.randomized("color/target").clone()
+    light = env.randomized("light_intensity/sun").clone()
+    for step in range(1, 7):
+        obs, _, terminated, truncated, info = env.step(torch.zeros(3, 2))
+        done = (terminated | truncated).numpy()
+        now = env.randomized("color/target").clone()
+        np.testing.assert_array_equal((now != color).any(1).numpy(), done)
+        assert (env.randomized("light_intensity/sun") != light).all() == (step % 2 == 0)
+        light = env.randomized("light_intensity/sun").clone()
+        drawn = e.buffer("render.renderables").read().view(np.float32).reshape(-1, 16)[target_rows, 4:7]
+        np.testing.assert_allclose(drawn, now.numpy(), rtol=1e-6)
+        if done.any():  # the final image still shows the last episode's colour, the new one the next
+            assert not torch.equal(info["final_obs"][done], obs[done])
+        color = now
+    assert env.engine.validation_messages == []

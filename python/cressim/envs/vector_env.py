@@ -128,7 +128,8 @@ class VectorEnv(gymnasium.vector.VectorEnv):
 
             terms = load_terms(randomization, f"{name}(randomization=...)")
             if terms:
-                self.randomizer = Randomizer(self.engine, terms, seed=self.seed, env_offset=self.env_offset)
+                self.randomizer = Randomizer(self.engine, terms, seed=self.seed, env_offset=self.env_offset,
+                                             episode_flags=self.episode_flags())
         if self.device.type == "cuda":  # frames wait for the actions written on torch's stream
             if cuda_sync not in ("semaphore", "host"):
                 raise ValueError(f"cuda_sync={cuda_sync!r}: use 'semaphore' (on the GPU) or 'host'")
@@ -164,6 +165,11 @@ class VectorEnv(gymnasium.vector.VectorEnv):
         """What the actions do before the frame's physics: the task's `apply_action` pass; a task
         that moves its bodies in torch (no `apply_action` in `entries`) does it here instead."""
         self.engine.execute_compute_pass(self.passes["apply_action"])
+
+    def episode_flags(self) -> tuple:
+        """Buffers flagging the envs whose episode ended this step, for a task whose episodes
+        start without the engine's reset (none: env.reset_mask tells the randomizer)."""
+        return ()
 
     def sense(self) -> None:
         """Sensor stages the observation reads, recorded before `observe` (none by default)."""

@@ -53,8 +53,14 @@ class Randomizer:
     or Terms). Values per env are in the shared buffer `randomization_values` (envs, columns);
     `columns(name)` is a term's slice of them, `read(name)` a host copy."""
 
-    def __init__(self, engine: cressim.Engine, terms, *, seed: int = 0, env_offset: int = 0):
+    def __init__(self, engine: cressim.Engine, terms, *, seed: int = 0, env_offset: int = 0,
+                 episode_flags: tuple = ()):
+        """`episode_flags`: up to two per-env int32 buffers (or keys), nonzero where an episode
+        ended this step, for a task that starts episodes without the engine's reset."""
         self.engine = engine
+        if len(episode_flags) > 2:
+            raise ValueError("Randomizer: give at most two episode_flags buffers")
+        self._episode_flags = list(episode_flags) + ["env.reset_mask"] * (2 - len(episode_flags))
         self.terms: list[Term] = load_terms(terms)
         if not self.terms:
             raise RandomizationError("randomization: no terms given")
@@ -398,7 +404,8 @@ class Randomizer:
         return {"target_ids": ids_buffer, "target_nominal": nominal}
 
     def _create_passes(self):
-        sample = {"columns": self._column_table, "reset_mask": "env.reset_mask", "draws": self._state["draws"],
+        sample = {"columns": self._column_table, "reset_mask": "env.reset_mask", "ended_a": self._episode_flags[0],
+                  "ended_b": self._episode_flags[1], "draws": self._state["draws"],
                   "counters": self._state["counters"], "frame": self._state["frame"]}
         self._sample = {flag: self._pass("sample", self.num_envs, sample, reset_all=int(flag)) for flag in (False, True)}
         outputs = {"bodies": {"bodies": "rigid.bodies"}, "colliders": {"colliders": "rigid.colliders"},
