@@ -102,6 +102,7 @@ def test_interval_terms_redraw_at_the_configured_steps_and_reset_terms_only_at_r
     assert (friction == friction[0]).all()  # no env reset: reset terms keep their draws
     inv = engine.buffer("rigid.bodies").read().view(np.float32).reshape(3, -1)[:, 3]
     np.testing.assert_allclose(inv, 1 / mass[-1], rtol=1e-6)  # the body has the latest draw
+    assert [env for env, _ in r.targets("mass/block")] == [0, 1, 2]
 
 
 def fails(engine, term, *match):

@@ -1,7 +1,6 @@
 """Sensor randomization: a camera's depth noise has the drawn standard deviation (zero mean, new
 every frame) in its own env only; an ultrasound probe's drawn gain (dB) scales each env's
 displayed envelope by 10^(gain / 20): a log-compressed pixel moves by gain / dynamic range."""
-import math
 
 import numpy as np
 

@@ -31,7 +31,9 @@ def rotate(q, v):
 def rotation_vector(v):
     """The quaternion (xyzw) of the rotation vector v (rad)."""
     angle = float(np.linalg.norm(v))
-    return np.array([*(np.sin(angle / 2) * np.asarray(v) / angle), np.cos(angle / 2)]) if angle else np.array([0, 0, 0, 1.0])
+    if angle == 0:
+        return np.array([0, 0, 0, 1.0])
+    return np.array([*(np.sin(angle / 2) * np.asarray(v) / angle), np.cos(angle / 2)])
 
 
 def build(make_engine, envs, *, slab_color=(0.6, 0.6, 0.6, 1.0), light=1.0, camera=((0, 0, 1.0), DOWN)):
@@ -117,7 +119,8 @@ def test_camera_pose_moves_the_projection_of_a_known_point(make_engine):
     poses = [(np.array([0, 0, 1.0]) + offset[env], quat_mul(DOWN, rotation_vector(turn[env]))) for env in range(3)]
     for env in (0, 2):
         p, q = poses[env]
-        x = rotate(np.array([-q[0], -q[1], -q[2], q[3]]), np.array(MARK) + (0, 0, 0.03) - p)  # the ball's top, camera frame
+        top = np.array(MARK) + (0, 0, 0.03)  # the ball's top, then in the camera frame
+        x = rotate(np.array([-q[0], -q[1], -q[2], q[3]]), top - p)
         v, u = np.nonzero(seg[env] == 7)
         expected = (F * x[0] / x[2] + W / 2, F * x[1] / x[2] + H / 2)
         assert abs(u.mean() + 0.5 - expected[0]) < 0.6 and abs(v.mean() + 0.5 - expected[1]) < 0.6, (env, expected)

@@ -135,8 +135,8 @@ class Randomizer:
 
     def _fail_none(self, term: Term, what: str, rows) -> RandomizationError:
         names = sorted({self._names[r] for r in rows if self._names[r]})
-        return RandomizationError(f"{term.where}: {term.param}: no {what} named '{term.entity}'; "
-                                  f"the {what}s are: {', '.join(names) or '(none)'}")
+        return RandomizationError(f"{term.where}: {term.param}: no {what} named '{term.entity}' "
+                                  f"(entities with one: {', '.join(names) or 'none'})")
 
     def _resolve(self) -> dict:
         """Every term's target rows by kind, checked: one writer per field, values in range."""
@@ -161,8 +161,8 @@ class Randomizer:
         lows, highs = term.bounds()
         for n in t.acted_on:
             for lo, hi in zip(lows, highs):
-                if term.operation == "scale":
-                    ends = (n * lo if lo != -INF else -INF * n if n else 0, n * hi if hi != INF else INF * n if n else 0)
+                if term.operation == "scale":  # (an authored 0 stays 0 whatever the draw)
+                    ends = (n * lo if n else 0.0, n * hi if n else 0.0)
                 elif term.operation == "add":
                     ends = (n + lo, n + hi)
                 else:
@@ -192,11 +192,14 @@ class Randomizer:
 
     def _rows_bodies(self, k: int, term: Term):
         body_entity, bodies = self._rigid_rows()
-        rows = self._matching(term, [int(self._entity_row[e]) for e in body_entity])
-        if not rows and term.param == "damping":  # a particle object's damping
+        body_rows = [int(self._entity_row[e]) for e in body_entity]
+        rows = self._matching(term, body_rows)
+        objects = [int(o[4]) for o in self._particle_objects()]
+        if not rows and term.param == "damping" and self._matching(term, objects):  # a particle object's
             return self._rows_objects(k, term)
         if not rows:
-            raise self._fail_none(term, "rigid body", [int(self._entity_row[e]) for e in body_entity])
+            raise self._fail_none(term, "rigid body" + (" or particle object" if term.param == "damping" else ""),
+                                  body_rows + (objects if term.param == "damping" else []))
         row_body = {int(self._entity_row[e]): b for b, e in enumerate(body_entity)}
         out = []
         for r in rows:
@@ -206,10 +209,12 @@ class Randomizer:
                 if not inv[3] > 0:
                     raise RandomizationError(f"{term.where}: mass: '{self._names[r]}' (env {self._row_env[r]}) is "
                                              "kinematic; only dynamic bodies have a mass to randomize")
-                out.append(Target(k, int(self._row_env[r]), b, tuple(inv), (1.0 / float(inv[3]),), int(self._row_entity[r])))
+                out.append(Target(k, int(self._row_env[r]), b, tuple(inv), (1.0 / float(inv[3]),),
+                                  int(self._row_entity[r])))
             else:
                 d = bodies[b, 4:8]
-                out.append(Target(k, int(self._row_env[r]), b, tuple(d), (float(d[0]), float(d[1])), int(self._row_entity[r])))
+                out.append(Target(k, int(self._row_env[r]), b, tuple(d), (float(d[0]), float(d[1])),
+                                  int(self._row_entity[r])))
         return "bodies", out
 
     def _rows_colliders(self, k: int, term: Term):
@@ -225,10 +230,12 @@ class Randomizer:
                 raise RuntimeError(f"randomization: {len(owners)} collider shapes in the world, "
                                    f"{len(colliders)} in rigid.colliders")
         rows = self._matching(term, sorted(set(owners)))
-        if not rows and term.param == "friction":
+        objects = [int(o[4]) for o in self._particle_objects()]
+        if not rows and term.param == "friction" and self._matching(term, objects):
             return self._rows_objects(k, term)
         if not rows:
-            raise self._fail_none(term, "collider", owners)
+            raise self._fail_none(term, "collider" + (" or particle object" if term.param == "friction" else ""),
+                                  owners + (objects if term.param == "friction" else []))
         out = []
         for c, r in enumerate(owners):
             if r in rows:
@@ -252,10 +259,6 @@ class Randomizer:
         objects = self._particle_objects()
         rows = [int(o[4]) for o in objects]
         match = set(self._matching(term, rows))
-        if not match:
-            what = "rigid body or particle object" if term.param == "damping" else "collider or particle object"
-            body_rows = [int(self._entity_row[e]) for e in self._rigid_rows()[0]]
-            raise self._fail_none(term, what, rows + body_rows)
         mat = objects[:, 8:12].view(np.float32)
         i = 1 if term.param == "friction" else 2
         return "objects", [Target(k, int(self._row_env[r]), o, tuple(mat[o]), (float(mat[o, i]),),
@@ -297,7 +300,8 @@ class Randomizer:
                                       int(self._row_entity[r])) for i, r in enumerate(rows) if r in match]
 
     def _rows_lights(self, k: int, term: Term):
-        data = self._read("render.lights", LIGHT_WORDS) if "render.lights" in self._keys else np.zeros((0, 16), np.float32)
+        data = (self._read("render.lights", LIGHT_WORDS) if "render.lights" in self._keys
+                else np.zeros((0, LIGHT_WORDS), np.float32))
         ids = data.view(np.uint32)[:, 0:4]
         rows = [int(i[0]) if i[1] != 0 and i[0] != NONE else -1 for i in ids]
         match = set(self._matching(term, [r for r in rows if r >= 0]))
@@ -335,7 +339,8 @@ class Randomizer:
             if ent.has(cressim.RigidBody):
                 raise RandomizationError(f"{term.where}: {term.param}: camera '{ent.name}' rides a rigid body, which "
                                          "sets its pose every step; randomize a camera without one")
-            out.append(Target(k, int(self._row_env[r]), r, tuple(start[r]), tuple(start[r, :3]), int(self._row_entity[r])))
+            out.append(Target(k, int(self._row_env[r]), r, tuple(start[r]), tuple(start[r, :3]),
+                              int(self._row_entity[r])))
         return "transforms", out
 
     def _rows_depth(self, k: int, term: Term):
@@ -407,7 +412,8 @@ class Randomizer:
         sample = {"columns": self._column_table, "reset_mask": "env.reset_mask", "ended_a": self._episode_flags[0],
                   "ended_b": self._episode_flags[1], "draws": self._state["draws"],
                   "counters": self._state["counters"], "frame": self._state["frame"]}
-        self._sample = {flag: self._pass("sample", self.num_envs, sample, reset_all=int(flag)) for flag in (False, True)}
+        self._sample = {flag: self._pass("sample", self.num_envs, sample, reset_all=int(flag))
+                        for flag in (False, True)}
         outputs = {"bodies": {"bodies": "rigid.bodies"}, "colliders": {"colliders": "rigid.colliders"},
                    "joints": {"joints": "joint.model"}, "objects": {"objects": "particles.objects"},
                    "tets": {"tet_constraints": "particles.tet_constraints",
