@@ -261,6 +261,7 @@ class _Loader:
         self.materials: dict[str, dict] = {}
         self.material_fields: dict[str, dict[str, Field]] = {}
         self.inline_meshes: dict[tuple, int] = {}
+        self.randomization: list = []  # the file's domain randomization terms (cressim.randomization.Term)
 
     def load(self, world: cressim.World | None = None) -> cressim.World:
         """A new world, or the file's entities added to every env of `world` (its envs and
@@ -270,7 +271,7 @@ class _Loader:
         if "randomization" in top:  # checked here; used by the env that runs the scene (file_randomization)
             from cressim.randomization import parse_terms
 
-            parse_terms(top["randomization"])
+            self.randomization = parse_terms(top["randomization"])
         envs = top["envs"].int(1) if "envs" in top else 1
         layout = {}
         if "layout" in top:
@@ -778,6 +779,7 @@ def load_scene(path) -> cressim.World:
 class AddedScene:
     labels: dict  # segmentation id drawn -> entity name
     probes: list  # (position, xyzw) of each ultrasound probe entity (as authored, env frame)
+    randomization: list  # the file's domain randomization terms, for the env that runs it
 
 
 def add_scene(world: cressim.World, path, *, segmentation_offset: int = 0, skip: tuple = ("camera",)) -> AddedScene:
@@ -786,7 +788,7 @@ def add_scene(world: cressim.World, path, *, segmentation_offset: int = 0, skip:
     camera); segmentation ids are offset by `segmentation_offset`."""
     loader = _loader(Path(path), segmentation_offset=segmentation_offset, skip=skip)
     loader.load(world)
-    return AddedScene(dict(loader.labels), list(loader.probes))
+    return AddedScene(dict(loader.labels), list(loader.probes), list(loader.randomization))
 
 
 def file_randomization(path) -> list:

@@ -103,3 +103,46 @@ def test_target_center_redraws_its_looks_when_act_ends_an_episode():
             assert not torch.equal(info["final_obs"][done], obs[done])
         color = now
     assert env.engine.validation_messages == []
+
+
+def test_a_scene_files_randomization_runs_in_the_task_that_loads_it(tmp_path):
+    # TissueRetract's scenes with a randomization section: the flap's stiffness and friction and the
+    # table's friction, beside a term of the task's own
+    from pathlib import Path
+
+    scenes = Path(cressim.__file__).resolve().parents[2] / "scenes"
+    world = tmp_path / "tissue_retraction.yaml"
+    world.write_text((scenes / "tissue_retraction.yaml").read_text() + "randomization:\n"
+                     "  - {param: youngs_modulus, entity: flap, range: [5e3, 20e3], operation: abs}\n"
+                     "  - {param: friction, entity: flap, range: [0.8, 1.2], operation: scale}\n"
+                     "  - {param: friction, entity: table, range: [0.3, 0.9], operation: abs}\n")
+    twin = tmp_path / "psm_retraction.yaml"
+    twin.write_text((scenes / "psm_retraction.yaml").read_text())  # its world: the file beside it
+    env = cressim.envs.make("TissueRetract", num_envs=2, scene=str(twin), seed=4,
+                            randomization=[dict(param="damping", entity="flap", range=[0.5, 2.0], operation="scale")])
+    env.reset()
+    assert env.randomizer.names == ["youngs_modulus/flap", "friction/flap", "friction/table", "damping/flap"]
+    e = env.engine
+    young = env.randomized("youngs_modulus/flap")[:, 0].numpy()
+    assert ((young >= 5e3) & (young <= 20e3)).all() and young[0] != young[1]
+    # every tet of an env's flap has its mu scaled by drawn / authored modulus (10 kPa)
+    tets = e.buffer("particles.tet_constraints").read().view(np.float32).reshape(-1, 8)
+    phases = e.buffer("particles.phases").read().reshape(-1, 4)
+    objects = e.buffer("particles.objects").read().reshape(-1, 36)
+    env_of_tet = objects[phases[tets[:, :4].view(np.uint32)[:, 0], 1], 2]
+    nu = 0.45
+    mu = 10e3 / (2 * (1 + nu))
+    for k in range(2):
+        np.testing.assert_allclose(tets[env_of_tet == k, 5], mu * young[k] / 10e3, rtol=1e-4)
+    names = [e.world.entity(int(e.mapping["entity_id"][row])).name for row in objects[:, 4]]
+    flap = objects.view(np.float32)[[n == "flap" for n in names]]  # one an env, in env order
+    np.testing.assert_allclose(flap[:, 9], 0.5 * env.randomized("friction/flap")[:, 0].numpy(), rtol=1e-6)
+    np.testing.assert_allclose(flap[:, 10], 2.0 * env.randomized("damping/flap")[:, 0].numpy(), rtol=1e-6)
+    table = e.buffer("rigid.colliders").read().view(np.float32).reshape(-1, 20)[:, 12:14]
+    drawn = env.randomized("friction/table")[:, 0].numpy()
+    for d in drawn:  # each env's table: static and dynamic friction both the draw
+        assert (np.isclose(table, d, rtol=1e-6).all(1)).sum() == 1
+    assert not np.isclose(table[:, 0], 0.6).any()  # none kept the authored 0.6 (the arm's links have 0.5)
+    with pytest.raises(ValueError, match="term name 'friction/table' is also used at .*tissue_retraction.yaml:"):
+        cressim.envs.make("TissueRetract", num_envs=1, scene=str(twin),
+                          randomization=[dict(param="friction", entity="table", range=[0.1, 0.2])])

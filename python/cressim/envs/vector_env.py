@@ -71,6 +71,7 @@ class VectorEnv(gymnasium.vector.VectorEnv):
     # (own_cameras) the task's own camera in every env is what render() shows
     video_view: tuple = ((0.0, -3.0, 2.0), (0.0, 0.0, 0.0))
     own_cameras = False
+    scene_randomization: tuple = ()  # domain randomization terms of the scene file build_world loaded
 
     def __init__(self, num_envs: int, *, device: str | torch.device | None = None, seed: int = 0,
                  validation: bool | None = None, vulkan_device: str | None = None, cuda_sync: str = "semaphore",
@@ -123,13 +124,17 @@ class VectorEnv(gymnasium.vector.VectorEnv):
         self.buffers = self._create_buffers()
         self.passes = self._create_passes()
         self.randomizer = None
+        # the scene file's randomization section (a task that loads one sets scene_randomization), then the task's
+        terms = list(self.scene_randomization)
         if randomization is not None:
-            from cressim.randomization import Randomizer, load_terms
+            from cressim.randomization import load_terms
 
-            terms = load_terms(randomization, f"{name}(randomization=...)")
-            if terms:
-                self.randomizer = Randomizer(self.engine, terms, seed=self.seed, env_offset=self.env_offset,
-                                             episode_flags=self.episode_flags())
+            terms += load_terms(randomization, f"{name}(randomization=...)")
+        if terms:
+            from cressim.randomization import Randomizer
+
+            self.randomizer = Randomizer(self.engine, terms, seed=self.seed, env_offset=self.env_offset,
+                                         episode_flags=self.episode_flags())
         if self.device.type == "cuda":  # frames wait for the actions written on torch's stream
             if cuda_sync not in ("semaphore", "host"):
                 raise ValueError(f"cuda_sync={cuda_sync!r}: use 'semaphore' (on the GPU) or 'host'")

@@ -64,6 +64,12 @@ class Randomizer:
         self.terms: list[Term] = load_terms(terms)
         if not self.terms:
             raise RandomizationError("randomization: no terms given")
+        where = {}
+        for t in self.terms:  # a scene file's terms and a task's side by side
+            if t.name in where:
+                raise RandomizationError(f"{t.where}: term name '{t.name}' is also used at {where[t.name]}; "
+                                         "give each term a distinct name")
+            where[t.name] = t.where
         self.num_envs = int(engine.world.layout.num_envs)
         self.env_offset, self.seed = int(env_offset), int(seed)
         self._world = engine.world
