@@ -1,7 +1,8 @@
 """Physical randomization changes what it should in its own env only, checked against closed
 forms: a body pushed by a drive capped at F accelerates at F/m with its drawn mass; a box on a
 slope steeper than its friction angle slides at g (sin - mu cos) with its drawn mu; a velocity
-drive's drawn damping c gives the first-order lag v = u (1 - exp(-c t))."""
+drive's drawn damping c gives the first-order lag v = u (1 - exp(-c t)); a position drive's drawn
+stiffness k swings a 1 kg block with the period 2 pi / sqrt(k)."""
 import math
 
 import numpy as np
@@ -111,3 +112,31 @@ def test_joint_damping_sets_the_speed_a_capped_drive_reaches(make_engine):
     np.testing.assert_allclose(drive[:, 1], c, rtol=1e-6)
     v = steps(engine, 30, lambda e: e.buffer("rigid.linear_velocities").read()[:, 0].copy())
     np.testing.assert_allclose(v[-1], 1 - np.exp(-c * 30 * DT), rtol=0.03)
+
+
+def test_joint_stiffness_sets_the_period_of_a_position_drive(make_engine):
+    # a 1 kg block on an undamped position drive (a spring k to 0.1 m back), let go: x = 0.1 cos(sqrt(k) t)
+    envs = 3
+    world = cressim.World(cressim.SceneLayout(envs))
+    for env in range(envs):
+        b = world.create_entity(env=env, name="block")
+        b.add(cressim.Transform(position=(0.1, 0, 0)))
+        b.add(cressim.RigidBody(mass=1.0))
+        b.add(cressim.Collider(cressim.Shape.box((0.05, 0.05, 0.05)), group=0, mask=0))
+        world.create_entity(env=env, name="spring").add(cressim.Joint(
+            "slider", body_b=b, axis=(1, 0, 0), drive="position", target=-0.1, stiffness=100.0))
+    engine = make_engine(world)
+    engine.physics = cressim.PhysicsSettings(dt=DT, substeps=8, iterations=1, gravity=(0, 0, 0), max_contacts_per_env=0)
+    engine.prepare()
+    engine.upload_world()
+    r = Randomizer(engine, [dict(param="joint_stiffness", entity="spring", range=[40.0, 160.0], operation="abs")],
+                   seed=2)
+    randomized_frame(engine, r, reset_all=True, physics=False)
+    k = r.read("joint_stiffness/spring")[:, 0]
+    x = steps(engine, 150, lambda e: e.buffer("rigid.positions").read()[:, 0].copy())
+    t = np.arange(1, len(x) + 1) * DT
+    for env in range(envs):
+        s = x[:, env]
+        crossings = [t[i] - s[i] * DT / (s[i + 1] - s[i]) for i in range(len(s) - 1) if s[i] > 0 >= s[i + 1]]
+        period = np.diff(crossings).mean()
+        assert abs(period / (2 * math.pi / math.sqrt(k[env])) - 1) < 0.02, (env, k[env], period)
