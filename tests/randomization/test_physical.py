@@ -2,7 +2,8 @@
 forms: a body pushed by a drive capped at F accelerates at F/m with its drawn mass; a box on a
 slope steeper than its friction angle slides at g (sin - mu cos) with its drawn mu; a velocity
 drive's drawn damping c gives the first-order lag v = u (1 - exp(-c t)); a position drive's drawn
-stiffness k swings a 1 kg block with the period 2 pi / sqrt(k)."""
+stiffness k swings a 1 kg block with the period 2 pi / sqrt(k); a ball's drawn restitution e
+bounces it to e^2 of its drop."""
 import math
 
 import numpy as np
@@ -140,3 +141,30 @@ def test_joint_stiffness_sets_the_period_of_a_position_drive(make_engine):
         crossings = [t[i] - s[i] * DT / (s[i + 1] - s[i]) for i in range(len(s) - 1) if s[i] > 0 >= s[i + 1]]
         period = np.diff(crossings).mean()
         assert abs(period / (2 * math.pi / math.sqrt(k[env])) - 1) < 0.02, (env, k[env], period)
+
+
+def test_restitution_sets_each_envs_bounce_height(make_engine):
+    # a ball dropped from 1 m on a plane bounces to e^2 m (the contact takes the larger restitution)
+    envs = 3
+    world = cressim.World(cressim.SceneLayout(envs))
+    for env in range(envs):
+        ground = world.create_entity(env=env, name="ground")
+        ground.add(cressim.Transform())
+        ground.add(cressim.Collider(cressim.Shape.plane()))
+        ball = world.create_entity(env=env, name="ball")
+        ball.add(cressim.Transform(position=(0, 0, 1.05)))
+        ball.add(cressim.RigidBody(mass=1))
+        ball.add(cressim.Collider(cressim.Shape.sphere(0.05), restitution=0.5))
+    engine = make_engine(world)
+    engine.physics = cressim.PhysicsSettings(substeps=16)
+    engine.prepare()
+    engine.upload_world()
+    r = Randomizer(engine, [dict(param="restitution", entity="ball", range=[0.3, 0.8], operation="abs")], seed=8)
+    randomized_frame(engine, r, reset_all=True, physics=False)
+    e = r.read("restitution/ball")[:, 0]
+    z = steps(engine, 120, lambda en: en.buffer("rigid.positions").read()[:, 2].copy()) - 0.05
+    for env in range(envs):
+        first_bounce = np.argmin(z[:40, env])
+        peak = z[first_bounce:first_bounce + 60, env].max()
+        assert abs(peak - e[env] ** 2) < 0.03, (env, e[env], peak)
+    assert np.ptp(e) > 0.1
