@@ -1,5 +1,5 @@
 """Visual randomization: an env renders exactly what a scene authored with its drawn values
-renders (a renderable's colour, a light's intensity, a camera's pose), other envs are untouched,
+renders (a renderable's colour, a light's intensity and colour, a camera's pose), other envs are untouched,
 and a known point projects where the pinhole model puts it from the drawn camera pose."""
 import math
 
@@ -36,7 +36,8 @@ def rotation_vector(v):
     return np.array([*(np.sin(angle / 2) * np.asarray(v) / angle), np.cos(angle / 2)])
 
 
-def build(make_engine, envs, *, slab_color=(0.6, 0.6, 0.6, 1.0), light=1.0, camera=((0, 0, 1.0), DOWN)):
+def build(make_engine, envs, *, slab_color=(0.6, 0.6, 0.6, 1.0), light=1.0, light_color=(1.0, 1.0, 1.0),
+          camera=((0, 0, 1.0), DOWN)):
     """Per env a grey slab (top at z = 0) with a marker ball, a light and an RGB + depth +
     segmentation camera; env 1's slab, light and camera have other names (no term reaches them).
     `slab_color`, `light`, `camera` (position, rotation): env 0's as authored, or per env lists."""
@@ -52,8 +53,8 @@ def build(make_engine, envs, *, slab_color=(0.6, 0.6, 0.6, 1.0), light=1.0, came
         mark.add(cressim.Transform(position=MARK))
         mark.add(cressim.Renderable(ball, color=(0.9, 0.1, 0.1, 1), segmentation_id=7))
         sun = world.create_entity(env=env, name=tag + "sun")
-        sun.add(cressim.Transform(rotation=(0.2, 0.1, 0.0, 0.97)))
-        sun.add(cressim.Light(intensity=per_env(light, env), ambient=0.2))
+        sun.add(cressim.Transform(rotation=(0.985, 0.0, 0.0, 0.174)))  # travelling down, 20 deg off vertical
+        sun.add(cressim.Light(intensity=per_env(light, env), color=tuple(per_env(light_color, env)), ambient=0.2))
         position, rotation = per_env(camera, env) if isinstance(camera, list) else camera
         cam = world.create_entity(env=env, name=tag + "camera")
         cam.add(cressim.Transform(position=tuple(position), rotation=tuple(rotation)))
@@ -105,6 +106,20 @@ def test_light_intensity_renders_as_the_drawn_intensity_authored(make_engine):
     reference, _ = render(build(make_engine, 3, light=[float(s) for s in scale]))
     for env in (0, 2):
         assert np.abs(rgb[env].astype(int) - reference[env].astype(int)).max() <= 1
+        assert np.abs(rgb[env].astype(int) - plain[env].astype(int)).max() > 2
+    np.testing.assert_array_equal(rgb[1], plain[1])
+
+
+def test_light_color_renders_as_the_drawn_colour_authored(make_engine):
+    engine = build(make_engine, 3)
+    plain, _ = render(engine)
+    r, (rgb, _) = randomized(engine, [dict(param="light_color", entity="sun", range=[0.3, 1.0], operation="abs")],
+                             seed=5)
+    color = r.read("light_color/sun")
+    reference, _ = render(build(make_engine, 3, light_color=[tuple(map(float, c)) for c in color]))
+    for env in (0, 2):
+        assert np.abs(rgb[env].astype(int) - reference[env].astype(int)).max() <= 1
+        assert np.abs(rgb[env].astype(int) - plain[env].astype(int)).max() > 2
     np.testing.assert_array_equal(rgb[1], plain[1])
 
 
