@@ -62,6 +62,11 @@ def test_distributions_have_the_configured_ranges_and_moments(make_engine):
     assert clipped.min() >= 0.2 - 1e-7 and clipped.max() <= 0.4 + 1e-7
     on_bounds = np.mean((clipped <= 0.2 + 1e-6) | (clipped >= 0.4 - 1e-6))
     assert abs(on_bounds - 0.617) < 0.04
+    # a choice: each value about as often
+    choice = draws(make_engine, n, [dict(param="mass", entity="block", distribution="choice", choices=[0.5, 1.0, 3.0],
+                                         operation="abs")], seed=9)[:, 0]
+    assert set(choice) == {0.5, 1.0, 3.0}
+    assert all(abs(np.mean(choice == c) - 1 / 3) < 4 * math.sqrt(2 / 9 / n) for c in (0.5, 1.0, 3.0))
     # terms and components are independent of each other
     assert abs(np.corrcoef(uniform, gaussian)[0, 1]) < 0.1 and abs(np.corrcoef(uniform, log_uniform)[0, 1]) < 0.1
 
@@ -128,6 +133,11 @@ def test_bad_terms_are_refused_naming_the_field_and_the_problem(make_engine):
     fails(engine, dict(param="mass", entity="block", distribution="gaussian", mean=1.0), "needs 'std'")
     fails(engine, dict(param="mass", entity="block", distribution="gaussian", mean=1.0, std=-1.0), "std must be >= 0")
     fails(engine, {**ok, "operation": "multiply"}, "unknown operation 'multiply'")
+    fails(engine, {**ok, "choices": [1, 2]}, "'choices' is for distribution: choice")
+    fails(engine, dict(param="mass", entity="block", distribution="choice", choices=[]), "give at least one value")
+    fails(engine, dict(param="texture", entity="block", range=[0, 1]), "texture takes distribution: choice")
+    fails(engine, dict(param="texture", entity="block", distribution="choice", choices=[0.5], operation="abs"),
+          "texture indices are integers >= -1")
     fails(engine, {**ok, "when": "interval"}, "needs every")
     fails(engine, {**ok, "when": "interval", "every": 0}, "randomization[0].every", "must be >= 1")
     fails(engine, {**ok, "every": 5}, "'every' is for when: interval")

@@ -4,9 +4,11 @@ and a known point projects where the pinhole model puts it from the drawn camera
 import math
 
 import numpy as np
+import pytest
 
 import cressim
-from cressim.randomization import Randomizer
+from cressim.io import checker_texture
+from cressim.randomization import RandomizationError, Randomizer
 
 from .frames import randomized_frame
 
@@ -37,18 +39,20 @@ def rotation_vector(v):
 
 
 def build(make_engine, envs, *, slab_color=(0.6, 0.6, 0.6, 1.0), light=1.0, light_color=(1.0, 1.0, 1.0),
-          camera=((0, 0, 1.0), DOWN)):
+          camera=((0, 0, 1.0), DOWN), texture=-1):
     """Per env a grey slab (top at z = 0) with a marker ball, a light and an RGB + depth +
     segmentation camera; env 1's slab, light and camera have other names (no term reaches them).
     `slab_color`, `light`, `camera` (position, rotation): env 0's as authored, or per env lists."""
     world = cressim.World(cressim.SceneLayout(envs))
     slab, ball = world.add_mesh(cressim.Mesh.box((3.0, 3.0, 0.05))), world.add_mesh(cressim.Mesh.sphere(0.03, 16, 32))
+    for colors in (((230, 40, 40), (40, 40, 230)), ((40, 200, 40), (240, 240, 240))):  # textures 0 and 1
+        world.add_texture(checker_texture(64, 4, colors))
     per_env = lambda v, env: v[env] if isinstance(v, list) else v  # noqa: E731
     for env in range(envs):
         tag = "" if env != 1 else "other_"
         ground = world.create_entity(env=env, name=tag + "slab")
         ground.add(cressim.Transform(position=(0, 0, -0.05)))
-        ground.add(cressim.Renderable(slab, color=tuple(per_env(slab_color, env))))
+        ground.add(cressim.Renderable(slab, color=tuple(per_env(slab_color, env)), texture=int(per_env(texture, env))))
         mark = world.create_entity(env=env, name="mark")
         mark.add(cressim.Transform(position=MARK))
         mark.add(cressim.Renderable(ball, color=(0.9, 0.1, 0.1, 1), segmentation_id=7))
@@ -121,6 +125,22 @@ def test_light_color_renders_as_the_drawn_colour_authored(make_engine):
         assert np.abs(rgb[env].astype(int) - reference[env].astype(int)).max() <= 1
         assert np.abs(rgb[env].astype(int) - plain[env].astype(int)).max() > 2
     np.testing.assert_array_equal(rgb[1], plain[1])
+
+
+def test_texture_renders_as_the_drawn_texture_authored(make_engine):
+    engine = build(make_engine, 4)
+    plain, _ = render(engine)
+    r, (rgb, _) = randomized(engine, [dict(param="texture", entity="slab", distribution="choice", choices=[0, 1],
+                                           operation="abs")], seed=1)
+    drawn = r.read("texture/slab")[:, 0].astype(int)
+    assert set(drawn[[0, 2, 3]]) == {0, 1}
+    reference, _ = render(build(make_engine, 4, texture=[int(t) for t in drawn]))
+    for env in (0, 2, 3):
+        assert np.abs(rgb[env].astype(int) - reference[env].astype(int)).max() <= 1
+        assert np.abs(rgb[env].astype(int) - plain[env].astype(int)).max() > 20  # checkered now
+    np.testing.assert_array_equal(rgb[1], plain[1])
+    with pytest.raises(RandomizationError, match=r"the world has 2 texture\(s\) \(indices 0 to 1, -1 none\)"):
+        Randomizer(engine, [dict(param="texture", entity="slab", distribution="choice", choices=[0, 2])])
 
 
 def test_camera_pose_moves_the_projection_of_a_known_point(make_engine):

@@ -5,7 +5,8 @@ A term::
 
     - param: mass                 # one of PARAMS
       entity: cart                # entity name (fnmatch pattern) in every env
-      distribution: uniform       # uniform (range), log_uniform (range, > 0), gaussian (mean, std, clip)
+      distribution: uniform       # uniform (range), log_uniform (range, > 0), gaussian (mean, std, clip),
+                                  # choice (choices: one of the listed values, each as likely)
       range: [0.5, 2.0]           # [low, high], one pair for every component or one pair per component
       operation: scale            # scale (x authored), add (+ authored) or abs (the value itself)
       when: reset                 # reset (each env's episode start) or interval (every `every` steps)
@@ -64,13 +65,17 @@ PARAMS = {
     "depth_noise": Param("depth", 13, 1, ("add", "abs"), 0, INF, False, "m",
                          "standard deviation of zero-mean gaussian noise added to a camera's depth image, "
                          "drawn anew for every pixel and frame"),
+    "texture": Param("renderables", 15, 1, ("abs",), -1, INF, False, "texture index",
+                     "a renderable's colour texture: an index of World.add_texture (a scene file's textures in "
+                     "their order), -1 none; drawn by distribution choice"),
     "ultrasound_gain": Param("probes", 14, 1, ("add", "abs", "scale"), -INF, INF, False, "dB",
                              "an ultrasound probe's gain (the image's envelope scales by 10^(dB/20))"),
 }
-DISTRIBUTIONS = ("uniform", "log_uniform", "gaussian")
+DISTRIBUTIONS = ("uniform", "log_uniform", "gaussian", "choice")
 OPERATIONS = ("scale", "add", "abs")
 WHEN = ("reset", "interval")
-TERM_KEYS = ("param", "entity", "distribution", "range", "mean", "std", "clip", "operation", "when", "every", "name")
+TERM_KEYS = ("param", "entity", "distribution", "range", "mean", "std", "clip", "choices", "operation", "when", "every",
+             "name")
 
 
 class RandomizationError(ValueError):
@@ -80,8 +85,9 @@ class RandomizationError(ValueError):
 
 @dataclass(frozen=True)
 class Term:
-    """One checked term. Per component: `low`, `high` the range (uniform, log_uniform) or mean and
-    standard deviation (gaussian); `clip` bounds a gaussian's draws (None: unbounded)."""
+    """One checked term. Per component: `low`, `high` the range (uniform, log_uniform), mean and
+    standard deviation (gaussian) or least and greatest choice; `clip` bounds a gaussian's draws
+    (None: unbounded); `choices` the values of a choice (one component)."""
 
     name: str
     param: str
@@ -94,6 +100,7 @@ class Term:
     when: str
     every: int
     where: str  # file:line (or field path) for later errors
+    choices: tuple | None = None
 
     @property
     def spec(self) -> Param:
@@ -218,8 +225,27 @@ def parse_term(f, index: int) -> Term:
     dist = c["distribution"].str() if "distribution" in c else "uniform"
     if dist not in DISTRIBUTIONS:
         raise c["distribution"].fail(f"unknown distribution '{dist}'; expected one of: {', '.join(DISTRIBUTIONS)}")
-    clip = None
-    if dist == "gaussian":
+    clip = choices = None
+    if dist != "choice" and "choices" in c:
+        raise c["choices"].fail(f"'choices' is for distribution: choice, not {dist}")
+    if param == "texture" and dist != "choice":
+        raise f.fail("texture takes distribution: choice with choices: [texture indices]")
+    if dist == "choice":
+        for key in ("range", "mean", "std", "clip"):
+            if key in c:
+                raise c[key].fail(f"'{key}' is not for a choice; it takes choices: [values]")
+        if "choices" not in c:
+            raise f.fail("a choice needs choices: [values]")
+        if spec.size != 1:
+            raise c["choices"].fail(f"{param} has {spec.size} components; a choice draws one number")
+        items = c["choices"].list()
+        if not items:
+            raise c["choices"].fail("give at least one value")
+        choices = tuple(_finite(i) for i in items)
+        if param == "texture" and any(v != int(v) or v < -1 for v in choices):
+            raise c["choices"].fail(f"texture indices are integers >= -1 (-1: none), got {list(choices)}")
+        low, high = (min(choices),), (max(choices),)
+    elif dist == "gaussian":
         for key in ("mean", "std"):
             if key not in c:
                 raise f.fail(f"a gaussian needs '{key}' (and optionally clip: [low, high])")
@@ -261,7 +287,7 @@ def parse_term(f, index: int) -> Term:
     elif "every" in c:
         raise c["every"].fail("'every' is for when: interval")
     name = c["name"].str() if "name" in c else f"{param}/{entity}"
-    return Term(name, param, entity, dist, low, high, clip, op, when, every, f"{f.where}: {f.path}")
+    return Term(name, param, entity, dist, low, high, clip, op, when, every, f"{f.where}: {f.path}", choices)
 
 
 def parse_terms(f) -> list[Term]:

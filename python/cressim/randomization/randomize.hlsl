@@ -14,13 +14,13 @@
 #include "cressim/ultrasound.h"
 
 // distributions, operations, schedules, parameters (config.py)
-static const uint DIST_UNIFORM = 0, DIST_LOG_UNIFORM = 1, DIST_GAUSSIAN = 2;
+static const uint DIST_UNIFORM = 0, DIST_LOG_UNIFORM = 1, DIST_GAUSSIAN = 2, DIST_CHOICE = 3;
 static const uint OP_SCALE = 0, OP_ADD = 1, OP_ABS = 2;
 static const uint WHEN_RESET = 0, WHEN_INTERVAL = 1;
 static const uint PARAM_MASS = 1, PARAM_DAMPING = 2, PARAM_FRICTION = 3, PARAM_RESTITUTION = 4,
                   PARAM_JOINT_STIFFNESS = 5, PARAM_JOINT_DAMPING = 6, PARAM_YOUNGS_MODULUS = 7, PARAM_COLOR = 8,
                   PARAM_LIGHT_INTENSITY = 9, PARAM_LIGHT_COLOR = 10, PARAM_CAMERA_POSITION = 11,
-                  PARAM_CAMERA_ROTATION = 12, PARAM_ULTRASOUND_GAIN = 14;
+                  PARAM_CAMERA_ROTATION = 12, PARAM_ULTRASOUND_GAIN = 14, PARAM_TEXTURE = 15;
 
 struct Params {
   uint envs;
@@ -35,7 +35,8 @@ struct Params {
 [[vk::push_constant]] ConstantBuffer<Params> pc;
 
 StructuredBuffer<uint4> terms;       // x first value column, y components, z distribution | when << 8, w every
-StructuredBuffer<float4> columns;    // per value column: x, y range (or mean, std), z, w clip
+StructuredBuffer<float4> columns;    // per value column: x, y range (mean, std; choice: first, count), z, w clip
+StructuredBuffer<float> choices;     // the values choice terms draw from
 StructuredBuffer<uint> reset_mask;   // env.reset_mask
 // a task that starts episodes without the engine's reset (TargetCenter) names its own flags:
 // nonzero where an episode ended this step (its terminated and truncated; else env.reset_mask)
@@ -67,6 +68,7 @@ float draw(uint dist, float4 col, uint env, uint salt, uint n) {
   const float u = unit_hash(e, 2 * salt, n), u2 = unit_hash(e, 2 * salt + 1, n);
   if (dist == DIST_UNIFORM) return lerp(col.x, col.y, 1.0 - u);
   if (dist == DIST_LOG_UNIFORM) return exp(lerp(log(col.x), log(col.y), 1.0 - u));
+  if (dist == DIST_CHOICE) return choices[uint(col.x) + min(uint((1.0 - u) * col.y), uint(col.y) - 1)];
   return clamp(col.x + col.y * gaussian(u, u2), col.z, col.w);
 }
 
@@ -186,7 +188,8 @@ RWStructuredBuffer<RenderableData> renderables;  // render.renderables
 void apply_renderables(uint3 id : SV_DispatchThreadID) {
   uint4 ids; uint param, op; float4 n; float3 v;
   if (!target(id.x, ids, param, op, n, v)) return;
-  renderables[ids.z].color.rgb = saturate(operate3(n.rgb, v, op));
+  if (param == PARAM_TEXTURE) renderables[ids.z].maps.x = v.x < 0 ? 0 : uint(v.x + 0.5) + 1;  // index + 1, 0 none
+  else renderables[ids.z].color.rgb = saturate(operate3(n.rgb, v, op));
 }
 
 RWStructuredBuffer<LightData> lights;  // render.lights

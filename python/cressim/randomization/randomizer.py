@@ -24,7 +24,7 @@ import cressim
 from .config import INF, RandomizationError, Term, load_terms
 
 HLSL = Path(__file__).with_name("randomize.hlsl")
-DISTRIBUTION_CODES = {"uniform": 0, "log_uniform": 1, "gaussian": 2}
+DISTRIBUTION_CODES = {"uniform": 0, "log_uniform": 1, "gaussian": 2, "choice": 3}
 OPERATION_CODES = {"scale": 0, "add": 1, "abs": 2}
 WHEN_CODES = {"reset": 0, "interval": 1}
 NONE = 0xFFFFFFFF
@@ -302,6 +302,12 @@ class Randomizer:
         match = set(self._matching(term, rows))
         if not match:
             raise self._fail_none(term, "renderable", rows)
+        if term.param == "texture":  # indices of textures there are
+            infos = self._read("render.textures", 4, np.uint32)
+            count = int((infos[:, 1] > 0).sum())
+            if max(term.choices) >= count:
+                raise RandomizationError(f"{term.where}: texture: the world has {count} texture(s) (indices 0 to "
+                                         f"{count - 1}, -1 none), got choices {list(term.choices)}")
         return "renderables", [Target(k, int(self._row_env[r]), i, tuple(data[i, 4:8]), tuple(data[i, 4:7]),
                                       int(self._row_entity[r])) for i, r in enumerate(rows) if r in match]
 
@@ -376,12 +382,18 @@ class Randomizer:
         e, n, T, D = self.engine, self.num_envs, len(self.terms), self.column_count
         terms = np.zeros((T, 4), np.uint32)
         columns = np.zeros((D, 4), np.float32)
+        choices = []
         for k, t in enumerate(self.terms):
             c = self._columns[t.name]
             terms[k] = (c.start, t.spec.size, DISTRIBUTION_CODES[t.distribution] | WHEN_CODES[t.when] << 8, t.every)
             clip = t.clip or ((-np.inf,) * t.spec.size, (np.inf,) * t.spec.size)
             for j in range(t.spec.size):
                 columns[c.start + j] = (t.low[j], t.high[j], clip[0][j], clip[1][j])
+            if t.choices:  # x: first, y: count (exact in float32 far beyond any list here)
+                columns[c.start] = (len(choices), len(t.choices), 0, 0)
+                choices += t.choices
+        self._choices = e.create_shared_buffer("randomization_choices", max(len(choices), 1), "float32")
+        self._choices.write(np.array(choices or [0.0], np.float32))
         self._terms = e.create_shared_buffer("randomization_terms", (T, 4), "uint32")
         self._terms.write(terms)
         self._column_table = e.create_shared_buffer("randomization_columns", (D, 4), "float32")
@@ -415,7 +427,7 @@ class Randomizer:
         return {"target_ids": ids_buffer, "target_nominal": nominal}
 
     def _create_passes(self):
-        sample = {"columns": self._column_table, "reset_mask": "env.reset_mask", "ended_a": self._episode_flags[0],
+        sample = {"columns": self._column_table, "choices": self._choices, "reset_mask": "env.reset_mask", "ended_a": self._episode_flags[0],
                   "ended_b": self._episode_flags[1], "draws": self._state["draws"],
                   "counters": self._state["counters"], "frame": self._state["frame"]}
         self._sample = {flag: self._pass("sample", self.num_envs, sample, reset_all=int(flag))
