@@ -67,6 +67,7 @@ key optional unless said)::
     randomization:                       # domain randomization (docs/envs.md, "Domain randomization")
       - {param: mass, entity: ball, distribution: uniform, range: [0.5, 2], operation: scale, when: reset}
       - {param: color, entity: ground, range: [0.2, 0.9], operation: abs, when: interval, every: 100}
+      - {param: texture, entity: ground, distribution: choice, choices: [checker, -1], operation: abs}
 
 Surgical scenes built from these (docs/scenes.md): scenes/tissue_retraction.yaml,
 scenes/blood_suction.yaml, scenes/ultrasound_phantom.yaml.
@@ -268,10 +269,6 @@ class _Loader:
         layout then stand; the file's are checked but not used)."""
         top = self.root.keys(("envs", "layout", "environment", "meshes", "textures", "materials", "entities",
                               "randomization"))
-        if "randomization" in top:  # checked here; used by the env that runs the scene (file_randomization)
-            from cressim.randomization import parse_terms
-
-            self.randomization = parse_terms(top["randomization"])
         envs = top["envs"].int(1) if "envs" in top else 1
         layout = {}
         if "layout" in top:
@@ -283,6 +280,10 @@ class _Loader:
         self.world = world if world is not None else cressim.World(cressim.SceneLayout(envs, **layout))
         for name, f in (top["textures"].items() if "textures" in top else {}).items():
             self.textures[name] = self.world.add_texture(self.texture(f))
+        if "randomization" in top:  # checked here; used by the env that runs the scene (file_randomization)
+            from cressim.randomization import parse_terms
+
+            self.randomization = parse_terms(top["randomization"], self.textures)
         for name, f in (top["meshes"].items() if "meshes" in top else {}).items():
             self.meshes[name] = self.world.add_mesh(self.mesh(f))
         for name, f in (top["materials"].items() if "materials" in top else {}).items():
@@ -797,10 +798,13 @@ def file_randomization(path) -> list:
     file:line and the field."""
     from cressim.randomization import parse_terms
 
-    root = _loader(Path(path)).root
-    if root.is_map():
-        return parse_terms(root.items()["randomization"]) if "randomization" in root.items() else []
-    return parse_terms(root)
+    loader = _loader(Path(path))
+    if not loader.root.is_map():
+        return parse_terms(loader.root)
+    # texture choices may name the file's textures: their indices in a world of its own
+    names = loader.root.items()["textures"].items() if "textures" in loader.root.items() else {}
+    top = loader.root.items()
+    return parse_terms(top["randomization"], {n: i for i, n in enumerate(names)}) if "randomization" in top else []
 
 
 def _loader(path: Path, **options) -> _Loader:

@@ -197,3 +197,19 @@ def test_scene_file_randomization_is_checked_with_file_and_line(tmp_path):
     assert [(t.param, t.operation, t.when, t.every) for t in terms] == [("mass", "scale", "reset", 0),
                                                                           ("friction", "scale", "interval", 30)]
     assert terms[1].where.startswith(f"{scene}:8")
+    # a texture choice names the file's textures
+    textured = tmp_path / "textured.yaml"
+    textured.write_text("textures:\n"
+                        "  plain: {checker: {squares: 1}}\n"
+                        "  checker: {checker: {squares: 8}}\n"
+                        "entities:\n"
+                        "  - name: floor\n"
+                        "    renderable: {mesh: {box: {half_extents: [1, 1, 0.1]}}}\n"
+                        "randomization:\n"
+                        "  - {param: texture, entity: floor, distribution: choice, choices: [checker, plain, -1]}\n")
+    assert file_randomization(textured)[0].choices == (1.0, 0.0, -1.0)
+    load_scene(textured)
+    textured.write_text(textured.read_text().replace("[checker, plain", "[checker, wood"))
+    with pytest.raises(SceneFileError, match=rf"{textured}:8: randomization\[0\]\.choices\[1\]: no texture named "
+                                             "'wood'; the textures are: plain, checker"):
+        load_scene(textured)

@@ -66,8 +66,8 @@ PARAMS = {
                          "standard deviation of zero-mean gaussian noise added to a camera's depth image, "
                          "drawn anew for every pixel and frame"),
     "texture": Param("renderables", 15, 1, ("abs",), -1, INF, False, "texture index",
-                     "a renderable's colour texture: an index of World.add_texture (a scene file's textures in "
-                     "their order), -1 none; drawn by distribution choice"),
+                     "a renderable's colour texture: an index of World.add_texture (in a scene file also a name "
+                     "of its textures), -1 none; drawn by distribution choice"),
     "ultrasound_gain": Param("probes", 14, 1, ("add", "abs", "scale"), -INF, INF, False, "dB",
                              "an ultrasound probe's gain (the image's envelope scales by 10^(dB/20))"),
 }
@@ -209,8 +209,22 @@ def _numbers(f, size: int) -> tuple:
     return (_finite(f),) * size
 
 
-def parse_term(f, index: int) -> Term:
-    """One term from a mapping field (scene_file.Field or PyField); raises naming the field."""
+def _choice(f, textures: dict | None) -> float:
+    """A choice: a number, or (a texture) a scene file's texture name."""
+    if textures is not None and not _is_list(f) and not f.is_map():
+        try:
+            return _finite(f)
+        except ValueError:
+            name = f.str()
+            if name not in textures:
+                raise f.fail(f"no texture named '{name}'; the textures are: {', '.join(textures) or '(none)'}") from None
+            return float(textures[name])
+    return _finite(f)
+
+
+def parse_term(f, index: int, textures: dict | None = None) -> Term:
+    """One term from a mapping field (scene_file.Field or PyField); raises naming the field.
+    `textures`: a scene file's texture names and indices, which texture choices may name."""
     c = f.keys(TERM_KEYS)
     for key in ("param", "entity"):
         if key not in c:
@@ -241,7 +255,7 @@ def parse_term(f, index: int) -> Term:
         items = c["choices"].list()
         if not items:
             raise c["choices"].fail("give at least one value")
-        choices = tuple(_finite(i) for i in items)
+        choices = tuple(_choice(i, textures if param == "texture" else None) for i in items)
         if param == "texture" and any(v != int(v) or v < -1 for v in choices):
             raise c["choices"].fail(f"texture indices are integers >= -1 (-1: none), got {list(choices)}")
         low, high = (min(choices),), (max(choices),)
@@ -290,9 +304,9 @@ def parse_term(f, index: int) -> Term:
     return Term(name, param, entity, dist, low, high, clip, op, when, every, f"{f.where}: {f.path}", choices)
 
 
-def parse_terms(f) -> list[Term]:
+def parse_terms(f, textures: dict | None = None) -> list[Term]:
     """The terms of a list field; term names must be distinct."""
-    terms = [parse_term(item, i) for i, item in enumerate(f.list())]
+    terms = [parse_term(item, i, textures) for i, item in enumerate(f.list())]
     seen = {}
     for t, item in zip(terms, f.list()):
         if t.name in seen:
