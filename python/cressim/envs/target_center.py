@@ -155,6 +155,8 @@ class TargetCenter(VectorEnv):
     def _set_seed(self, seed: int):
         for key in ("act", "act_reset_all", "start"):
             self.passes[key].set_constant("seed", seed)
+        if self.randomizer is not None:
+            self.randomizer.set_seed(seed)
 
     def centre_offset(self) -> torch.Tensor:
         """The target's current normalised distance from the image centre, per env."""
