@@ -1,7 +1,7 @@
-"""Randomization of particle objects: an elastic soft body's drawn Young's modulus sets its
-static sag (linear elasticity: sag x E constant, and the sag of a body authored with that
-modulus); a particle object's drawn damping d gives a falling particle the velocity of
-v <- (v + h g) / (1 + h d) per substep; each in its own env only."""
+"""Randomization of particle objects: an elastic soft body's drawn Young's modulus sets its static sag
+(linear elasticity: sag x E constant, and the sag of a body authored with that modulus), its drawn
+mass scale sags it as that times the density would; a particle object's drawn damping d gives a
+falling particle the velocity of v <- (v + h g) / (1 + h d) per substep; each in its own env only."""
 import numpy as np
 
 import cressim
@@ -13,7 +13,7 @@ E, NU = 1e5, 0.3
 HALF, CELLS = (0.03, 0.015, 0.015), (8, 2, 2)
 
 
-def cantilevers(make_engine, moduli):
+def cantilevers(make_engine, moduli, density=None):
     """Per env a 60 x 30 x 30 mm cantilever clamped at x = -30 mm (env 1's has another name)."""
     mesh = cressim.TetMesh.box(HALF, CELLS)
     rest = np.asarray(mesh.positions)
@@ -22,7 +22,8 @@ def cantilevers(make_engine, moduli):
         body = world.create_entity(env=env, name="tissue" if env != 1 else "other_tissue")
         body.add(cressim.Transform(position=(0, 0, 1)))
         body.add(cressim.SoftBody(mesh, fixed=np.nonzero(rest[:, 0] < -HALF[0] + 1e-6)[0],
-                                  youngs_modulus=float(youngs_modulus), poisson_ratio=NU, density=1000.0, damping=5.0))
+                                  youngs_modulus=float(youngs_modulus), poisson_ratio=NU,
+                                  density=float(density[env]) if density else 1000.0, damping=5.0))
     engine = make_engine(world)
     engine.prepare()
     engine.upload_world()
@@ -79,3 +80,21 @@ def test_particle_damping_sets_each_envs_fall(make_engine):
     for _ in range(frames * settings.substeps):
         expected = (expected + h * g) / (1 + h * d)
     np.testing.assert_allclose(v, expected, rtol=1e-3)
+
+
+def test_soft_body_mass_sets_each_envs_sag_as_its_density_would(make_engine):
+    # the sag of a cantilever under its own weight goes with its density: a drawn mass scale s
+    # sags as a body authored with s times the density
+    engine, rest = cantilevers(make_engine, [E] * 3)
+    r = Randomizer(engine, [dict(param="mass", entity="tissue", range=[0.5, 2.0], operation="scale")], seed=1)
+    randomized_frame(engine, r, reset_all=True, physics=False)
+    scale = r.read("mass/tissue")[:, 0]
+    sag = sags(engine, rest, 3)
+    w = engine.buffer("particles.positions").read()[:, 3].reshape(3, -1)
+    w0 = engine.buffer("particles.initial_positions").read()[:, 3].reshape(3, -1)
+    free = w0[0] > 0
+    np.testing.assert_allclose(w[0, free], w0[0, free] / scale[0], rtol=1e-6)
+    np.testing.assert_array_equal(w[1], w0[1])  # env 1's body is not randomized
+    reference = sags(*cantilevers(make_engine, [E] * 3, density=[1000.0 * scale[0], 1000.0, 1000.0 * scale[2]]), 3)
+    np.testing.assert_allclose(sag, reference, rtol=2e-3)
+    np.testing.assert_allclose(sag / np.array([scale[0], 1.0, scale[2]]), sag[1], rtol=0.03)  # linear: sag ~ density

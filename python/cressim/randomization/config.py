@@ -41,7 +41,8 @@ class Param:
 # the codes match the PARAM_* constants of randomize.hlsl
 PARAMS = {
     "mass": Param("bodies", 1, 1, ("scale", "add", "abs"), 0, INF, True, "kg",
-                  "a dynamic rigid body's mass; its inertia scales with it (same shape)"),
+                  "a dynamic rigid body's mass, its inertia scaled with it (same shape); or a particle "
+                  "object's (soft body, fluid, strand) total, every free particle's mass scaled alike"),
     "damping": Param("bodies", 2, 1, ("scale", "add", "abs"), 0, INF, False, "1/s",
                      "a rigid body's linear and angular damping, or a particle object's (soft body, fluid, strand)"),
     "friction": Param("colliders", 3, 1, ("scale", "add", "abs"), 0, INF, False, "",

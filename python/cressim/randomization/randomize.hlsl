@@ -158,6 +158,15 @@ void apply_objects(uint3 id : SV_DispatchThreadID) {
   else if (param == PARAM_DAMPING) objects[ids.z].material.z = operate(n.z, v.x, op);
 }
 
+RWStructuredBuffer<float4> particle_positions;  // particles.positions: w the inverse mass
+[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
+void apply_particles(uint3 id : SV_DispatchThreadID) {
+  uint4 ids; uint param, op; float4 n; float3 v;
+  if (!target(id.x, ids, param, op, n, v)) return;
+  // nominal: x the particle's authored inverse mass, y its object's mass; every particle scales alike
+  particle_positions[ids.z].w = n.x * (n.y / operate(n.y, v.x, op));
+}
+
 RWStructuredBuffer<ParticleConstraint> tet_constraints;          // particles.tet_constraints
 RWStructuredBuffer<ParticleConstraint> tet_initial_constraints;  // bodies with heat: coagulation scales these
 // the tet's Lame parameters for the drawn modulus (nominal: mu, lambda, Young's modulus): both

@@ -201,11 +201,10 @@ class Randomizer:
         body_rows = [int(self._entity_row[e]) for e in body_entity]
         rows = self._matching(term, body_rows)
         objects = [int(o[4]) for o in self._particle_objects()]
-        if not rows and term.param == "damping" and self._matching(term, objects):  # a particle object's
-            return self._rows_objects(k, term)
+        if not rows and self._matching(term, objects):  # a particle object's
+            return self._rows_particles(k, term) if term.param == "mass" else self._rows_objects(k, term)
         if not rows:
-            raise self._fail_none(term, "rigid body" + (" or particle object" if term.param == "damping" else ""),
-                                  body_rows + (objects if term.param == "damping" else []))
+            raise self._fail_none(term, "rigid body or particle object", body_rows + objects)
         row_body = {int(self._entity_row[e]): b for b, e in enumerate(body_entity)}
         out = []
         for r in rows:
@@ -269,6 +268,25 @@ class Randomizer:
         i = 1 if term.param == "friction" else 2
         return "objects", [Target(k, int(self._row_env[r]), o, tuple(mat[o]), (float(mat[o, i]),),
                                   int(self._row_entity[r])) for o, r in enumerate(rows) if r in match]
+
+    def _rows_particles(self, k: int, term: Term):
+        """A particle object's mass: every free particle's (inverse mass w > 0) scaled alike."""
+        objects = self._particle_objects()
+        rows = [int(o[4]) for o in objects]
+        match = {o for o, r in enumerate(rows) if fnmatch.fnmatchcase(self._names[r], term.entity)}
+        phases = self._read("particles.phases", 4, np.uint32)
+        w = self._read("particles.initial_positions", 4)[:, 3]
+        owner = phases[:, 1].astype(np.int64)
+        free = (w > 0) & np.isin(owner, list(match))
+        total = {o: float((1.0 / w[free & (owner == o)]).sum()) for o in match}
+        out = []
+        for i in np.flatnonzero(free):
+            r = rows[owner[i]]
+            out.append(Target(k, int(self._row_env[r]), int(i), (float(w[i]), total[owner[i]], 0.0, 0.0),
+                              (total[owner[i]],), int(self._row_entity[r])))
+        if not out:
+            raise RandomizationError(f"{term.where}: mass: '{term.entity}' has no free particles (all fixed)")
+        return "particles", out
 
     def _rows_tets(self, k: int, term: Term):
         objects = self._particle_objects()
@@ -434,6 +452,7 @@ class Randomizer:
                         for flag in (False, True)}
         outputs = {"bodies": {"bodies": "rigid.bodies"}, "colliders": {"colliders": "rigid.colliders"},
                    "joints": {"joints": "joint.model"}, "objects": {"objects": "particles.objects"},
+                   "particles": {"particle_positions": "particles.positions"},
                    "tets": {"tet_constraints": "particles.tet_constraints",
                             "tet_initial_constraints": "particles.tet_initial_constraints"},
                    "renderables": {"renderables": "render.renderables"}, "lights": {"lights": "render.lights"},
