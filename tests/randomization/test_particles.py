@@ -1,7 +1,8 @@
-"""Randomization of particle objects: an elastic soft body's drawn Young's modulus sets its static sag
-(linear elasticity: sag x E constant, and the sag of a body authored with that modulus), its drawn
-mass scale sags it as that times the density would; a particle object's drawn damping d gives a
-falling particle the velocity of v <- (v + h g) / (1 + h d) per substep; each in its own env only."""
+"""Randomization of particle objects: an elastic soft body's drawn Young's modulus sets its static
+sag (linear elasticity: sag x E constant, and the sag of a body authored with that modulus), its
+drawn mass scale sags it as that times the density would; a particle object's drawn damping d
+gives a falling particle the velocity of v <- (v + h g) / (1 + h d) per substep; each in its own
+env only."""
 import numpy as np
 
 import cressim
