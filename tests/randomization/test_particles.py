@@ -2,7 +2,8 @@
 sag (linear elasticity: sag x E constant, and the sag of a body authored with that modulus), its
 drawn mass scale sags it as that times the density would; a particle object's drawn damping d
 gives a falling particle the velocity of v <- (v + h g) / (1 + h d) per substep; each in its own
-env only."""
+env only. A drawn stiffness scale divides the XPBD compliances: the expert model's cantilever
+sags as one authored with them."""
 import numpy as np
 
 import cressim
@@ -99,3 +100,33 @@ def test_soft_body_mass_sets_each_envs_sag_as_its_density_would(make_engine):
     reference = sags(*cantilevers(make_engine, [E] * 3, density=[1000.0 * scale[0], 1000.0, 1000.0 * scale[2]]), 3)
     np.testing.assert_allclose(sag, reference, rtol=2e-3)
     np.testing.assert_allclose(sag / np.array([scale[0], 1.0, scale[2]]), sag[1], rtol=0.03)  # linear: sag ~ density
+
+
+def xpbd_cantilevers(make_engine, scales):
+    """Per env the cantilever of the expert model (XPBD distance and volume constraints), its
+    compliances divided by `scales` (env 1's body has another name)."""
+    mesh = cressim.TetMesh.box(HALF, CELLS)
+    rest = np.asarray(mesh.positions)
+    world = cressim.World(cressim.SceneLayout(len(scales)))
+    for env, s in enumerate(scales):
+        body = world.create_entity(env=env, name="tissue" if env != 1 else "other_tissue")
+        body.add(cressim.Transform(position=(0, 0, 1)))
+        body.add(cressim.SoftBody(mesh, fixed=np.nonzero(rest[:, 0] < -HALF[0] + 1e-6)[0], mass=0.001,
+                                  distance_compliance=20.0 / float(s), volume_compliance=20.0 / float(s), damping=5.0))
+    engine = make_engine(world)
+    engine.prepare()
+    engine.upload_world()
+    return engine, rest
+
+
+def test_stiffness_divides_xpbd_compliances(make_engine):
+    engine, rest = xpbd_cantilevers(make_engine, [1.0] * 3)
+    r = Randomizer(engine, [dict(param="stiffness", entity="tissue", distribution="log_uniform", range=[0.2, 5.0],
+                                 operation="scale")], seed=3)
+    randomized_frame(engine, r, reset_all=True, physics=False)
+    s = r.read("stiffness/tissue")[:, 0]
+    sag = sags(engine, rest, 3, frames=120)
+    reference = sags(*xpbd_cantilevers(make_engine, [s[0], 1.0, s[2]]), 3, frames=120)
+    np.testing.assert_allclose(sag, reference, rtol=1e-3)
+    # stiffer sags less, softer more, than env 1's body
+    assert all((sag[k] < sag[1]) == (s[k] > 1) and abs(sag[k] / sag[1] - 1) > 0.05 for k in (0, 2)), (s, sag)

@@ -54,6 +54,9 @@ PARAMS = {
                            "a joint drive's damping"),
     "youngs_modulus": Param("tets", 7, 1, ("scale", "add", "abs"), 0, INF, True, "Pa",
                             "an elastic soft body's Young's modulus (its Poisson ratio kept)"),
+    "stiffness": Param("constraints", 16, 1, ("scale",), 0, INF, True, "",
+                       "a soft body's or strand's XPBD constraints (distance, volume, bend, stretch, "
+                       "bend and twist) made this many times stiffer: their compliances divided by it"),
     "color": Param("renderables", 8, 3, ("scale", "add", "abs"), 0, 1, False, "linear RGB",
                    "a renderable's base colour"),
     "light_intensity": Param("lights", 9, 1, ("scale", "add", "abs"), 0, INF, False, "",

@@ -167,6 +167,17 @@ void apply_particles(uint3 id : SV_DispatchThreadID) {
   particle_positions[ids.z].w = n.x * (n.y / operate(n.y, v.x, op));
 }
 
+RWStructuredBuffer<ParticleConstraint> family_constraints;  // particles.<family>_constraints
+[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
+void apply_constraints(uint3 id : SV_DispatchThreadID) {
+  uint4 ids; uint param, op; float4 n; float3 v;
+  if (!target(id.x, ids, param, op, n, v)) return;
+  // nominal: xy the authored compliances in params.xy, zw 1 where that field is one (bend and
+  // twist: both; the other families: y, x being the rest value)
+  if (n.z != 0) family_constraints[ids.z].params.x = n.x / v.x;
+  if (n.w != 0) family_constraints[ids.z].params.y = n.y / v.x;
+}
+
 RWStructuredBuffer<ParticleConstraint> tet_constraints;          // particles.tet_constraints
 RWStructuredBuffer<ParticleConstraint> tet_initial_constraints;  // bodies with heat: coagulation scales these
 // the tet's Lame parameters for the drawn modulus (nominal: mu, lambda, Young's modulus): both

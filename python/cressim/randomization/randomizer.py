@@ -28,6 +28,8 @@ DISTRIBUTION_CODES = {"uniform": 0, "log_uniform": 1, "gaussian": 2, "choice": 3
 OPERATION_CODES = {"scale": 0, "add": 1, "abs": 2}
 WHEN_CODES = {"reset": 0, "interval": 1}
 NONE = 0xFFFFFFFF
+# XPBD constraint families and which of params.x, params.y hold compliances (stretch_shear has none)
+COMPLIANCES = {"distance": (0, 1), "volume": (0, 1), "bend": (0, 1), "stretch": (0, 1), "bend_twist": (1, 1)}
 
 # words of the model structs (shaders/common/*.h) that hold the randomized fields
 BODY_WORDS, COLLIDER_WORDS, JOINT_WORDS, OBJECT_WORDS = 12, 20, 28, 36
@@ -288,6 +290,41 @@ class Randomizer:
             raise RandomizationError(f"{term.where}: mass: '{term.entity}' has no free particles (all fixed)")
         return "particles", out
 
+    def _rows_constraints(self, k: int, term: Term):
+        """The object's records of every XPBD family (one pass a family: group = its index)."""
+        objects = self._particle_objects()
+        rows = [int(o[4]) for o in objects]
+        match = {o for o, r in enumerate(rows) if fnmatch.fnmatchcase(self._names[r], term.entity)}
+        if not match:
+            raise self._fail_none(term, "particle object", rows)
+        phases = self._read("particles.phases", 4, np.uint32)
+        n = len(phases)
+        edges = (np.asarray(self.engine.buffer("particles.edge_particles").read()).ravel()
+                 if "particles.edge_particles" in self._keys else np.zeros(0, np.uint32))
+        out = []
+        for g, (family, fields) in enumerate(COMPLIANCES.items()):
+            key = f"particles.{family}_constraints"
+            if key not in self._keys:
+                continue
+            records = self._read(key, CONSTRAINT_WORDS, np.uint32)
+            params = records[:, 4:8].view(np.float32)
+            for c, rec in enumerate(records):
+                # its first particle (frame ids, >= n, stand for their segment's first particle)
+                first = next((int(q) for q in rec[:4] if q != NONE), None)
+                if first is None:
+                    continue
+                p = first if first < n else int(edges[first - n])
+                obj = int(phases[p, 1])
+                if obj in match:
+                    r = rows[obj]
+                    out.append(Target(k, int(self._row_env[r]), c, (float(params[c, 0]), float(params[c, 1]),
+                                                                    *map(float, fields)),
+                                      (1.0,), int(self._row_entity[r]), g))
+        if not out:
+            raise RandomizationError(f"{term.where}: stiffness: '{term.entity}' has no XPBD constraints (an elastic "
+                                     "tet body's stiffness is its youngs_modulus)")
+        return "constraints", out
+
     def _rows_tets(self, k: int, term: Term):
         objects = self._particle_objects()
         rows = [int(o[4]) for o in objects]
@@ -465,6 +502,14 @@ class Randomizer:
                 entry = "apply_tets_heated" if kind == "tets" and len(outputs[kind]) == 2 else "apply_" + kind
                 self._apply.append(self._pass(entry, len(rows), {**outputs[kind], **self._table(kind, rows)},
                                               outputs[kind].values(), items=len(rows)))
+            elif kind == "constraints":
+                for g, family in enumerate(COMPLIANCES):
+                    group = [t for t in rows if t.group == g]
+                    if group:
+                        key = f"particles.{family}_constraints"
+                        self._apply.append(self._pass("apply_constraints", len(group),
+                                                      {"family_constraints": key, **self._table(family, group)},
+                                                      [key], items=len(group)))
             elif kind == "probes":
                 for g in sorted({t.group for t in rows}):
                     group = [t for t in rows if t.group == g]
