@@ -142,7 +142,7 @@ def test_bad_terms_are_refused_naming_the_field_and_the_problem(make_engine):
     fails(engine, {**ok, "when": "interval", "every": 0}, "randomization[0].every", "must be >= 1")
     fails(engine, {**ok, "every": 5}, "'every' is for when: interval")
     fails(engine, {**ok, "when": "often"}, "unknown 'when'")
-    fails(engine, {**ok, "entity": "blok"}, "no rigid body named 'blok'", "block")
+    fails(engine, {**ok, "entity": "blok"}, "no rigid body or particle object named 'blok'", "(entities with one: block)")
     # values the parameter cannot take, found with the authored value
     fails(engine, {**ok, "operation": "add", "range": [-2.0, 1.0]}, "mass of 'block'", "authored 1 kg",
           "would reach [-1, 2]", "must stay in (0, inf]")

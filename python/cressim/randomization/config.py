@@ -319,7 +319,7 @@ def parse_terms(f, textures: dict | None = None) -> list[Term]:
     return terms
 
 
-def load_terms(config, origin: str = "randomization") -> list[Term]:
+def load_terms(config, origin: str = "Randomizer(terms=...)") -> list[Term]:
     """Terms from `config`: a list of term dicts, a path to a YAML file (a scene file's
     `randomization:` section, or a file holding the list), or already parsed Terms."""
     from pathlib import Path
