@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 import torch
 
+import cressim
 import cressim.envs
 from cressim.scene_file import SceneFileError
 
@@ -147,3 +148,18 @@ def test_a_scene_files_randomization_runs_in_the_task_that_loads_it(tmp_path):
     with pytest.raises(ValueError, match="term name 'friction/table' is also used at .*tissue_retraction.yaml:"):
         cressim.envs.make("TissueRetract", num_envs=1, scene=str(twin),
                           randomization=[dict(param="friction", entity="table", range=[0.1, 0.2])])
+
+
+def test_depth_noise_needs_a_camera_the_task_renders():
+    class CartPoleWithDepth(cressim.envs.CartPole):  # a depth camera that the step never renders
+        def build_world(self, num_envs):
+            world = super().build_world(num_envs)
+            for env in range(num_envs):
+                cam = world.create_entity(env=env, name="camera")
+                cam.add(cressim.Transform(position=(0, -3, 1)))
+                cam.add(cressim.Camera(width=16, height=16, products=["depth"]))
+            return world
+
+    noise = [dict(param="depth_noise", entity="camera", range=[0, 0.01], operation="abs")]
+    with pytest.raises(ValueError, match="CartPoleWithDepth: depth_noise needs a camera the task renders every step"):
+        CartPoleWithDepth(1, randomization=noise)

@@ -33,6 +33,7 @@ class TargetCenter(VectorEnv):
     hlsl = Path(__file__).with_name("target_center.hlsl")
     single_action_space = box((2,), -1.0, 1.0)
     own_cameras = True  # render() shows the task's camera
+    renders_cameras = True
     max_episode_steps = 120
     action_scale = math.radians(0.2)
     fov_y = 50.0

@@ -72,6 +72,7 @@ class VectorEnv(gymnasium.vector.VectorEnv):
     video_view: tuple = ((0.0, -3.0, 2.0), (0.0, 0.0, 0.0))
     own_cameras = False
     scene_randomization: tuple = ()  # domain randomization terms of the scene file build_world loaded
+    renders_cameras = False  # sense() renders the task's cameras (their depth noise goes on each new image)
 
     def __init__(self, num_envs: int, *, device: str | torch.device | None = None, seed: int = 0,
                  validation: bool | None = None, vulkan_device: str | None = None, cuda_sync: str = "semaphore",
@@ -135,6 +136,8 @@ class VectorEnv(gymnasium.vector.VectorEnv):
 
             self.randomizer = Randomizer(self.engine, terms, seed=self.seed, env_offset=self.env_offset,
                                          episode_flags=self.episode_flags())
+            if self.randomizer.sensor_noise and not self.renders_cameras:  # noise on a stale image would pile up
+                raise ValueError(f"{name}: depth_noise needs a camera the task renders every step; {name} renders none")
         if self.device.type == "cuda":  # frames wait for the actions written on torch's stream
             if cuda_sync not in ("semaphore", "host"):
                 raise ValueError(f"cuda_sync={cuda_sync!r}: use 'semaphore' (on the GPU) or 'host'")

@@ -86,6 +86,12 @@ class Randomizer:
         for p in self._noise:
             self.engine.execute_compute_pass(p)
 
+    @property
+    def sensor_noise(self) -> bool:
+        """Whether after_sensors() records anything (depth noise): call it right after the cameras
+        render, once per render (the noise goes onto the image in place)."""
+        return bool(self._noise)
+
     def set_seed(self, seed: int) -> None:
         self.seed = int(seed)
         for p in self._all_passes():
