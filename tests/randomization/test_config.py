@@ -213,3 +213,16 @@ def test_scene_file_randomization_is_checked_with_file_and_line(tmp_path):
     with pytest.raises(SceneFileError, match=rf"{textured}:8: randomization\[0\]\.choices\[1\]: no texture named "
                                              "'wood'; the textures are: plain, checker"):
         load_scene(textured)
+
+
+def test_envs_reset_from_the_host_draw_their_reset_terms(make_engine):
+    engine = blocks(make_engine, 3)
+    r = Randomizer(engine, [dict(param="mass", entity="block", range=[0.5, 2.0], operation="abs")], seed=4)
+    randomized_frame(engine, r, reset_all=True, physics=False)
+    before = r.read()
+    r.reset_envs([1])
+    randomized_frame(engine, r)
+    after = r.read()
+    assert after[1, 0] != before[1, 0] and after[0, 0] == before[0, 0] and after[2, 0] == before[2, 0]
+    randomized_frame(engine, r)  # once only
+    np.testing.assert_array_equal(r.read(), after)

@@ -42,6 +42,7 @@ StructuredBuffer<uint> reset_mask;   // env.reset_mask
 // nonzero where an episode ended this step (its terminated and truncated; else env.reset_mask)
 StructuredBuffer<uint> ended_a;
 StructuredBuffer<uint> ended_b;
+RWStructuredBuffer<uint> pending;    // envs reset from the host (Randomizer.reset_envs), cleared once drawn
 RWStructuredBuffer<float> values;    // (envs, columns): the drawn values
 RWStructuredBuffer<uint> fresh;      // (envs, terms): 1 where the term was drawn or its env reset this frame
 RWStructuredBuffer<uint> draws;      // (envs, terms): draws so far
@@ -77,7 +78,9 @@ void sample(uint3 id : SV_DispatchThreadID) {
   const uint env = id.x;
   if (env >= pc.envs) return;
   if (env == 0) frame[0] += 1;
-  const bool reset = pc.reset_all != 0 || reset_mask[env] != 0 || ended_a[env] != 0 || ended_b[env] != 0;
+  const bool reset = pc.reset_all != 0 || reset_mask[env] != 0 || ended_a[env] != 0 || ended_b[env] != 0 ||
+                    pending[env] != 0;
+  pending[env] = 0;
   for (uint t = 0; t < pc.terms; ++t) {
     const uint4 term = terms[t];
     const uint k = env * pc.terms + t, when = (term.z >> 8) & 0xff;

@@ -86,6 +86,14 @@ class Randomizer:
         for p in self._noise:
             self.engine.execute_compute_pass(p)
 
+    def reset_envs(self, envs) -> None:
+        """engine.reset_envs(envs) with a draw: the engine resets them at the next frame's start,
+        before any pass runs, so the sampler is told here (host work O(envs), on request only)."""
+        flags = np.zeros(self.num_envs, np.uint32)
+        flags[np.asarray(envs, np.int64)] = 1
+        self.engine.reset_envs([int(e) for e in envs])
+        self._state["pending"].write(flags)
+
     @property
     def sensor_noise(self) -> bool:
         """Whether after_sensors() records anything (depth noise): call it right after the cameras
@@ -146,6 +154,8 @@ class Randomizer:
         for name in ("fresh", "draws", "counters"):
             self._state[name] = e.create_shared_buffer(f"randomization_{name}", (n, T), "uint32")
             self._state[name].write(np.zeros((n, T), np.uint32))
+        self._state["pending"] = e.create_shared_buffer("randomization_pending", n, "uint32")
+        self._state["pending"].write(np.zeros(n, np.uint32))
         self._state["frame"] = e.create_shared_buffer("randomization_frame", 1, "uint32")
         self._state["frame"].write(np.zeros(1, np.uint32))
 
@@ -172,7 +182,7 @@ class Randomizer:
     def _create_passes(self):
         sample = {"columns": self._column_table, "choices": self._choices, "reset_mask": "env.reset_mask",
                   "ended_a": self._episode_flags[0], "ended_b": self._episode_flags[1], "draws": self._state["draws"],
-                  "counters": self._state["counters"], "frame": self._state["frame"]}
+                  "counters": self._state["counters"], "frame": self._state["frame"], "pending": self._state["pending"]}
         self._sample = {flag: self._pass("sample", self.num_envs, sample, reset_all=int(flag))
                         for flag in (False, True)}
         self._apply, self._noise = [], []
