@@ -77,6 +77,8 @@ def test_same_seed_same_draws_and_envs_independent_of_their_neighbours(make_engi
     # an env draws the same whatever the batch size, and a shard (env_offset) draws its envs' numbers
     np.testing.assert_array_equal(draws(make_engine, 3, TERMS, seed=5), a[:3])
     np.testing.assert_array_equal(draws(make_engine, 4, TERMS, seed=5, env_offset=4), a[4:])
+    # a term draws the same whatever the terms beside it (its name salts its draws)
+    np.testing.assert_array_equal(draws(make_engine, 8, TERMS[2:3], seed=5)[:, 0], a[:, 2])
 
 
 def test_set_seed_restarts_nothing_but_changes_the_stream(make_engine):

@@ -1,11 +1,12 @@
 // Domain randomization on the GPU (cressim/randomization): `sample` draws each env's values of
 // every term (a thread per env) at its reset or on its interval; the `apply_*` entries write them
 // into the engine's model buffers (a thread per target row: a body, collider, joint, particle
-// object, tet, renderable, light, camera transform or probe) from the authored values kept in
-// target_nominal, so a draw never compounds; `depth_noise` adds gaussian noise of each env's
-// drawn standard deviation to its cameras' depth images (a thread per pixel).
-// Draws hash (seed, env + env_offset, term, component, the term's draw count in that env): seeded,
-// and an env's draws do not depend on the envs beside it.
+// object or particle, a tet or constraint, a renderable, light, camera transform or probe) from
+// the authored values kept in target_nominal, so a draw never compounds; `depth_noise` adds
+// gaussian noise of each env's drawn standard deviation to its cameras' depth images (a thread
+// per pixel).
+// Draws hash (seed, env + env_offset, the term's name, component, the term's draw count in that
+// env): seeded, and an env's draws depend neither on the envs beside it nor on the other terms.
 #include "cressim/layout.h"
 #include "cressim/particle.h"
 #include "cressim/quat.h"
@@ -34,7 +35,11 @@ struct Params {
 };
 [[vk::push_constant]] ConstantBuffer<Params> pc;
 
-StructuredBuffer<uint4> terms;       // x first value column, y components, z distribution | when << 8, w every
+struct Term {
+  uint4 layout;  // x first value column, y components, z distribution | when << 8, w every
+  uint4 salt;    // x a hash of the term's name: its draws do not depend on the other terms
+};
+StructuredBuffer<Term> terms;
 StructuredBuffer<float4> columns;    // per value column: x, y range (mean, std; choice: first, count), z, w clip
 StructuredBuffer<float> choices;     // the values choice terms draw from
 StructuredBuffer<uint> reset_mask;   // env.reset_mask
@@ -82,7 +87,7 @@ void sample(uint3 id : SV_DispatchThreadID) {
                     pending[env] != 0;
   pending[env] = 0;
   for (uint t = 0; t < pc.terms; ++t) {
-    const uint4 term = terms[t];
+    const uint4 term = terms[t].layout;
     const uint k = env * pc.terms + t, when = (term.z >> 8) & 0xff;
     bool now = pc.reset_all != 0 || (when == WHEN_RESET && reset);
     if (when == WHEN_INTERVAL) {
@@ -96,7 +101,7 @@ void sample(uint3 id : SV_DispatchThreadID) {
     draws[k] = n + 1;
     for (uint c = 0; c < term.y; ++c) {
       const uint col = term.x + c;
-      values[env * pc.columns + col] = draw(term.z & 0xff, columns[col], env, col, n);
+      values[env * pc.columns + col] = draw(term.z & 0xff, columns[col], env, terms[t].salt.x + c, n);
     }
   }
 }
@@ -115,7 +120,7 @@ bool target(uint i, out uint4 ids, out uint param, out uint op, out float4 nomin
   param = ids.w & 0xff;
   op = (ids.w >> 8) & 0xff;
   nominal = target_nominal[i];
-  const uint4 term = terms[ids.x];
+  const uint4 term = terms[ids.x].layout;
   const uint base = ids.y * pc.columns + term.x;
   v = float3(values[base], term.y > 1 ? values[base + 1] : 0.0, term.y > 2 ? values[base + 2] : 0.0);
   return true;

@@ -13,6 +13,7 @@ A frame with randomization (VectorEnv does this)::
 """
 from __future__ import annotations
 
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -130,12 +131,13 @@ class Randomizer:
     # --- GPU resources -----------------------------------------------------------------------
     def _create_buffers(self):
         e, n, T, D = self.engine, self.num_envs, len(self.terms), self.column_count
-        terms = np.zeros((T, 4), np.uint32)
+        terms = np.zeros((T, 8), np.uint32)  # randomize.hlsl's Term
         columns = np.zeros((D, 4), np.float32)
         choices = []
         for k, t in enumerate(self.terms):
             c = self._columns[t.name]
-            terms[k] = (c.start, t.spec.size, DISTRIBUTION_CODES[t.distribution] | WHEN_CODES[t.when] << 8, t.every)
+            terms[k, :5] = (c.start, t.spec.size, DISTRIBUTION_CODES[t.distribution] | WHEN_CODES[t.when] << 8,
+                            t.every, zlib.crc32(t.name.encode()))
             clip = t.clip or ((-np.inf,) * t.spec.size, (np.inf,) * t.spec.size)
             for j in range(t.spec.size):
                 columns[c.start + j] = (t.low[j], t.high[j], clip[0][j], clip[1][j])
@@ -144,7 +146,7 @@ class Randomizer:
                 choices += t.choices
         self._choices = e.create_shared_buffer("randomization_choices", max(len(choices), 1), "float32")
         self._choices.write(np.array(choices or [0.0], np.float32))
-        self._terms = e.create_shared_buffer("randomization_terms", (T, 4), "uint32")
+        self._terms = e.create_shared_buffer("randomization_terms", (T, 8), "uint32")
         self._terms.write(terms)
         self._column_table = e.create_shared_buffer("randomization_columns", (D, 4), "float32")
         self._column_table.write(columns)
