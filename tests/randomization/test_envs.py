@@ -30,13 +30,13 @@ def test_reset_terms_redraw_in_finished_envs_only_and_interval_terms_on_schedule
     assert env.randomized().shape == (6, 2)
     ends = 0
     for step in range(1, 61):
-        _, _, terminated, truncated, _ = env.step(torch.zeros(6, 1))
-        done = (terminated | truncated).numpy()
+        _, _, terminated, truncated, _ = env.step(torch.zeros(6, 1, device=env.device))
+        done = (terminated | truncated).cpu().numpy()
         now_pole, now_cart = env.randomized("pole_mass").clone(), env.randomized("cart_mass").clone()
-        np.testing.assert_array_equal((now_pole != pole).numpy()[:, 0], done)  # a finished env's next episode draws
+        np.testing.assert_array_equal((now_pole != pole).cpu().numpy()[:, 0], done)  # a finished env's next episode draws
         assert (now_cart != cart).all() if step % 20 == 0 else (now_cart == cart).all()
-        np.testing.assert_allclose(inverse_masses(env, "pole"), 1 / (2.0 * now_pole[:, 0].numpy()), rtol=1e-6)
-        np.testing.assert_allclose(inverse_masses(env, "cart"), 1 / now_cart[:, 0].numpy(), rtol=1e-6)
+        np.testing.assert_allclose(inverse_masses(env, "pole"), 1 / (2.0 * now_pole[:, 0].cpu().numpy()), rtol=1e-6)
+        np.testing.assert_allclose(inverse_masses(env, "cart"), 1 / now_cart[:, 0].cpu().numpy(), rtol=1e-6)
         pole, cart = now_pole, now_cart
         ends += int(done.sum())
     assert ends >= 3  # poles fell (zero actions)
@@ -50,7 +50,7 @@ def test_the_same_seed_replays_the_same_draws_and_physics():
         obs, _ = env.reset(seed=seed)
         out = [torch.cat([obs, env.randomized()], 1).clone()]
         for _ in range(25):
-            obs, *_ = env.step(torch.full((4, 1), 0.3))
+            obs, *_ = env.step(torch.full((4, 1), 0.3, device=env.device))
             out.append(torch.cat([obs, env.randomized()], 1).clone())
         return torch.stack(out)
 
@@ -93,16 +93,17 @@ def test_target_center_redraws_its_looks_when_act_ends_an_episode():
     color = env.randomized("color/target").clone()
     light = env.randomized("light_intensity/sun").clone()
     for step in range(1, 7):
-        obs, _, terminated, truncated, info = env.step(torch.zeros(3, 2))
-        done = (terminated | truncated).numpy()
+        obs, _, terminated, truncated, info = env.step(torch.zeros(3, 2, device=env.device))
+        ended = terminated | truncated
+        done = ended.cpu().numpy()
         now = env.randomized("color/target").clone()
-        np.testing.assert_array_equal((now != color).any(1).numpy(), done)
+        np.testing.assert_array_equal((now != color).any(1).cpu().numpy(), done)
         assert (env.randomized("light_intensity/sun") != light).all() == (step % 2 == 0)
         light = env.randomized("light_intensity/sun").clone()
         drawn = e.buffer("render.renderables").read().view(np.float32).reshape(-1, 16)[target_rows, 4:7]
-        np.testing.assert_allclose(drawn, now.numpy(), rtol=1e-6)
+        np.testing.assert_allclose(drawn, now.cpu().numpy(), rtol=1e-6)
         if done.any():  # the final image still shows the last episode's colour, the new one the next
-            assert not torch.equal(info["final_obs"][done], obs[done])
+            assert not torch.equal(info["final_obs"][ended], obs[ended])
         color = now
     assert env.engine.validation_messages == []
 
@@ -125,7 +126,7 @@ def test_a_scene_files_randomization_runs_in_the_task_that_loads_it(tmp_path):
     env.reset()
     assert env.randomizer.names == ["youngs_modulus/flap", "friction/flap", "friction/table", "damping/flap"]
     e = env.engine
-    young = env.randomized("youngs_modulus/flap")[:, 0].numpy()
+    young = env.randomized("youngs_modulus/flap")[:, 0].cpu().numpy()
     assert ((young >= 5e3) & (young <= 20e3)).all() and young[0] != young[1]
     # every tet of an env's flap has its mu scaled by drawn / authored modulus (10 kPa)
     tets = e.buffer("particles.tet_constraints").read().view(np.float32).reshape(-1, 8)
@@ -138,10 +139,10 @@ def test_a_scene_files_randomization_runs_in_the_task_that_loads_it(tmp_path):
         np.testing.assert_allclose(tets[env_of_tet == k, 5], mu * young[k] / 10e3, rtol=1e-4)
     names = [e.world.entity(int(e.mapping["entity_id"][row])).name for row in objects[:, 4]]
     flap = objects.view(np.float32)[[n == "flap" for n in names]]  # one an env, in env order
-    np.testing.assert_allclose(flap[:, 9], 0.5 * env.randomized("friction/flap")[:, 0].numpy(), rtol=1e-6)
-    np.testing.assert_allclose(flap[:, 10], 2.0 * env.randomized("damping/flap")[:, 0].numpy(), rtol=1e-6)
+    np.testing.assert_allclose(flap[:, 9], 0.5 * env.randomized("friction/flap")[:, 0].cpu().numpy(), rtol=1e-6)
+    np.testing.assert_allclose(flap[:, 10], 2.0 * env.randomized("damping/flap")[:, 0].cpu().numpy(), rtol=1e-6)
     table = e.buffer("rigid.colliders").read().view(np.float32).reshape(-1, 20)[:, 12:14]
-    drawn = env.randomized("friction/table")[:, 0].numpy()
+    drawn = env.randomized("friction/table")[:, 0].cpu().numpy()
     for d in drawn:  # each env's table: static and dynamic friction both the draw
         assert (np.isclose(table, d, rtol=1e-6).all(1)).sum() == 1
     assert not np.isclose(table[:, 0], 0.6).any()  # none kept the authored 0.6 (the arm's links have 0.5)
