@@ -1,5 +1,6 @@
 """Visual randomization: an env renders exactly what a scene authored with its drawn values
-renders (a renderable's colour, a light's intensity and colour, a camera's pose), other envs are untouched,
+renders (a renderable's colour and texture, a light's intensity and colour, the ambient light, a
+camera's pose), other envs are untouched,
 and a known point projects where the pinhole model puts it from the drawn camera pose."""
 import math
 
@@ -39,7 +40,7 @@ def rotation_vector(v):
 
 
 def build(make_engine, envs, *, slab_color=(0.6, 0.6, 0.6, 1.0), light=1.0, light_color=(1.0, 1.0, 1.0),
-          camera=((0, 0, 1.0), DOWN), texture=-1):
+          camera=((0, 0, 1.0), DOWN), texture=-1, ambient=0.2):
     """Per env a grey slab (top at z = 0) with a marker ball, a light and an RGB + depth +
     segmentation camera; env 1's slab, light and camera have other names (no term reaches them).
     `slab_color`, `light`, `camera` (position, rotation): env 0's as authored, or per env lists."""
@@ -58,7 +59,8 @@ def build(make_engine, envs, *, slab_color=(0.6, 0.6, 0.6, 1.0), light=1.0, ligh
         mark.add(cressim.Renderable(ball, color=(0.9, 0.1, 0.1, 1), segmentation_id=7))
         sun = world.create_entity(env=env, name=tag + "sun")
         sun.add(cressim.Transform(rotation=(0.985, 0.0, 0.0, 0.174)))  # travelling down, 20 deg off vertical
-        sun.add(cressim.Light(intensity=per_env(light, env), color=tuple(per_env(light_color, env)), ambient=0.2))
+        sun.add(cressim.Light(intensity=per_env(light, env), color=tuple(per_env(light_color, env)),
+                              ambient=per_env(ambient, env)))
         position, rotation = per_env(camera, env) if isinstance(camera, list) else camera
         cam = world.create_entity(env=env, name=tag + "camera")
         cam.add(cressim.Transform(position=tuple(position), rotation=tuple(rotation)))
@@ -141,6 +143,18 @@ def test_texture_renders_as_the_drawn_texture_authored(make_engine):
     np.testing.assert_array_equal(rgb[1], plain[1])
     with pytest.raises(RandomizationError, match=r"the world has 2 texture\(s\) \(indices 0 to 1, -1 none\)"):
         Randomizer(engine, [dict(param="texture", entity="slab", distribution="choice", choices=[0, 2])])
+
+
+def test_ambient_renders_as_the_drawn_ambient_authored(make_engine):
+    engine = build(make_engine, 3)
+    plain, _ = render(engine)
+    r, (rgb, _) = randomized(engine, [dict(param="ambient", entity="sun", range=[0.2, 3.0], operation="scale")], seed=3)
+    scale = r.read("ambient/sun")[:, 0]
+    reference, _ = render(build(make_engine, 3, ambient=[float(0.2 * s) for s in scale]))
+    for env in (0, 2):
+        assert np.abs(rgb[env].astype(int) - reference[env].astype(int)).max() <= 1
+        assert np.abs(rgb[env].astype(int) - plain[env].astype(int)).max() > 2
+    np.testing.assert_array_equal(rgb[1], plain[1])
 
 
 def test_camera_pose_moves_the_projection_of_a_known_point(make_engine):

@@ -62,6 +62,9 @@ PARAMS = {
     "light_intensity": Param("lights", 9, 1, ("scale", "add", "abs"), 0, INF, False, "",
                              "a light's intensity"),
     "light_color": Param("lights", 10, 3, ("scale", "add", "abs"), 0, 1, False, "linear RGB", "a light's colour"),
+    "ambient": Param("environment", 17, 1, ("scale",), 0, INF, False, "",
+                     "the ambient light of the env of a light or environment entity: its sky and ground "
+                     "colours (and environment map) scaled by the draw"),
     "camera_position": Param("transforms", 11, 3, ("add", "abs"), -INF, INF, False, "m",
                              "a camera's position (its env frame)"),
     "camera_rotation": Param("transforms", 12, 3, ("add",), -INF, INF, False, "rad",

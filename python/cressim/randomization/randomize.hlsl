@@ -230,6 +230,19 @@ void apply_lights(uint3 id : SV_DispatchThreadID) {
   else lights[ids.z].color.rgb = saturate(operate3(n.rgb, v, op)) * n.w;
 }
 
+RWStructuredBuffer<EnvLighting> env_lighting;  // render.env_lighting, a row an env
+[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
+void apply_environment(uint3 id : SV_DispatchThreadID) {
+  uint4 ids; uint param, op; float4 n; float3 v;
+  if (!target(id.x, ids, param, op, n, v)) return;
+  // row 3 env + k: k = 0 the sky, 1 the ground, 2 the environment map's scale (nominal: as authored)
+  const uint env = ids.z / 3, k = ids.z % 3;
+  const float3 c = n.rgb * max(v.x, 0.0);
+  if (k == 0) env_lighting[env].sky.rgb = c;
+  else if (k == 1) env_lighting[env].ground.rgb = c;
+  else env_lighting[env].map_scale.rgb = c;
+}
+
 RWStructuredBuffer<float4> positions;  // transform.positions
 RWStructuredBuffer<float4> rotations;  // transform.rotations
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]

@@ -33,6 +33,7 @@ OUTPUTS = {"bodies": {"bodies": "rigid.bodies"}, "colliders": {"colliders": "rig
            "particles": {"particle_positions": "particles.positions"},
            "tets": {"tet_constraints": "particles.tet_constraints"},
            "renderables": {"renderables": "render.renderables"}, "lights": {"lights": "render.lights"},
+           "environment": {"env_lighting": "render.env_lighting"},
            "transforms": {"positions": "transform.positions", "rotations": "transform.rotations"}}
 
 

@@ -289,6 +289,25 @@ class Targets:
         acted = [(light.intensity,) if term.param == "light_intensity" else tuple(light.color) for light in lights]
         return [self._rows(k, "lights", rows[match], slots[match], nominal, acted)]
 
+    def _environment(self, k: int, term: Term) -> list[Rows]:
+        """The ambient light of each env with a matching light or environment entity: its sky,
+        ground and environment map scale (rows 3 env + 0, 1, 2 of render.env_lighting's colours)."""
+        if "render.env_lighting" not in self.keys:
+            raise self._none(term, "light or environment", [])
+        lit = np.array([r for r, e in enumerate(self.row_entity)
+                        if self.world.entity(int(e)).has(cressim.Light)
+                        or self.world.entity(int(e)).has(cressim.EnvironmentLight)], np.int64)
+        match = lit[self._match(term, lit)] if len(lit) else lit
+        if not len(match):
+            raise self._none(term, "light or environment", lit)
+        _, first = np.unique(self.row_env[match], return_index=True)  # one an env
+        rows = match[first]
+        lighting = self._read("render.env_lighting", self.engine.buffer("render.env_lighting").shape[1])
+        envs = self.row_env[rows]
+        colours = np.stack([lighting[envs, 0:4], lighting[envs, 4:8], lighting[envs, 20:24]], 1)  # sky, ground, map
+        return [self._rows(k, "environment", np.repeat(rows, 3), (3 * envs[:, None] + np.arange(3)).ravel(),
+                           colours.reshape(-1, 4), np.ones(3 * len(rows)))]
+
     def _cameras(self, term: Term, need_depth: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """(camera indices of engine.cameras, their entity rows) that the term names."""
         cams = self.engine.cameras
