@@ -1,7 +1,7 @@
-"""Visual randomization: an env renders exactly what a scene authored with its drawn values
-renders (a renderable's colour and texture, a light's intensity and colour, the ambient light, a
-camera's pose), other envs are untouched,
-and a known point projects where the pinhole model puts it from the drawn camera pose."""
+"""Visual randomization: an env renders exactly what a scene authored with its drawn values renders
+(a renderable's colour and texture, a light's intensity and colour, the ambient light, a
+camera's pose), other envs are untouched, and a known point projects where the pinhole model
+puts it from the drawn camera pose."""
 import math
 
 import numpy as np
