@@ -21,6 +21,24 @@ DYNAMICS = ("kinematic", "dynamic")  # arm.dynamics: the arm's links follow the 
 SENSORS = ("joints", "cartesian", "velocity", "wrench", "jacobian", "tf", "clock", "color", "depth", "segmentation", "ultrasound")
 
 
+CART_ARMS = {"ECM": "ecm", "PSM1": "psm", "PSM2": "psm", "PSM3": "psm", "MTML": "mtm", "MTMR": "mtm"}
+ECM_HOME = (0.0, 0.0, 0.05, 0.0)  # rad, m: the endoscope 5 cm in
+
+
+@dataclass(frozen=True)
+class CartArm:
+    """One arm of a patient cart (scene file `cart:`): its dVRK name (also its ROS namespace and
+    frame prefix), kind (psm, ecm, mtm), PSM instrument, and where its setup joints hold its
+    base (the RCM; an MTM's base frame) in the world."""
+    name: str
+    kind: str
+    robot: str = "psm_lnd"
+    base_position: tuple = (0.0, 0.0, 0.3)
+    base_rotation: tuple = (0.0, 0.0, 0.0, 1.0)
+    initial_jp: tuple | None = None  # None: the arm section's (PSM) or ECM_HOME
+    home_jp: tuple | None = None
+
+
 class SceneError(ValueError):
     """A bad scene file; the message starts with `file:line:column:`."""
 
@@ -66,6 +84,8 @@ class Scene:
     # a suture needle held in the needle driver's jaws (arm.needle; None: none): cressim.Needle's
     # arc_radius, arc_angle, puncture_force, puncture_depth and friction, and thread_length (m)
     needle: dict | None = None
+    cart: tuple = ()  # CartArm of a patient cart (cressim.twin.cart); empty: the one `arm`
+    endoscope_baseline: float = 0.005  # m between the ECM's two cameras (cart.ECM.endoscope.baseline)
     lines: dict = field(default_factory=dict, repr=False)  # field -> "file:line:col" (for later checks)
 
 
@@ -104,7 +124,7 @@ def parse_scene(text: str, path: str = "<string>") -> Scene:
     if root is None:  # an empty file: all defaults
         return scene
     p = _Parser(path)
-    top = p.mapping(root, "", {"arm", "num_envs", "rates", "camera", "sensors", "record", "world"})
+    top = p.mapping(root, "", {"arm", "num_envs", "rates", "camera", "sensors", "record", "world", "cart"})
     if "arm" in top:
         arm = p.mapping(top["arm"], "arm", {"name", "robot", "dynamics", "base", "initial_jp", "initial_jaw",
                                             "home_jp", "measured_lag", "trajectory", "stale_command_after",
@@ -176,6 +196,8 @@ def parse_scene(text: str, path: str = "<string>") -> Scene:
             if "acceleration_ratio" in traj:
                 scene.acceleration_ratio = p.number(traj["acceleration_ratio"], "arm.trajectory.acceleration_ratio",
                                                     low=1e-3, high=1e3)
+    if "cart" in top:
+        _parse_cart(p, top["cart"], scene)
     if "num_envs" in top:
         scene.num_envs = p.integer(top["num_envs"], "num_envs", low=1, high=4096)
     if "rates" in top:
@@ -223,6 +245,44 @@ def parse_scene(text: str, path: str = "<string>") -> Scene:
         name, why = problem
         raise SceneError(f"{scene.lines.get(name, path)}: rates.{RATE_KEYS[name]}: {why}")
     return scene
+
+
+def _parse_cart(p, node, scene):
+    """`cart:` {ECM: {...}, PSM1: {...}, ...}: the arms of a patient cart, each with its base."""
+    cart = p.mapping(node, "cart", set(CART_ARMS))
+    arms = []
+    for name, arm_node in cart.items():
+        kind = CART_ARMS[name]
+        keys = {"base"} | ({"robot", "initial_jp", "home_jp"} if kind == "psm" else set()) \
+            | ({"initial_jp", "home_jp", "endoscope"} if kind == "ecm" else set())
+        fields = p.mapping(arm_node, f"cart.{name}", keys) if not _is_null(arm_node) else {}
+        values = dict(name=name, kind=kind)
+        if "base" in fields:
+            base = p.mapping(fields["base"], f"cart.{name}.base", {"position", "rotation"})
+            if "position" in base:
+                values["base_position"] = p.numbers(base["position"], f"cart.{name}.base.position", 3)
+            if "rotation" in base:
+                q = p.numbers(base["rotation"], f"cart.{name}.base.rotation", 4)
+                norm = math.sqrt(sum(v * v for v in q))
+                if abs(norm - 1.0) > 1e-3:
+                    p.fail(base["rotation"], f"cart.{name}.base.rotation",
+                           f"quaternion x, y, z, w of norm 1 expected, norm is {norm:.6g}")
+                values["base_rotation"] = tuple(v / norm for v in q)
+        if "robot" in fields:
+            values["robot"] = p.choice(fields["robot"], f"cart.{name}.robot", ROBOTS)
+        dof = 4 if kind == "ecm" else 6
+        for key in ("initial_jp", "home_jp"):
+            if key in fields:
+                values[key] = p.numbers(fields[key], f"cart.{name}.{key}", dof)
+        if "endoscope" in fields:
+            scope = p.mapping(fields["endoscope"], f"cart.{name}.endoscope", {"baseline"})
+            if "baseline" in scope:
+                scene.endoscope_baseline = p.number(scope["baseline"], f"cart.{name}.endoscope.baseline",
+                                                    low=1e-4, high=0.05)
+        arms.append(CartArm(**values))
+    if not any(a.kind == "ecm" for a in arms) or not any(a.kind == "psm" for a in arms):
+        p.fail(node, "cart", "a cart needs the ECM and at least one PSM")
+    scene.cart = tuple(arms)
 
 
 RATE_KEYS = {"physics_rate": "physics", "particle_rate": "particles"}

@@ -47,13 +47,16 @@ from crtk_msgs.msg import OperatingState
 from crtk_msgs.srv import QueryForwardKinematics, QueryInverseKinematics, TriggerOperatingState
 
 from cressim.robots import PSM_JOINT_NAMES
+from cressim.robots.kinematics import matrix_to_pose7
 from cressim.twin import ConfigError, Sensor, SensorLoop, StateReport, TwinArms, TwinConfig
+from cressim.twin.cart import EYES, Cart
 from cressim.twin.command_checks import stale_refusal
 from cressim.twin.sensor_loop import process_threads
 from cressim.twin.scene import DEFAULT_SCENE, SceneError, load_scene
 
 from . import params as P
-from .camera_topics import PRODUCTS, CameraTopics, camera_frame
+from .camera_topics import PRODUCTS, CameraTopics, CameraView, camera_frame
+from .ecm_topics import EcmTopics
 from .diagnostics import build_diagnostics
 from .recorder import RecordingUnavailable, open_recorder
 from .robot_state import RobotStateTopics
@@ -145,23 +148,39 @@ class TwinNode(Node):
     def _build(self, threaded_sensors: bool):
         cfg = self.cfg
         self._threads_before_engine = process_threads()
-        self.arms = TwinArms(TwinConfig(
+        config = TwinConfig(
             scene=self.scene, num_envs=cfg["num_envs"], robot=cfg["robot"], dynamics=cfg["dynamics"],
             arm=cfg["arm"], physics_rate=cfg["physics_rate"], particle_rate=cfg["particle_rate"],
             publish_rate=cfg["publish_rate"],
             camera_width=cfg["camera_width"], camera_height=cfg["camera_height"],
             # the probe and its scatterers exist when the node starts with the group
-            ultrasound="ultrasound" in cfg["sensors"]))
+            ultrasound="ultrasound" in cfg["sensors"])
+        # a patient cart (the scene's `cart:`): one row per PSM, each under its own name
+        self.cart = Cart(config) if self.scene.cart else None
+        self.arms = self.cart or TwinArms(config)
         arms = self.arms
         self.num_envs, self.arm, self.robot = arms.num_envs, arms.arm, arms.robot
-        self.namespaces = env_namespaces(self.arm, self.num_envs)
-        self.base_frame_id = [f"{env_frame_prefix(i, self.num_envs)}{self.arm}_base" for i in range(self.num_envs)]
+        if self.cart:
+            self.arm_names, self.prefixes = list(arms.names), [""] * self.num_envs
+            self.namespaces = [[f"/{name}"] for name in self.arm_names]
+        else:
+            self.arm_names = [self.arm] * self.num_envs
+            self.prefixes = [env_frame_prefix(i, self.num_envs) for i in range(self.num_envs)]
+            self.namespaces = env_namespaces(self.arm, self.num_envs)
+        self.base_frame_id = [f"{p}{name}_base" for p, name in zip(self.prefixes, self.arm_names)]
         engine, scenery = arms.bodies.engine, arms.bodies.scenery
-        self.camera = CameraTopics(self, engine, scenery.camera, scenery.labels, self.num_envs)
+        views = None
+        if self.cart:  # the endoscope's rectified pair: the right camera's P[3] = -fx B (ROS)
+            fx = scenery.camera.intrinsics()[0]
+            views = [CameraView(f"/camera/{eye}", f"camera_{eye}_optical_frame", -fx * scenery.baseline * k)
+                     for k, eye in enumerate(EYES)]
+        self.camera = CameraTopics(self, engine, scenery.camera, scenery.labels, self.num_envs, views)
+        self.ecm = EcmTopics(self, self.cart.ecm) if self.cart else None
         self.ultrasound = None
         if scenery.ultrasound is not None:
             self.ultrasound = UltrasoundTopics(self, engine, scenery.ultrasound, self.num_envs)
-        self.robot_state = RobotStateTopics(self, arms, arms.psm.urdf_path.read_text())
+        # the URDF's links on /tf and /joint_states (a cart publishes each arm's base -> tip)
+        self.robot_state = None if self.cart else RobotStateTopics(self, arms, arms.psm.urdf_path.read_text())
         images = self.camera.images  # grabbed right after the frame, converted and published off the engine lock
         sensors = [Sensor("camera", cfg["camera_rate"], render=True, read=lambda: images.grab(self.cfg["sensors"]),
                           publish=lambda raw, stamp: self.camera.publish(images.convert(raw), stamp,
@@ -207,7 +226,7 @@ class TwinNode(Node):
         self.sensors.render_now()  # builds every pipeline before the first tick (can take a minute cold)
         if recorder is not None:
             self._open_recording(recorder)
-        if self.arms.bodies.device.type == "cpu" and not self.arms.dynamic:
+        if self.arms.bodies.device.type == "cpu" and not self.arms.dynamic and not self.cart:
             # lavapipe renders on the CPU: frames take the time the 100 Hz tick leaves (a dynamic
             # arm's physics runs on the same driver threads, so they keep their priority there)
             self.sensors.lower_priority(self.arms.engine_threads | (process_threads() - self._threads_before_engine))
@@ -219,6 +238,18 @@ class TwinNode(Node):
         stamp, N, scene = self.stamp(), self.num_envs, self.scene
         spec = self.arms.bodies.scenery
         transforms = []
+        if self.cart:  # every arm's base where its setup joints hold it; the eyes on the ECM's tip
+            cart = self.cart
+            for row, name in enumerate(self.arm_names):
+                transforms.append(_transform(stamp, "world", f"{name}_base", matrix_to_pose7(
+                    torch.as_tensor(cart.psm_bases[row][None]))[0].numpy()))
+            ecm = cart.ecm.name
+            transforms.append(_transform(stamp, "world", f"{ecm}_base", matrix_to_pose7(
+                torch.as_tensor(cart.ecm_base[None]))[0].numpy()))
+            for view, offset in zip(self.camera.views, cart.eye_offsets()):
+                transforms.append(_transform(stamp, ecm, view.frame, matrix_to_pose7(
+                    torch.as_tensor(offset[None]))[0].numpy()))
+            N = 0
         for env in range(N):
             prefix = env_frame_prefix(env, N)
             transforms.append(_transform(stamp, f"{prefix}world", f"{prefix}{self.arm}_base",
@@ -245,7 +276,7 @@ class TwinNode(Node):
             self._record(self.camera.labels_topic(env), self.camera.labels)
             for _, topic, value in self._latched_events(env):
                 self._record(f"{self.namespaces[env][0]}/{topic}", self._message(env, topic, value))
-        for topic, msg in self.robot_state.topics_for_recording():
+        for topic, msg in self.robot_state.topics_for_recording() if self.robot_state is not None else ():
             self._record(topic, msg)
 
     def _set_rate(self):
@@ -316,7 +347,7 @@ class TwinNode(Node):
                     callback = functools.partial(self._on_command, spec.name, handler, env)
                     self._command_subs.append(self.create_subscription(msg_class(spec), f"{ns}/{spec.name}",
                                                                        callback, qos(spec)))
-        console = {"power_on": "enable", "power_off": "disable", "home": "home"}
+        console = {"power_on": "enable", "power_off": "disable", "home": "home"}  # every arm
         for ns in CONSOLE_NAMESPACES:
             for topic, command in console.items():
                 spec = TOPICS_BY_NAME[f"/console/{topic}"]
@@ -486,6 +517,8 @@ class TwinNode(Node):
         try:
             for env in range(self.num_envs):
                 self._emit(self.arms.state_command(env, command))
+            if self.ecm is not None:
+                self.ecm.emit(self.cart.ecm.state_command(command))
         except Exception:  # noqa: BLE001
             self.get_logger().error(traceback.format_exc(), throttle_duration_sec=LOG_THROTTLE_S)
 
@@ -601,8 +634,8 @@ class TwinNode(Node):
                 if arms.suction is not None:
                     msgs["suction/measured_js"] = _joint_state(stamp, ["suction"], snap.suction_valve[env], zeros1,
                                                                array("d", snap.suction_removed[env]))
-            prefix = env_frame_prefix(env, N)
-            local_frame, base_frame, tip_frame = f"{prefix}{self.arm}_base", self.base_frame_id[env], f"{prefix}{self.arm}"
+            prefix, name = self.prefixes[env], self.arm_names[env]
+            local_frame, base_frame, tip_frame = f"{prefix}{name}_base", self.base_frame_id[env], f"{prefix}{name}"
             if "cartesian" in groups:
                 msgs["local/measured_cp"] = _pose_stamped(stamp, local_frame, snap.local_measured_cp[env])
                 msgs["local/setpoint_cp"] = _pose_stamped(stamp, local_frame, snap.local_setpoint_cp[env])
@@ -630,8 +663,12 @@ class TwinNode(Node):
                         pub.publish(msg)
                         if record is not None and k == 0:
                             record(f"{self.namespaces[env][0]}/{topic}", msg)
-        if publish_tf:
+        if publish_tf and self.robot_state is not None:
             transforms += self.robot_state.publish(stamp, _transform, record)
+        if self.ecm is not None:
+            self.ecm.publish(stamp)
+            if publish_tf:
+                transforms.append(_transform(stamp, f"{self.cart.ecm.name}_base", self.cart.ecm.name, self.ecm.tip_pose7()))
         if transforms:  # all envs' transforms in one message
             tf = TFMessage(transforms=transforms)
             self.tf_pub.publish(tf)

@@ -1,0 +1,110 @@
+"""The patient cart without ROS (cressim.twin.Cart): several arms in one engine where the scene
+file's setup joints put them, and the ECM's stereo endoscope, whose disparity gives depth."""
+import numpy as np
+import pytest
+import torch
+
+from cressim.robots.ecm import ecm_forward_kinematics
+from cressim.robots.kinematics import pose7_to_matrix
+from cressim.twin import TwinConfig, load_scene, parse_scene
+from cressim.twin.cart import Cart
+from cressim.twin.scene import SceneError
+
+ECM_Q = (0.08, 0.12, 0.06, 0.2)  # a pose off every axis: the eyes must follow the ECM's tip
+ECM_BASE = (0.0, 0.0, 0.33)
+BASELINE = 0.005
+
+
+@pytest.fixture
+def make_cart():
+    made = []
+
+    def make(scene, **config):
+        cart = Cart(TwinConfig(scene=scene, **{"camera_width": 64, "camera_height": 48, **config}))
+        made.append(cart)
+        return cart
+
+    yield make
+    for cart in made:  # tests/conftest.py turns the Vulkan validation layer on
+        assert cart.engine.validation_messages == [], "\n".join(cart.engine.validation_messages)
+
+
+def _body_positions(cart, bodies, link):
+    k = bodies.body_names.index(link)
+    rows = bodies.body_rows[0, k]
+    return torch.from_dlpack(cart.engine.buffer("rigid.positions"))[rows, :3].double().cpu().numpy()
+
+
+def test_arms_share_one_engine_at_their_setup_joint_bases(make_cart):
+    cart = make_cart(load_scene("patient_cart.yaml"))
+    assert cart.names == ["PSM1", "PSM2"] and cart.ecm.name == "ECM"
+    assert all(arm.bodies.engine is cart.engine for arm in cart.psms)
+    q = torch.tensor([[0.2, -0.1, 0.12, 0.3, 0.1, -0.2]], dtype=torch.float64)
+    for arm in cart.psms:  # the same joints, each tip where its own base puts it
+        arm.setpoint[:] = q
+        arm.measured[:] = q
+    with cart.engine_lock:
+        cart.step_engine()
+    tips = []
+    for arm, base in zip(cart.psms, cart.psm_bases):
+        expected = (base @ arm.kin.forward(q)[0].numpy())[:3, 3]
+        got = _body_positions(cart, arm.bodies, "PSM1_wrist_yaw_link")  # the jaw pivot: the tip's origin
+        assert np.allclose(got, expected, atol=2e-5), (arm.arm, got, expected)
+        tips.append(got)
+    assert np.linalg.norm(tips[0] - tips[1]) > 0.03  # two arms, not one drawn twice
+    # the eyes ride on the ECM's tip, baseline apart along its x
+    cart.ecm.measured = np.array(ECM_Q)
+    with cart.engine_lock:
+        cart.step_engine()
+    tip = pose7_to_matrix(np.array([*ECM_BASE, 0, 0, 0, 1])) @ ecm_forward_kinematics(np.array(ECM_Q))
+    eyes = torch.from_dlpack(cart.engine.buffer("rigid.positions"))[cart._camera_rows, :3].double().cpu().numpy()
+    assert np.allclose(eyes.mean(0), tip[:3, 3], atol=2e-5)
+    assert np.allclose(eyes[1] - eyes[0], BASELINE * tip[:3, 0], atol=2e-6)
+
+
+def test_stereo_disparity_gives_depth(make_cart, tmp_path):
+    """A 3 mm bead in front of the endoscope: the horizontal offset of its image between the left
+    and right eye (rows match: the pair is rectified) gives its depth Z = fx B / d within 1 %."""
+    tip = pose7_to_matrix(np.array([*ECM_BASE, 0, 0, 0, 1])) @ ecm_forward_kinematics(np.array(ECM_Q))
+    bead = (tip @ np.array([0.006, -0.004, 0.07, 1.0]))[:3]  # 7 cm in front of the scope, off centre
+    world = tmp_path / "bead.yaml"
+    world.write_text(
+        "entities:\n"
+        f"  - name: bead\n    transform: {{position: [{bead[0]:.9f}, {bead[1]:.9f}, {bead[2]:.9f}]}}\n"
+        "    renderable: {mesh: {sphere: {radius: 0.003}}, color: [0.9, 0.9, 0.9, 1], segmentation_id: 1}\n")
+    scene = parse_scene(
+        "cart:\n"
+        f"  ECM: {{base: {{position: {list(ECM_BASE)}}}, initial_jp: {list(ECM_Q)},"
+        f" endoscope: {{baseline: {BASELINE}}}}}\n"
+        "  PSM1: {base: {position: [0.0, -0.035, 0.30]}}\n"
+        f"world: {world}\n", str(tmp_path / "cart.yaml"))
+    cart = make_cart(scene, camera_width=640, camera_height=480)
+    with cart.engine_lock:
+        cart.step_engine(render=True)
+    images = cart.images(["segmentation", "depth"])
+    labels = {v: k for k, v in cart.scenery.labels.items()}
+    centres = []
+    for seg in images["segmentation"]:
+        ys, xs = np.nonzero(seg == labels["bead"])
+        assert xs.size > 100, "the bead is in both eyes' view"
+        centres.append((xs.mean(), ys.mean()))
+    (xl, yl), (xr, yr) = centres
+    assert abs(yl - yr) < 0.05  # rectified: the same row
+    fx = cart.scenery.camera.intrinsics()[0]
+    disparity = xl - xr
+    left = cart.eye_poses()[0]
+    depth = (np.linalg.solve(left, np.append(bead, 1.0)))[2]  # the bead's centre along the left optical axis
+    assert disparity > 0
+    assert abs(fx * BASELINE / disparity - depth) < 0.01 * depth, (fx * BASELINE / disparity, depth)
+    # the depth image agrees (its nearest surface is the bead's front, a radius nearer)
+    row, col = int(round(yl)), int(round(xl))
+    assert abs(images["depth"][0][row, col] - (depth - 0.003)) < 0.001
+
+
+def test_cart_scene_errors_name_the_field():
+    with pytest.raises(SceneError, match=r"cart.yaml:2:.*cart.PSM1.initial_jp: expected 6 numbers"):
+        parse_scene("cart:\n  PSM1: {initial_jp: [0, 0]}\n  ECM: {}\n", "cart.yaml")
+    with pytest.raises(SceneError, match=r"cart.yaml:2:.*cart: a cart needs the ECM"):
+        parse_scene("cart:\n  PSM1: {}\n", "cart.yaml")
+    with pytest.raises(SceneError, match=r"cart.PSM4: unknown field"):
+        parse_scene("cart:\n  PSM4: {}\n", "cart.yaml")
