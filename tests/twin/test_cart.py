@@ -108,3 +108,21 @@ def test_cart_scene_errors_name_the_field():
         parse_scene("cart:\n  PSM1: {}\n", "cart.yaml")
     with pytest.raises(SceneError, match=r"cart.PSM4: unknown field"):
         parse_scene("cart:\n  PSM4: {}\n", "cart.yaml")
+
+
+def test_ecm_urdf_matches_the_dvrk_dh_table():
+    """Our ECM URDF's tip equals the DH table's (the dVRK's ecm.json) over random joint values."""
+    import pytorch_kinematics as pk
+
+    from cressim.robots.ecm import ECM_LOWER, ECM_UPPER
+    from cressim.twin.cart import ecm_urdf
+
+    chain = pk.build_chain_from_urdf(ecm_urdf().read_bytes()).to(dtype=torch.float64)
+    assert chain.get_joint_parameter_names() == ["yaw", "pitch", "insertion", "roll"]
+    gen = torch.Generator().manual_seed(0)
+    lo, hi = torch.as_tensor(ECM_LOWER), torch.as_tensor(ECM_UPPER)
+    q = lo + (hi - lo) * torch.rand(200, 4, generator=gen, dtype=torch.float64)
+    urdf_tip = chain.forward_kinematics(q)["ECM_roll_link"].get_matrix()
+    assert torch.allclose(urdf_tip, ecm_forward_kinematics(q), atol=1e-9)
+    # at zero the scope points straight down from its RCM, the tip 0.7 mm past it (0.3829 - 0.3822 m)
+    assert np.allclose(ecm_forward_kinematics(np.zeros(4))[:3, 2:], [[0, 0], [0, 0], [-1, -0.0007]], atol=1e-12)
