@@ -41,6 +41,7 @@ from cressim.scene_file import add_scene
 from .arms import ConfigError, Snapshot, TwinArms, TwinConfig
 from .camera_images import CameraImages
 from .ecm_arm import EcmArm
+from .mtm import MtmArm, Operator, ScriptedOperator
 from .scene import ECM_HOME
 from .scenery import TABLE_COLOR, TABLE_HALF, TISSUE_COLOR, TISSUE_HALF, CameraSpec, SceneryPlan, look_at_rotation
 from .sensor_loop import process_threads
@@ -172,6 +173,14 @@ class Cart:
         self.psm = self.psms[0].psm
         self.dynamic, self.suction, self.needle_offset = False, None, None
         self.ecm_events = []  # the ECM's events of the last tick, for its topics
+        # the PSMs' measured_cp in the endoscope's frame (the dVRK console's), until a client sets one
+        self.own_base_frame = [False] * self.num_envs
+        self._follow_camera()
+
+        # the surgeon's console: the MTMs and the operator who holds them (a script, or a device)
+        self.mtms = [MtmArm(a.name) for a in self.mtm_specs]
+        self.operator = Operator([m.name for m in self.mtms])
+        self.script = ScriptedOperator(list(scene.operator)) if scene.operator else None
 
     # ------------------------------------------------------------------ the endoscope
     def eye_poses(self) -> list[np.ndarray]:
@@ -241,13 +250,44 @@ class Cart:
         for arm in self.psms:
             arm.restart(clock=clock)
         self.ecm.restart()
+        for mtm in self.mtms:
+            mtm.restart()
+        self.operator = Operator([m.name for m in self.mtms])
+        self.own_base_frame = [False] * self.num_envs
+        self._follow_camera()
+
+    def camera_frame(self) -> np.ndarray:
+        """The endoscope's frame (the ECM's tip, `ECM`) in the world: what the PSMs' measured_cp
+        is expressed in, as on the dVRK with an ECM."""
+        return self.ecm_base @ self.ecm.local_cp("measured")
+
+    def _follow_camera(self):
+        camera = self.camera_frame()
+        for row, arm in enumerate(self.psms):
+            if not self.own_base_frame[row]:
+                T = np.linalg.solve(camera, self.psm_bases[row])
+                arm.base_frame_np[0] = T
+                arm.base_frame[0] = torch.as_tensor(T)
+
+    def set_base_frame(self, row: int, pose):
+        """A client's base frame replaces the camera's for that PSM."""
+        events = self._rows(row, self.psms[row].set_base_frame(0, pose))
+        if not events:
+            self.own_base_frame[row] = True
+        return events
 
     def tick(self) -> list:
         """Every arm one control period; the PSMs' events by row (the ECM's in `ecm_events`)."""
         events = []
         for row, arm in enumerate(self.psms):
             events += self._rows(row, arm.tick())
-        self.ecm_events = self.ecm.tick(self.period_ns * 1e-9)
+        dt = self.period_ns * 1e-9
+        self.ecm_events = self.ecm.tick(dt)
+        self._follow_camera()
+        if self.script is not None:
+            self.script.apply(self.sim_ns * 1e-9, self.operator)
+        for mtm in self.mtms:
+            mtm.tick(dt, self.operator)
         return events
 
     def snapshot(self, **kwargs) -> Snapshot:
@@ -279,7 +319,7 @@ def spec_initial(spec) -> tuple:
 
 
 ROW_COMMANDS = ("state_command", "servo_jp", "move_jp", "servo_cp", "move_cp", "servo_cv", "jaw_servo_jp",
-                "jaw_move_jp", "suction_servo_jp", "hold", "set_base_frame", "set_ratio", "ratio_events", "set_flag",
+                "jaw_move_jp", "suction_servo_jp", "hold", "set_ratio", "ratio_events", "set_flag",
                 "press_coag")
 
 __all__ = ["Cart", "CartScenery", "EYES", "ecm_urdf"]

@@ -86,6 +86,7 @@ class Scene:
     needle: dict | None = None
     cart: tuple = ()  # CartArm of a patient cart (cressim.twin.cart); empty: the one `arm`
     endoscope_baseline: float = 0.005  # m between the ECM's two cameras (cart.ECM.endoscope.baseline)
+    operator: tuple = ()  # cressim.twin.mtm.Keyframe of a scripted surgeon (cart.operator)
     lines: dict = field(default_factory=dict, repr=False)  # field -> "file:line:col" (for later checks)
 
 
@@ -249,9 +250,11 @@ def parse_scene(text: str, path: str = "<string>") -> Scene:
 
 def _parse_cart(p, node, scene):
     """`cart:` {ECM: {...}, PSM1: {...}, ...}: the arms of a patient cart, each with its base."""
-    cart = p.mapping(node, "cart", set(CART_ARMS))
+    cart = p.mapping(node, "cart", set(CART_ARMS) | {"operator"})
     arms = []
     for name, arm_node in cart.items():
+        if name == "operator":
+            continue
         kind = CART_ARMS[name]
         keys = {"base"} | ({"robot", "initial_jp", "home_jp"} if kind == "psm" else set()) \
             | ({"initial_jp", "home_jp", "endoscope"} if kind == "ecm" else set())
@@ -283,6 +286,38 @@ def _parse_cart(p, node, scene):
     if not any(a.kind == "ecm" for a in arms) or not any(a.kind == "psm" for a in arms):
         p.fail(node, "cart", "a cart needs the ECM and at least one PSM")
     scene.cart = tuple(arms)
+    if "operator" in cart:
+        scene.operator = _parse_operator(p, cart["operator"], [a.name for a in arms if a.kind == "mtm"])
+
+
+def _parse_operator(p, node, mtms) -> tuple:
+    """`cart.operator:` a list of keyframes {at: s, clutch/camera/present: bool, MTMx: {position:
+    [x, y, z], gripper: rad}}, in time order."""
+    from .mtm import GRIPPER_LIMITS, Keyframe
+
+    if not isinstance(node, yaml.SequenceNode):
+        p.fail(node, "cart.operator", "a list of keyframes {at, clutch, camera, present, MTML, MTMR} expected")
+    frames, last = [], -math.inf
+    for i, item in enumerate(node.value):
+        key = f"cart.operator[{i}]"
+        f = p.mapping(item, key, {"at", "clutch", "camera", "present", *mtms})
+        if "at" not in f:
+            p.fail(item, key, "every keyframe needs `at` (s)")
+        at = p.number(f["at"], f"{key}.at", low=0.0, high=1e6)
+        if at <= last:
+            p.fail(f["at"], f"{key}.at", f"{at:g} s is not after the keyframe before ({last:g} s)")
+        last = at
+        pedals = {k: p.boolean(f[k], f"{key}.{k}") for k in ("clutch", "camera", "present") if k in f}
+        hands, grips = {}, {}
+        for name in mtms:
+            if name in f:
+                hand = p.mapping(f[name], f"{key}.{name}", {"position", "gripper"})
+                if "position" in hand:
+                    hands[name] = p.numbers(hand["position"], f"{key}.{name}.position", 3)
+                if "gripper" in hand:
+                    grips[name] = p.number(hand["gripper"], f"{key}.{name}.gripper", *GRIPPER_LIMITS)
+        frames.append(Keyframe(at, hands, grips, pedals))
+    return tuple(frames)
 
 
 RATE_KEYS = {"physics_rate": "physics", "particle_rate": "particles"}
@@ -344,6 +379,12 @@ class _Parser:
         if not low <= value <= high:
             self.fail(node, key, f"{value:g} is outside [{low:g}, {high:g}]")
         return float(value)
+
+    def boolean(self, node, key) -> bool:
+        value = self.scalar(node, key)
+        if not isinstance(value, bool):
+            self.fail(node, key, f"true or false expected, got {node.value!r}")
+        return value
 
     def integer(self, node, key, low, high) -> int:
         value = self.scalar(node, key)

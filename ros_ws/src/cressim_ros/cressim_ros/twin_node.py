@@ -56,6 +56,7 @@ from cressim.twin.scene import DEFAULT_SCENE, SceneError, load_scene
 
 from . import params as P
 from .camera_topics import PRODUCTS, CameraTopics, CameraView, camera_frame
+from .console_topics import ConsoleTopics
 from .ecm_topics import EcmTopics
 from .diagnostics import build_diagnostics
 from .recorder import RecordingUnavailable, open_recorder
@@ -168,6 +169,8 @@ class TwinNode(Node):
             self.prefixes = [env_frame_prefix(i, self.num_envs) for i in range(self.num_envs)]
             self.namespaces = env_namespaces(self.arm, self.num_envs)
         self.base_frame_id = [f"{p}{name}_base" for p, name in zip(self.prefixes, self.arm_names)]
+        if self.cart:  # a cart's PSMs report measured_cp in the endoscope's frame, as the dVRK's console sets
+            self.base_frame_id = [self.cart.ecm.name] * self.num_envs
         engine, scenery = arms.bodies.engine, arms.bodies.scenery
         views = None
         if self.cart:  # the endoscope's rectified pair: the right camera's P[3] = -fx B (ROS)
@@ -176,6 +179,7 @@ class TwinNode(Node):
                      for k, eye in enumerate(EYES)]
         self.camera = CameraTopics(self, engine, scenery.camera, scenery.labels, self.num_envs, views)
         self.ecm = EcmTopics(self, self.cart.ecm) if self.cart else None
+        self.console = ConsoleTopics(self, self.cart) if self.cart else None  # the MTMs, pedals, operator
         self.ultrasound = None
         if scenery.ultrasound is not None:
             self.ultrasound = UltrasoundTopics(self, engine, scenery.ultrasound, self.num_envs)
@@ -519,6 +523,8 @@ class TwinNode(Node):
                 self._emit(self.arms.state_command(env, command))
             if self.ecm is not None:
                 self.ecm.emit(self.cart.ecm.state_command(command))
+                for topics in self.console.mtms:
+                    topics.emit(topics.mtm.state_command(command))
         except Exception:  # noqa: BLE001
             self.get_logger().error(traceback.format_exc(), throttle_duration_sec=LOG_THROTTLE_S)
 
@@ -667,6 +673,7 @@ class TwinNode(Node):
             transforms += self.robot_state.publish(stamp, _transform, record)
         if self.ecm is not None:
             self.ecm.publish(stamp)
+            self.console.publish(stamp)
             if publish_tf:
                 transforms.append(_transform(stamp, f"{self.cart.ecm.name}_base", self.cart.ecm.name, self.ecm.tip_pose7()))
         if transforms:  # all envs' transforms in one message

@@ -1,0 +1,166 @@
+"""The patient cart's surgeon console on ROS: the MTMs' dVRK topics, the console's buttons, and the
+operator's input, wired to cressim.twin.mtm (MtmArm, Operator).
+
+Each MTM (/MTML, /MTMR), as the dVRK's:
+    published every tick   measured_cp, setpoint_cp (the grip in `MTMx_base`), gripper/measured_js
+    published on events    operating_state, desired_state, goal_reached, error, warning, status
+    subscribed             state_command, move_cp, servo_cp, body/servo_cf, lock_orientation
+                           (geometry_msgs/Quaternion), unlock_orientation (std_msgs/Empty),
+                           use_gravity_compensation (std_msgs/Bool)
+    services               operating_state, crtk_version
+The console's buttons (sensor_msgs/Joy, buttons[0] 1 pressed), published when they change and
+every half second of simulated time (a client that joins late learns them):
+    /footpedals/clutch, /footpedals/camera, /console/operator_present
+The operator's input (an input device, or a test, is the surgeon):
+    /operator/clutch, /operator/camera, /operator/present     std_msgs/Bool
+    /operator/MTMx/servo_cp        geometry_msgs/PoseStamped: where the hand holds the grip (position)
+    /operator/MTMx/gripper/servo_jp  sensor_msgs/JointState: the gripper angle (one value)
+A scripted operator (the scene's `cart.operator`) drives the same Operator without ROS.
+"""
+from __future__ import annotations
+
+import math
+import traceback
+from array import array
+
+import numpy as np
+import torch
+from crtk_msgs.msg import OperatingState, StringStamped
+from crtk_msgs.srv import TriggerOperatingState
+from geometry_msgs.msg import PoseStamped, Quaternion, WrenchStamped
+from sensor_msgs.msg import JointState, Joy
+from std_msgs.msg import Bool, Empty, String
+from std_srvs.srv import Trigger
+
+from cressim.robots.kinematics import matrix_to_pose7
+
+from .topics import CRTK_VERSION, LATCHED_QOS, TOPICS_BY_NAME, arm_topics, fill_pose, msg_class, qos
+
+BUTTONS = {"clutch": "/footpedals/clutch", "camera": "/footpedals/camera", "operator_present": "/console/operator_present"}
+BUTTON_PERIOD_NS = 500_000_000
+
+
+class MtmTopics:
+    def __init__(self, node, mtm):
+        self.node, self.mtm, ns = node, mtm, f"/{mtm.name}"
+        specs = {t.name: t for role in ("state", "event", "command") for t in arm_topics(role)}
+        pub = lambda kind, name: node.create_publisher(kind, f"{ns}/{name}", qos(specs[name]))  # noqa: E731
+        self.pubs = {name: pub(msg_class(specs[name]), name) for name in
+                     ("measured_cp", "setpoint_cp", "operating_state", "desired_state", "goal_reached", "error",
+                      "warning", "status")}
+        self.pubs["gripper/measured_js"] = node.create_publisher(JointState, f"{ns}/gripper/measured_js",
+                                                                 qos(specs["measured_js"]))
+        command_qos = qos(specs["move_cp"])
+        handlers = (
+            ("state_command", StringStamped, lambda m: mtm.state_command(m.string)),
+            ("move_cp", PoseStamped, lambda m: mtm.move_cp(m.pose)),
+            ("servo_cp", PoseStamped, lambda m: mtm.move_cp(m.pose, kind="servo_cp")),
+            ("body/servo_cf", WrenchStamped, lambda m: mtm.servo_cf(
+                [m.wrench.force.x, m.wrench.force.y, m.wrench.force.z,
+                 m.wrench.torque.x, m.wrench.torque.y, m.wrench.torque.z])),
+            ("lock_orientation", Quaternion, lambda m: mtm.lock_orientation([m.x, m.y, m.z, m.w])),
+            ("unlock_orientation", Empty, lambda m: mtm.unlock_orientation()),
+            ("use_gravity_compensation", Bool, lambda m: setattr(mtm, "gravity_compensation", m.data) or []))
+        self.subs = [node.create_subscription(kind, f"{ns}/{name}", lambda m, h=h, n=name: self._on(n, h, m),
+                                              command_qos) for name, kind, h in handlers]
+        self.services = [node.create_service(TriggerOperatingState, f"{ns}/operating_state", self._srv_state),
+                         node.create_service(Trigger, f"{ns}/crtk_version", self._srv_version)]
+        self.frame = f"{mtm.name}_base"
+        self.emit([("operating_state", mtm.report())])
+
+    def _on(self, name, handler, msg):
+        try:
+            self.emit(handler(msg))
+        except Exception as exc:  # noqa: BLE001 - the node must survive any message
+            self.emit([("error", f"{name}: internal error, command ignored ({type(exc).__name__}: {exc})")])
+            self.node.get_logger().error(traceback.format_exc(), throttle_duration_sec=1.0)
+
+    def _state_msg(self, report):
+        msg = OperatingState(state=report.state, is_homed=report.is_homed, is_busy=report.is_busy)
+        msg.header.stamp, msg.header.frame_id = self.node.stamp(), self.frame
+        return msg
+
+    def emit(self, events):
+        for topic, value in events:
+            if topic == "operating_state":
+                msg = self._state_msg(value)
+            elif isinstance(value, bool):
+                msg = Bool(data=value)
+            else:
+                text = f"{self.mtm.name}: {value}" if topic in ("error", "warning") else str(value)
+                msg = String(data=text)
+                if topic in ("error", "warning"):
+                    self.node.get_logger().warning(text, throttle_duration_sec=1.0)
+            self.pubs[topic].publish(msg)
+
+    def publish(self, stamp):
+        pose = matrix_to_pose7(torch.as_tensor(self.mtm.pose[None]))[0].numpy()
+        for name in ("measured_cp", "setpoint_cp"):
+            m = PoseStamped()
+            m.header.stamp, m.header.frame_id = stamp, self.frame
+            fill_pose(m.pose, pose)
+            self.pubs[name].publish(m)
+        m = JointState(name=["gripper"])
+        m.header.stamp = stamp
+        m.position, m.velocity, m.effort = array("d", [self.mtm.gripper]), array("d", [self.mtm.gripper_v]), \
+            array("d", [0.0])
+        self.pubs["gripper/measured_js"].publish(m)
+
+    def _srv_state(self, request, response):
+        response.operating_state = self._state_msg(self.mtm.report())
+        return response
+
+    def _srv_version(self, request, response):
+        response.success, response.message = True, CRTK_VERSION
+        return response
+
+
+class ConsoleTopics:
+    """The MTMs, the console's buttons and the operator's input of a cart (node.cart)."""
+
+    def __init__(self, node, cart):
+        self.node, self.cart = node, cart
+        self.mtms = [MtmTopics(node, mtm) for mtm in cart.mtms]
+        button_qos = qos(TOPICS_BY_NAME["/footpedals/coag"])
+        self.button_pubs = {name: node.create_publisher(Joy, topic, button_qos) for name, topic in BUTTONS.items()}
+        self._published, self._next_ns = None, 0
+        self.subs = [node.create_subscription(Bool, f"/operator/{name}", lambda m, n=name: self._pedal(n, m),
+                                              button_qos) for name in ("clutch", "camera", "present")]
+        for mtm in cart.mtms:
+            self.subs.append(node.create_subscription(PoseStamped, f"/operator/{mtm.name}/servo_cp",
+                                                      lambda m, n=mtm.name: self._hand(n, m), button_qos))
+            self.subs.append(node.create_subscription(JointState, f"/operator/{mtm.name}/gripper/servo_jp",
+                                                      lambda m, n=mtm.name: self._grip(n, m), button_qos))
+
+    def _warn(self, text):
+        self.node.get_logger().warning(f"operator input refused: {text}", throttle_duration_sec=1.0)
+
+    def _pedal(self, name, msg):
+        setattr(self.cart.operator, name, bool(msg.data))
+
+    def _hand(self, name, msg):
+        p = msg.pose.position
+        position = np.array([p.x, p.y, p.z], dtype=np.float64)
+        if not np.isfinite(position).all() or np.abs(position).max() > 1.0:
+            return self._warn(f"/operator/{name}/servo_cp: position {position.tolist()} is not finite or beyond 1 m")
+        self.cart.operator.hands[name] = position
+
+    def _grip(self, name, msg):
+        if len(msg.position) != 1 or not math.isfinite(msg.position[0]):
+            return self._warn(f"/operator/{name}/gripper/servo_jp: one finite position expected")
+        self.cart.operator.grips[name] = float(msg.position[0])
+
+    def publish(self, stamp):
+        for topics in self.mtms:
+            topics.publish(stamp)
+        buttons = self.cart.operator.pedals()
+        now = self.cart.sim_ns
+        if buttons != self._published or now >= self._next_ns:
+            for name, pressed in buttons.items():
+                m = Joy(buttons=[int(pressed)])
+                m.header.stamp = stamp
+                self.button_pubs[name].publish(m)
+            self._published, self._next_ns = buttons, now + BUTTON_PERIOD_NS
+
+
+__all__ = ["BUTTONS", "ConsoleTopics", "MtmTopics"]
