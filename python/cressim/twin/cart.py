@@ -73,7 +73,8 @@ class Cart:
     def __init__(self, config: TwinConfig):
         scene = config.scene
         if config.value("num_envs") != 1:
-            raise ConfigError(f"{scene.path}: num_envs: a patient cart runs in one env (got {config.value('num_envs')})")
+            raise ConfigError(f"{scene.path}: num_envs: a patient cart runs in one env "
+                              f"(got {config.value('num_envs')})")
         self.scene = scene
         self.publish_rate, self.physics_rate = config.value("publish_rate"), config.value("physics_rate")
         psm_specs = [a for a in scene.cart if a.kind == "psm"]
@@ -113,7 +114,8 @@ class Cart:
         else:
             for name, mesh, z, color, label in (
                     ("table", cressim.Mesh.plane(TABLE_HALF), camera.table_z, TABLE_COLOR, first),
-                    ("tissue", cressim.Mesh.box(TISSUE_HALF), camera.table_z + TISSUE_HALF[2], TISSUE_COLOR, first + 1)):
+                    ("tissue", cressim.Mesh.box(TISSUE_HALF), camera.table_z + TISSUE_HALF[2], TISSUE_COLOR,
+                     first + 1)):
                 e = world.create_entity(env=0, name=name)
                 e.add(cressim.Transform(position=(0.0, 0.0, z)))
                 e.add(cressim.Renderable(world.add_mesh(mesh), color=color, roughness=0.5, segmentation_id=label))
@@ -123,8 +125,8 @@ class Cart:
         light.add(cressim.Light(intensity=1.0, ambient=0.3))
 
         # the endoscope's two cameras, kinematic bodies that follow the ECM's tip
-        self.ecm = EcmArm(spec_initial(ecm_spec), ecm_spec.home_jp or ECM_HOME, measured_lag=scene.measured_lag,
-                          name=ecm_spec.name)
+        self.ecm = EcmArm(ecm_spec.initial_jp or ECM_HOME, ecm_spec.home_jp or ECM_HOME,
+                          measured_lag=scene.measured_lag, name=ecm_spec.name)
         self.baseline = scene.endoscope_baseline
         self.ecm_base = pose7_to_matrix(np.array([*ecm_spec.base_position, *ecm_spec.base_rotation]))
         fx, fy, cx, cy = camera.intrinsics()
@@ -312,10 +314,6 @@ class Cart:
         if render:
             self.engine.step_visual_sensors()
         self.engine.end_frame()
-
-
-def spec_initial(spec) -> tuple:
-    return spec.initial_jp or ECM_HOME
 
 
 ROW_COMMANDS = ("state_command", "servo_jp", "move_jp", "servo_cp", "move_cp", "servo_cv", "jaw_servo_jp",

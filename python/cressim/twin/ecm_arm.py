@@ -15,7 +15,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import torch
 
 from cressim.robots.ecm import ECM_JOINT_NAMES, ECM_LOWER, ECM_UPPER, ECM_VELOCITY, ecm_forward_kinematics
 

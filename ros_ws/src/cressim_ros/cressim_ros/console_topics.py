@@ -34,9 +34,11 @@ from std_srvs.srv import Trigger
 
 from cressim.robots.kinematics import matrix_to_pose7
 
-from .topics import CRTK_VERSION, LATCHED_QOS, TOPICS_BY_NAME, arm_topics, fill_pose, msg_class, qos
+from .topics import (CRTK_VERSION, TOPICS_BY_NAME, FirstDelivery, arm_topics, fill_pose, latched_reader_qos, msg_class,
+                     on_new_reader, qos)
 
-BUTTONS = {"clutch": "/footpedals/clutch", "camera": "/footpedals/camera", "operator_present": "/console/operator_present"}
+BUTTONS = {"clutch": "/footpedals/clutch", "camera": "/footpedals/camera",
+           "operator_present": "/console/operator_present"}
 BUTTON_PERIOD_NS = 500_000_000
 
 
@@ -44,7 +46,9 @@ class MtmTopics:
     def __init__(self, node, mtm):
         self.node, self.mtm, ns = node, mtm, f"/{mtm.name}"
         specs = {t.name: t for role in ("state", "event", "command") for t in arm_topics(role)}
-        pub = lambda kind, name: node.create_publisher(kind, f"{ns}/{name}", qos(specs[name]))  # noqa: E731
+        again = on_new_reader(lambda: self.emit([("operating_state", mtm.report())]))
+        pub = lambda kind, name: node.create_publisher(  # noqa: E731
+            kind, f"{ns}/{name}", qos(specs[name]), **({"event_callbacks": again} if name == "operating_state" else {}))
         self.pubs = {name: pub(msg_class(specs[name]), name) for name in
                      ("measured_cp", "setpoint_cp", "operating_state", "desired_state", "goal_reached", "error",
                       "warning", "status")}
@@ -63,12 +67,18 @@ class MtmTopics:
             ("use_gravity_compensation", Bool, lambda m: setattr(mtm, "gravity_compensation", m.data) or []))
         self.subs = [node.create_subscription(kind, f"{ns}/{name}", lambda m, h=h, n=name: self._on(n, h, m),
                                               command_qos) for name, kind, h in handlers]
+        self._latched = FirstDelivery()  # state_command also through a transient-local reader (topics.py)
+        self.subs.append(node.create_subscription(StringStamped, f"{ns}/state_command",
+                                                  lambda m: self._on("state_command", handlers[0][2], m),
+                                                  latched_reader_qos(specs["state_command"])))
         self.services = [node.create_service(TriggerOperatingState, f"{ns}/operating_state", self._srv_state),
                          node.create_service(Trigger, f"{ns}/crtk_version", self._srv_version)]
         self.frame = f"{mtm.name}_base"
         self.emit([("operating_state", mtm.report())])
 
     def _on(self, name, handler, msg):
+        if name == "state_command" and not self._latched.first(name, msg):
+            return  # the same command through the other reader
         try:
             self.emit(handler(msg))
         except Exception as exc:  # noqa: BLE001 - the node must survive any message

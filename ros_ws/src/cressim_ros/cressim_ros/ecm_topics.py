@@ -23,7 +23,8 @@ from std_srvs.srv import Trigger
 from cressim.robots.ecm import ECM_JOINT_NAMES
 from cressim.robots.kinematics import matrix_to_pose7
 
-from .topics import CRTK_VERSION, arm_topics, fill_pose, msg_class, qos
+from .topics import (CRTK_VERSION, FirstDelivery, arm_topics, fill_pose, latched_reader_qos, msg_class, on_new_reader,
+                     qos)
 
 EVENTS = ("operating_state", "desired_state", "goal_reached", "error", "warning", "status")
 STATE = ("measured_js", "setpoint_js", "measured_cp", "setpoint_cp", "local/measured_cp", "local/setpoint_cp")
@@ -34,7 +35,9 @@ class EcmTopics:
         self.node, self.ecm, self.ns = node, ecm, namespace
         specs = {t.name: t for role in ("state", "event", "command") for t in arm_topics(role)}
         self.specs = specs
-        self.pubs = {name: node.create_publisher(msg_class(specs[name]), f"{namespace}/{name}", qos(specs[name]))
+        again = on_new_reader(lambda: self.emit([("operating_state", ecm.report())]))
+        self.pubs = {name: node.create_publisher(msg_class(specs[name]), f"{namespace}/{name}", qos(specs[name]),
+                                                 **({"event_callbacks": again} if name == "operating_state" else {}))
                      for name in STATE + EVENTS}
         handlers = {"state_command": lambda m: ecm.state_command(m.string), "servo_jp": ecm.servo_jp,
                     "move_jp": ecm.move_jp, "hold": lambda m: ecm.hold(), "set_base_frame": self._set_base_frame,
@@ -43,6 +46,11 @@ class EcmTopics:
         self.subs = [node.create_subscription(msg_class(specs[name]), f"{namespace}/{name}",
                                               lambda m, h=handler, n=name: self._on(n, h, m), qos(specs[name]))
                      for name, handler in handlers.items()]
+        self._latched = FirstDelivery()  # state_command also through a transient-local reader (topics.py)
+        self.subs.append(node.create_subscription(
+            msg_class(specs["state_command"]), f"{namespace}/state_command",
+            lambda m: self._on("state_command", handlers["state_command"], m),
+            latched_reader_qos(specs["state_command"])))
         self.base_frame_id = f"{ecm.name}_base"
         self.services = [
             node.create_service(TriggerOperatingState, f"{namespace}/operating_state", self._srv_state),
@@ -56,6 +64,8 @@ class EcmTopics:
         return events
 
     def _on(self, name, handler, msg):
+        if name == "state_command" and not self._latched.first(name, msg):
+            return  # the same command through the other reader
         try:
             self.emit(handler(msg))
         except Exception as exc:  # noqa: BLE001 - the node must survive any message
@@ -83,7 +93,8 @@ class EcmTopics:
     def publish(self, stamp):
         """The periodic topics, then the ECM's events of the tick."""
         ecm = self.ecm
-        for name, q, v in (("measured_js", ecm.measured, ecm.measured_v), ("setpoint_js", ecm.setpoint, ecm.setpoint_v)):
+        for name, q, v in (("measured_js", ecm.measured, ecm.measured_v),
+                           ("setpoint_js", ecm.setpoint, ecm.setpoint_v)):
             m = msg_class(self.specs[name])()
             m.header.stamp = stamp
             m.name = list(ECM_JOINT_NAMES)

@@ -62,7 +62,8 @@ from .diagnostics import build_diagnostics
 from .recorder import RecordingUnavailable, open_recorder
 from .robot_state import RobotStateTopics
 from .simulation_control import SimulationControl
-from .topics import (CLOCK_QOS, CLOCK_TOPIC, CONSOLE_NAMESPACES, CRTK_VERSION, DIAGNOSTICS_TOPIC, LATCHED_QOS,
+from .topics import (CLOCK_QOS, CLOCK_TOPIC, CONSOLE_NAMESPACES, CRTK_VERSION, DIAGNOSTICS_TOPIC, LATCHED_COMMANDS,
+                     LATCHED_QOS, FirstDelivery, latched_reader_qos, on_new_reader,
                      SENSOR_TOPICS, TF_STATIC_TOPIC, TF_TOPIC, TOPICS_BY_NAME, arm_topics, env_frame_prefix,
                      env_namespaces, env_topic, fill_pose, msg_class, qos)
 from .ultrasound_topics import UltrasoundTopics, ultrasound_frame
@@ -291,8 +292,13 @@ class TwinNode(Node):
                                        clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     def _create_event_publishers(self):
-        self.event_pubs = [[{t.name: self.create_publisher(msg_class(t), f"{ns}/{t.name}", qos(t))
-                             for t in arm_topics("event")} for ns in namespaces] for namespaces in self.namespaces]
+        def again(env):  # a new reader of operating_state: the arm's state now (topics.on_new_reader)
+            return on_new_reader(lambda: self._emit([(env, "operating_state", self.arms.report(env))]))
+
+        self.event_pubs = [[{t.name: self.create_publisher(
+            msg_class(t), f"{ns}/{t.name}", qos(t),
+            **({"event_callbacks": again(env)} if t.name == "operating_state" else {}))
+            for t in arm_topics("event")} for ns in namespaces] for env, namespaces in enumerate(self.namespaces)]
         console = {name: self.create_publisher(msg_class(TOPICS_BY_NAME[name]), name, qos(TOPICS_BY_NAME[name]))
                    for name in TOPICS_BY_NAME if name.startswith("/console/teleop/") and
                    TOPICS_BY_NAME[name].role == "event"}
@@ -344,13 +350,16 @@ class TwinNode(Node):
             **{name: functools.partial(self._unsupported, name) for name in UNSUPPORTED},
         }
         self._command_subs = []
+        self._latched = FirstDelivery()
         for spec in arm_topics("command"):
             handler = handlers[spec.name]
             for env, namespaces in enumerate(self.namespaces):
                 for ns in namespaces:
                     callback = functools.partial(self._on_command, spec.name, handler, env)
-                    self._command_subs.append(self.create_subscription(msg_class(spec), f"{ns}/{spec.name}",
-                                                                       callback, qos(spec)))
+                    for profile in (qos(spec), latched_reader_qos(spec)) if spec.name in LATCHED_COMMANDS \
+                            else (qos(spec),):
+                        self._command_subs.append(self.create_subscription(msg_class(spec), f"{ns}/{spec.name}",
+                                                                           callback, profile))
         console = {"power_on": "enable", "power_off": "disable", "home": "home"}  # every arm
         for ns in CONSOLE_NAMESPACES:
             for topic, command in console.items():
@@ -474,6 +483,8 @@ class TwinNode(Node):
     # ------------------------------------------------------------------ subscriptions
     def _on_command(self, kind, handler, env, msg, info):
         try:
+            if kind in LATCHED_COMMANDS and not self._latched.first((env, kind), msg):
+                return  # the same command through the other reader (topics.LATCHED_COMMANDS)
             if self.recorder is not None:
                 self._record(f"{self.namespaces[env][0]}/{kind}", msg)
             problem = self._stale(kind, msg, info)
@@ -675,7 +686,8 @@ class TwinNode(Node):
             self.ecm.publish(stamp)
             self.console.publish(stamp)
             if publish_tf:
-                transforms.append(_transform(stamp, f"{self.cart.ecm.name}_base", self.cart.ecm.name, self.ecm.tip_pose7()))
+                ecm = self.cart.ecm.name
+                transforms.append(_transform(stamp, f"{ecm}_base", ecm, self.ecm.tip_pose7()))
         if transforms:  # all envs' transforms in one message
             tf = TFMessage(transforms=transforms)
             self.tf_pub.publish(tf)
