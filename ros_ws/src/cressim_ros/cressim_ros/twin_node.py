@@ -541,8 +541,9 @@ class TwinNode(Node):
 
     def _on_teleop_enable(self, msg):
         if msg.data:
-            self.get_logger().warning("console teleop/enable refused: the twin has no MTM to teleoperate from",
-                                      throttle_duration_sec=LOG_THROTTLE_S)
+            why = ("the cart runs no teleoperation of its own: run the dVRK's dvrk_teleoperation.py against its MTMs"
+                   if self.cart else "the twin has no MTM to teleoperate from (a patient cart has)")
+            self.get_logger().warning(f"console teleop/enable refused: {why}", throttle_duration_sec=LOG_THROTTLE_S)
         self.console_pubs["/console/teleop/enabled"].publish(Bool(data=False))
 
     def _on_teleop_scale(self, msg):
