@@ -1,20 +1,15 @@
 """The patient cart's surgeon console on ROS: the MTMs' dVRK topics, the console's buttons, and the
-operator's input, wired to cressim.twin.mtm (MtmArm, Operator).
+operator's input, wired to cressim.twin.mtm (MtmArm, Operator). The topics are cressim.record.
+schema's MTM_TOPICS and CONSOLE_TOPICS (docs/twin.md, "Patient cart"):
 
-Each MTM (/MTML, /MTMR), as the dVRK's:
-    published every tick   measured_cp, setpoint_cp (the grip in `MTMx_base`), gripper/measured_js
-    published on events    operating_state, desired_state, goal_reached, error, warning, status
-    subscribed             state_command, move_cp, servo_cp, body/servo_cf, lock_orientation
-                           (geometry_msgs/Quaternion), unlock_orientation (std_msgs/Empty),
-                           use_gravity_compensation (std_msgs/Bool)
-    services               operating_state, crtk_version
-The console's buttons (sensor_msgs/Joy, buttons[0] 1 pressed), published when they change and
-every half second of simulated time (a client that joins late learns them):
-    /footpedals/clutch, /footpedals/camera, /console/operator_present
-The operator's input (an input device, or a test, is the surgeon):
-    /operator/clutch, /operator/camera, /operator/present     std_msgs/Bool
-    /operator/MTMx/servo_cp        geometry_msgs/PoseStamped: where the hand holds the grip (position)
-    /operator/MTMx/gripper/servo_jp  sensor_msgs/JointState: the gripper angle (one value)
+- each MTM (/MTML, /MTMR): measured_cp, setpoint_cp and gripper/measured_js every tick; the
+  arm's events (operating_state ...), state_command and services as a PSM's; move_cp, servo_cp,
+  body/servo_cf, lock_orientation, unlock_orientation, use_gravity_compensation;
+- the console's buttons (sensor_msgs/Joy), published when they change and every half second of
+  simulated time (a client that joins late learns them): /footpedals/clutch, /footpedals/camera,
+  /console/operator_present;
+- the operator's input: /operator/clutch, /operator/camera, /operator/present (std_msgs/Bool),
+  /operator/MTMx/servo_cp (the hand's position), /operator/MTMx/gripper/servo_jp (the grip).
 A scripted operator (the scene's `cart.operator`) drives the same Operator without ROS.
 """
 from __future__ import annotations
@@ -27,49 +22,50 @@ import numpy as np
 import torch
 from crtk_msgs.msg import OperatingState, StringStamped
 from crtk_msgs.srv import TriggerOperatingState
-from geometry_msgs.msg import PoseStamped, Quaternion, WrenchStamped
+from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import JointState, Joy
-from std_msgs.msg import Bool, Empty, String
+from std_msgs.msg import Bool, String
 from std_srvs.srv import Trigger
 
+from cressim.record.schema import CONSOLE_TOPICS, MTM_TOPICS
 from cressim.robots.kinematics import matrix_to_pose7
 
-from .topics import (CRTK_VERSION, TOPICS_BY_NAME, FirstDelivery, arm_topics, fill_pose, latched_reader_qos, msg_class,
-                     on_new_reader, qos)
+from .topics import (CRTK_VERSION, FirstDelivery, arm_topics, fill_pose, latched_reader_qos, msg_class, on_new_reader,
+                     qos)
 
 BUTTONS = {"clutch": "/footpedals/clutch", "camera": "/footpedals/camera",
-           "operator_present": "/console/operator_present"}
+           "operator_present": "/console/operator_present"}  # Operator.pedals() -> topic
+MTM = {t.name: t for t in MTM_TOPICS}
+CONSOLE = {t.name: t for t in CONSOLE_TOPICS}
 BUTTON_PERIOD_NS = 500_000_000
 
 
 class MtmTopics:
     def __init__(self, node, mtm):
         self.node, self.mtm, ns = node, mtm, f"/{mtm.name}"
-        specs = {t.name: t for role in ("state", "event", "command") for t in arm_topics(role)}
+        specs = {t.name: t for role in ("event", "command") for t in arm_topics(role)}  # the arm's events
+        specs.update(MTM)
         again = on_new_reader(lambda: self.emit([("operating_state", mtm.report())]))
-        pub = lambda kind, name: node.create_publisher(  # noqa: E731
-            kind, f"{ns}/{name}", qos(specs[name]), **({"event_callbacks": again} if name == "operating_state" else {}))
-        self.pubs = {name: pub(msg_class(specs[name]), name) for name in
-                     ("measured_cp", "setpoint_cp", "operating_state", "desired_state", "goal_reached", "error",
-                      "warning", "status")}
-        self.pubs["gripper/measured_js"] = node.create_publisher(JointState, f"{ns}/gripper/measured_js",
-                                                                 qos(specs["measured_js"]))
-        command_qos = qos(specs["move_cp"])
-        handlers = (
-            ("state_command", StringStamped, lambda m: mtm.state_command(m.string)),
-            ("move_cp", PoseStamped, lambda m: mtm.move_cp(m.pose)),
-            ("servo_cp", PoseStamped, lambda m: mtm.move_cp(m.pose, kind="servo_cp")),
-            ("body/servo_cf", WrenchStamped, lambda m: mtm.servo_cf(
-                [m.wrench.force.x, m.wrench.force.y, m.wrench.force.z,
-                 m.wrench.torque.x, m.wrench.torque.y, m.wrench.torque.z])),
-            ("lock_orientation", Quaternion, lambda m: mtm.lock_orientation([m.x, m.y, m.z, m.w])),
-            ("unlock_orientation", Empty, lambda m: mtm.unlock_orientation()),
-            ("use_gravity_compensation", Bool, lambda m: setattr(mtm, "gravity_compensation", m.data) or []))
-        self.subs = [node.create_subscription(kind, f"{ns}/{name}", lambda m, h=h, n=name: self._on(n, h, m),
-                                              command_qos) for name, kind, h in handlers]
+        self.pubs = {name: node.create_publisher(
+            msg_class(specs[name]), f"{ns}/{name}", qos(specs[name]),
+            **({"event_callbacks": again} if name == "operating_state" else {}))
+            for name in ("measured_cp", "setpoint_cp", "gripper/measured_js", "operating_state", "desired_state",
+                         "goal_reached", "error", "warning", "status")}
+        handlers = {
+            "state_command": lambda m: mtm.state_command(m.string),
+            "move_cp": lambda m: mtm.move_cp(m.pose),
+            "servo_cp": lambda m: mtm.move_cp(m.pose, kind="servo_cp"),
+            "body/servo_cf": lambda m: mtm.servo_cf([m.wrench.force.x, m.wrench.force.y, m.wrench.force.z,
+                                                     m.wrench.torque.x, m.wrench.torque.y, m.wrench.torque.z]),
+            "lock_orientation": lambda m: mtm.lock_orientation([m.x, m.y, m.z, m.w]),
+            "unlock_orientation": lambda m: mtm.unlock_orientation(),
+            "use_gravity_compensation": lambda m: setattr(mtm, "gravity_compensation", m.data) or []}
+        self.subs = [node.create_subscription(msg_class(specs[name]), f"{ns}/{name}",
+                                              lambda m, h=h, n=name: self._on(n, h, m), qos(specs[name]))
+                     for name, h in handlers.items()]
         self._latched = FirstDelivery()  # state_command also through a transient-local reader (topics.py)
         self.subs.append(node.create_subscription(StringStamped, f"{ns}/state_command",
-                                                  lambda m: self._on("state_command", handlers[0][2], m),
+                                                  lambda m: self._on("state_command", handlers["state_command"], m),
                                                   latched_reader_qos(specs["state_command"])))
         self.services = [node.create_service(TriggerOperatingState, f"{ns}/operating_state", self._srv_state),
                          node.create_service(Trigger, f"{ns}/crtk_version", self._srv_version)]
@@ -131,16 +127,16 @@ class ConsoleTopics:
     def __init__(self, node, cart):
         self.node, self.cart = node, cart
         self.mtms = [MtmTopics(node, mtm) for mtm in cart.mtms]
-        button_qos = qos(TOPICS_BY_NAME["/footpedals/coag"])
-        self.button_pubs = {name: node.create_publisher(Joy, topic, button_qos) for name, topic in BUTTONS.items()}
+        self.button_pubs = {name: node.create_publisher(Joy, topic, qos(CONSOLE[topic]))
+                            for name, topic in BUTTONS.items()}
         self._published, self._next_ns = None, 0
-        self.subs = [node.create_subscription(Bool, f"/operator/{name}", lambda m, n=name: self._pedal(n, m),
-                                              button_qos) for name in ("clutch", "camera", "present")]
+        sub = lambda name, callback, mtm="": node.create_subscription(  # noqa: E731
+            msg_class(CONSOLE[name]), name.format(mtm=mtm), callback, qos(CONSOLE[name]))
+        self.subs = [sub(f"/operator/{name}", lambda m, n=name: self._pedal(n, m))
+                     for name in ("clutch", "camera", "present")]
         for mtm in cart.mtms:
-            self.subs.append(node.create_subscription(PoseStamped, f"/operator/{mtm.name}/servo_cp",
-                                                      lambda m, n=mtm.name: self._hand(n, m), button_qos))
-            self.subs.append(node.create_subscription(JointState, f"/operator/{mtm.name}/gripper/servo_jp",
-                                                      lambda m, n=mtm.name: self._grip(n, m), button_qos))
+            self.subs += [sub("/operator/{mtm}/servo_cp", lambda m, n=mtm.name: self._hand(n, m), mtm.name),
+                          sub("/operator/{mtm}/gripper/servo_jp", lambda m, n=mtm.name: self._grip(n, m), mtm.name)]
 
     def _warn(self, text):
         self.node.get_logger().warning(f"operator input refused: {text}", throttle_duration_sec=1.0)
