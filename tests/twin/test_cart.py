@@ -56,7 +56,7 @@ def test_arms_share_one_engine_at_their_setup_joint_bases(make_cart):
     cart.ecm.measured = np.array(ECM_Q)
     with cart.engine_lock:
         cart.step_engine()
-    tip = pose7_to_matrix(np.array([*ECM_BASE, 0, 0, 0, 1])) @ ecm_forward_kinematics(np.array(ECM_Q))
+    tip = cart.ecm_base @ ecm_forward_kinematics(np.array(ECM_Q))
     eyes = torch.from_dlpack(cart.engine.buffer("rigid.positions"))[cart._camera_rows, :3].double().cpu().numpy()
     assert np.allclose(eyes.mean(0), tip[:3, 3], atol=2e-5)
     assert np.allclose(eyes[1] - eyes[0], BASELINE * tip[:3, 0], atol=2e-6)
@@ -126,3 +126,25 @@ def test_ecm_urdf_matches_the_dvrk_dh_table():
     assert torch.allclose(urdf_tip, ecm_forward_kinematics(q), atol=1e-9)
     # at zero the scope points straight down from its RCM, the tip 0.7 mm past it (0.3829 - 0.3822 m)
     assert np.allclose(ecm_forward_kinematics(np.zeros(4))[:3, 2:], [[0, 0], [0, 0], [-1, -0.0007]], atol=1e-12)
+
+
+def test_setup_joints_place_the_bases():
+    """cart.PSM1.setup_joints: the dVRK Classic SUJ's kinematics from the cart's origin; the column
+    (the SUJ's prismatic first joint) lifts the base straight up by its travel."""
+    from cressim.robots.suj import SUJ_SIMULATED, suj_base
+
+    q = np.array(SUJ_SIMULATED["PSM1"])
+    scene = parse_scene("cart:\n  origin: {position: [0.1, -1.0, -0.5]}\n  ECM: {}\n"
+                        f"  PSM1: {{setup_joints: {q.tolist()}}}\n", "cart.yaml")
+    psm1 = next(a for a in scene.cart if a.name == "PSM1")
+    expected = suj_base("PSM1", q)
+    assert np.allclose(psm1.base_position, expected[:3, 3] + [0.1, -1.0, -0.5], atol=1e-12)
+    assert np.allclose(pose7_to_matrix(np.array([*psm1.base_position, *psm1.base_rotation]))[:3, :3], expected[:3, :3],
+                       atol=1e-9)
+    lifted = suj_base("PSM1", q + [0.05, 0, 0, 0, 0, 0])
+    assert np.allclose(lifted[:3, 3] - expected[:3, 3], [0, 0, 0.05], atol=1e-12)
+    assert np.allclose(lifted[:3, :3], expected[:3, :3], atol=1e-12)
+    with pytest.raises(SceneError, match=r"cart.PSM1.setup_joints: give either base or setup_joints"):
+        parse_scene("cart:\n  ECM: {}\n  PSM1: {base: {}, setup_joints: [0, 0, 0, 0, 0, 0]}\n", "cart.yaml")
+    with pytest.raises(ValueError, match="no setup joints for 'PSM4'"):
+        suj_base("PSM4", q)

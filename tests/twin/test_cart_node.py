@@ -28,12 +28,12 @@ def test_cart_node_namespaces_stereo_and_ecm(make_node):
         node._tick()
     assert cart.ecm.state.is_homed and all(arm.states[0].is_homed for arm in cart.psms)
     node._emit(cart.servo_jp(1, JointCommand(position=[0.2, 0.0, 0.11, 0.0, 0.0, 0.0])))
-    node.ecm.emit(cart.ecm.move_jp(JointCommand(position=[0.1, 0.05, 0.06, 0.0])))
+    node.ecm.emit(cart.ecm.move_jp(JointCommand(position=[0.1, 0.05, 0.06, -1.4])))
     for _ in range(100):
         node._tick()
     assert cart.psms[1].measured[0, 0] == pytest.approx(0.2, abs=1e-3)
     assert cart.psms[0].measured[0, 0] == pytest.approx(0.0, abs=1e-9)
-    assert np.allclose(cart.ecm.measured, [0.1, 0.05, 0.06, 0.0], atol=1e-3)
+    assert np.allclose(cart.ecm.measured, [0.1, 0.05, 0.06, -1.4], atol=1e-3)
     frames = {(t.header.frame_id, t.child_frame_id) for t in node.static_tf.transforms}
     assert {("world", "PSM1_base"), ("world", "PSM2_base"), ("world", "ECM_base"),
             ("ECM", "camera_left_optical_frame"), ("ECM", "camera_right_optical_frame")} <= frames

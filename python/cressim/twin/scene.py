@@ -12,6 +12,7 @@ import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
 import yaml
 
 SCENE_DIR_ENV = "CRESSIM_SCENE_DIR"  # overrides where scenes/ is (an install outside the repo)
@@ -250,27 +251,32 @@ def parse_scene(text: str, path: str = "<string>") -> Scene:
 
 def _parse_cart(p, node, scene):
     """`cart:` {ECM: {...}, PSM1: {...}, ...}: the arms of a patient cart, each with its base."""
-    cart = p.mapping(node, "cart", set(CART_ARMS) | {"operator"})
+    from cressim.robots.kinematics import rotation_xyzw
+    from cressim.robots.suj import suj_base
+
+    cart = p.mapping(node, "cart", set(CART_ARMS) | {"operator", "origin"})
+    origin = np.eye(4)  # the cart's frame (the setup joints' origin) in the world
+    if "origin" in cart:
+        position, rotation = _pose(p, cart["origin"], "cart.origin")
+        origin[:3, :3], origin[:3, 3] = _quat_matrix(rotation), position
     arms = []
     for name, arm_node in cart.items():
-        if name == "operator":
+        if name in ("operator", "origin"):
             continue
         kind = CART_ARMS[name]
-        keys = {"base"} | ({"robot", "initial_jp", "home_jp"} if kind == "psm" else set()) \
+        keys = {"base"} | ({"setup_joints"} if kind != "mtm" else set()) \
+            | ({"robot", "initial_jp", "home_jp"} if kind == "psm" else set()) \
             | ({"initial_jp", "home_jp", "endoscope"} if kind == "ecm" else set())
         fields = p.mapping(arm_node, f"cart.{name}", keys) if not _is_null(arm_node) else {}
         values = dict(name=name, kind=kind)
-        if "base" in fields:
-            base = p.mapping(fields["base"], f"cart.{name}.base", {"position", "rotation"})
-            if "position" in base:
-                values["base_position"] = p.numbers(base["position"], f"cart.{name}.base.position", 3)
-            if "rotation" in base:
-                q = p.numbers(base["rotation"], f"cart.{name}.base.rotation", 4)
-                norm = math.sqrt(sum(v * v for v in q))
-                if abs(norm - 1.0) > 1e-3:
-                    p.fail(base["rotation"], f"cart.{name}.base.rotation",
-                           f"quaternion x, y, z, w of norm 1 expected, norm is {norm:.6g}")
-                values["base_rotation"] = tuple(v / norm for v in q)
+        if "base" in fields and "setup_joints" in fields:
+            p.fail(fields["setup_joints"], f"cart.{name}.setup_joints", "give either base or setup_joints")
+        if "setup_joints" in fields:  # the dVRK Classic SUJ puts the base there (cressim.robots.suj)
+            base = origin @ suj_base(name, p.numbers(fields["setup_joints"], f"cart.{name}.setup_joints", 6))
+            values["base_position"] = tuple(float(v) for v in base[:3, 3])
+            values["base_rotation"] = rotation_xyzw(base[:3, :3])
+        if "base" in fields:  # the base's pose in the world, as given
+            values["base_position"], values["base_rotation"] = _pose(p, fields["base"], f"cart.{name}.base")
         if "robot" in fields:
             values["robot"] = p.choice(fields["robot"], f"cart.{name}.robot", ROBOTS)
         dof = 4 if kind == "ecm" else 6
@@ -318,6 +324,27 @@ def _parse_operator(p, node, mtms) -> tuple:
                     grips[name] = p.number(hand["gripper"], f"{key}.{name}.gripper", *GRIPPER_LIMITS)
         frames.append(Keyframe(at, hands, grips, pedals))
     return tuple(frames)
+
+
+def _pose(p, node, key) -> tuple:
+    """{position: [x, y, z], rotation: [x, y, z, w]} (each optional) -> (position, xyzw), checked."""
+    pose = p.mapping(node, key, {"position", "rotation"})
+    position = p.numbers(pose["position"], f"{key}.position", 3) if "position" in pose else (0.0, 0.0, 0.0)
+    rotation = (0.0, 0.0, 0.0, 1.0)
+    if "rotation" in pose:
+        q = p.numbers(pose["rotation"], f"{key}.rotation", 4)
+        norm = math.sqrt(sum(v * v for v in q))
+        if abs(norm - 1.0) > 1e-3:
+            p.fail(pose["rotation"], f"{key}.rotation", f"quaternion x, y, z, w of norm 1 expected, norm is {norm:.6g}")
+        rotation = tuple(v / norm for v in q)
+    return position, rotation
+
+
+def _quat_matrix(q) -> np.ndarray:
+    x, y, z, w = q
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
 
 
 RATE_KEYS = {"physics_rate": "physics", "particle_rate": "particles"}

@@ -487,7 +487,9 @@ class TwinNode(Node):
                 return  # the same command through the other reader (topics.LATCHED_COMMANDS)
             if self.recorder is not None:
                 self._record(f"{self.namespaces[env][0]}/{kind}", msg)
-            problem = self._stale(kind, msg, info)
+            # a state command is no setpoint that goes out of date, and a latched one (crtk's) may
+            # come through the transient-local reader as late as discovery took
+            problem = None if kind in LATCHED_COMMANDS else self._stale(kind, msg, info)
             if problem:
                 self._refuse(env, kind, problem)
                 return
