@@ -155,6 +155,7 @@ class Cart:
         self._images = CameraImages(engine)
         self.scenery = CartScenery(camera, labels, self.baseline)
         self.bodies = self  # what the node reads of `arms.bodies` (engine, scenery, device)
+        self.simulated = plan.simulated()
         self.device = arm_bodies[0].device
         self.engine_lock = threading.Lock()
 
@@ -290,6 +291,11 @@ class Cart:
             self.script.apply(self.sim_ns * 1e-9, self.operator)
         for mtm in self.mtms:
             mtm.tick(dt, self.operator)
+        if self.simulated:  # the world's particles move by themselves: physics every tick
+            with self.engine_lock:
+                self._pose()
+                self.engine.step_physics()
+                self.engine.end_frame()
         return events
 
     def snapshot(self, **kwargs) -> Snapshot:
@@ -297,8 +303,18 @@ class Cart:
         return Snapshot(snaps[0].sim_ns, {k: np.concatenate([s.fields[k] for s in snaps]) for k in snaps[0].fields})
 
     def step_engine(self, *, render: bool = False, sense: bool = False):
-        """The arms' links at their measured joints and the eyes on the ECM's tip, one physics
-        frame, then the cameras when `render`. Call with `engine_lock` held."""
+        """A sensor frame. Over a still world the arms' links and the eyes are posed at the measured
+        joints and stepped here; over a world that moves by itself (particles) that ran in the
+        tick, so only the cameras run. Call with `engine_lock` held."""
+        if not self.simulated:
+            self._pose()
+            self.engine.step_physics()
+        if render:
+            self.engine.step_visual_sensors()
+        self.engine.end_frame()
+
+    def _pose(self):
+        """Every arm's links at its measured joints and the eyes on the ECM's tip (GPU targets)."""
         for arm in self.psms:
             arm.bodies.write(arm.measured, arm.jaw_meas)
         q = torch.zeros(1, 6, dtype=torch.float64)
@@ -310,10 +326,6 @@ class Cart:
         rows = self._camera_rows.to(targets.device)
         targets[rows, :3] = p7[:, :3].to(targets)
         rotations[rows] = p7[:, 3:].to(rotations)
-        self.engine.step_physics()
-        if render:
-            self.engine.step_visual_sensors()
-        self.engine.end_frame()
 
 
 ROW_COMMANDS = ("state_command", "servo_jp", "move_jp", "servo_cp", "move_cp", "servo_cv", "jaw_servo_jp",
