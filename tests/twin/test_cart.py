@@ -148,3 +148,21 @@ def test_setup_joints_place_the_bases():
         parse_scene("cart:\n  ECM: {}\n  PSM1: {base: {}, setup_joints: [0, 0, 0, 0, 0, 0]}\n", "cart.yaml")
     with pytest.raises(ValueError, match="no setup joints for 'PSM4'"):
         suj_base("PSM4", q)
+
+
+def test_scripted_operator_drives_the_mtm_in_the_tick(make_cart):
+    """cart.operator's keyframes (simulated time) move MTMR's grip and press the clutch."""
+    scene = parse_scene(
+        "cart:\n  ECM: {}\n  PSM1: {}\n  MTMR: {}\n  operator:\n"
+        "    - {at: 0.1, present: true, MTMR: {position: [0, 0, 0], gripper: 0.2}}\n"
+        "    - {at: 0.3, clutch: true, MTMR: {position: [0.02, -0.01, 0.0], gripper: 0.6}}\n", "cart.yaml")
+    cart = make_cart(scene)
+    mtm = cart.mtms[0]
+    while cart.sim_ns < 200_000_000:  # half way between the keyframes
+        cart.tick()
+    assert np.allclose(mtm.pose[:3, 3], [0.01, -0.005, 0.0], atol=1e-3) and mtm.gripper == pytest.approx(0.4, abs=0.03)
+    assert cart.operator.pedals() == {"clutch": False, "camera": False, "operator_present": True}
+    while cart.sim_ns < 400_000_000:
+        cart.tick()
+    assert np.allclose(mtm.pose[:3, 3], [0.02, -0.01, 0.0]) and mtm.gripper == pytest.approx(0.6)
+    assert cart.operator.clutch
