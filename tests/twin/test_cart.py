@@ -166,3 +166,31 @@ def test_scripted_operator_drives_the_mtm_in_the_tick(make_cart):
         cart.tick()
     assert np.allclose(mtm.pose[:3, 3], [0.02, -0.01, 0.0]) and mtm.gripper == pytest.approx(0.6)
     assert cart.operator.clutch
+
+
+def test_instruments_that_touch_are_reported(make_cart):
+    """PSM2's jaws driven onto PSM1's shaft: a warning on both arms when they touch, a status when
+    they part (the kinematic arms pass through each other in the engine)."""
+    from cressim.robots.dh import dh_forward_kinematics
+
+    cart = make_cart(load_scene("patient_cart.yaml"))
+    home = torch.tensor([[0.0, 0.0, 0.12, 0.0, 0.0, 0.0]], dtype=torch.float64)
+    for arm in cart.psms:
+        arm.setpoint[:], arm.measured[:] = home, home
+    assert [e for e in cart.tick() if e.topic == "warning"] == []
+    F = cart.psm_bases[0] @ dh_forward_kinematics(home[0].numpy(), all_frames=True)
+    on_shaft = F[3, :3, 3] + 0.02 * (F[2, :3, 3] - F[3, :3, 3]) / np.linalg.norm(F[2, :3, 3] - F[3, :3, 3])
+    psm2 = cart.psms[1]
+    T = psm2.kin.forward(home)[0].numpy()
+    T[:3, 3] = np.linalg.solve(cart.psm_bases[1], np.append(on_shaft, 1.0))[:3]  # its jaw pivot there
+    q, ok = psm2.kin.inverse(torch.as_tensor(T[None]), home)
+    assert bool(ok[0])
+    psm2.setpoint[:], psm2.measured[:] = q, q
+    events = cart.tick()
+    warnings = {(e.env, e.value) for e in events if e.topic == "warning"}
+    assert warnings == {(0, "PSM1: collides with PSM2 (their instruments touch)"),
+                        (1, "PSM2: collides with PSM1 (their instruments touch)")}
+    assert [e for e in cart.tick() if e.topic == "warning"] == []  # said once, while they touch
+    psm2.setpoint[:], psm2.measured[:] = home, home
+    assert {(e.env, e.value) for e in cart.tick() if e.topic == "status"} == {(0, "PSM1: clear of PSM2"),
+                                                                            (1, "PSM2: clear of PSM1")}

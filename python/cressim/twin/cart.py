@@ -35,10 +35,13 @@ import yourdfpy
 import cressim
 from cressim.robots import robot_dir
 from cressim.robots.arm_bodies import ArmBodies, _link_shapes
+from cressim.robots.dh import dh_forward_kinematics
+from cressim.robots.ecm import ecm_forward_kinematics
 from cressim.robots.kinematics import matrix_to_pose7, pose7_to_matrix, rotation_xyzw
 from cressim.scene_file import add_scene
 
-from .arms import ConfigError, Snapshot, TwinArms, TwinConfig
+from .arm_clearance import INSTRUMENT_RADIUS, SCOPE_RADIUS, ArmClearance
+from .arms import ConfigError, Event, Snapshot, TwinArms, TwinConfig
 from .camera_images import CameraImages
 from .ecm_arm import EcmArm
 from .mtm import MtmArm, Operator, ScriptedOperator
@@ -176,6 +179,7 @@ class Cart:
         self.psm = self.psms[0].psm
         self.dynamic, self.suction, self.needle_offset = False, None, None
         self.ecm_events = []  # the ECM's events of the last tick, for its topics
+        self.clearance = ArmClearance()
         # the PSMs' measured_cp in the endoscope's frame (the dVRK console's), until a client sets one
         self.own_base_frame = [False] * self.num_envs
         self._follow_camera()
@@ -258,6 +262,7 @@ class Cart:
         self.operator = Operator([m.name for m in self.mtms])
         self.own_base_frame = [False] * self.num_envs
         self._follow_camera()
+        self.clearance = ArmClearance()
 
     def camera_frame(self) -> np.ndarray:
         """The endoscope's frame (the ECM's tip, `ECM`) in the world: what the PSMs' measured_cp
@@ -291,6 +296,7 @@ class Cart:
             self.script.apply(self.sim_ns * 1e-9, self.operator)
         for mtm in self.mtms:
             mtm.tick(dt, self.operator)
+        events += self._clearance()
         if self.simulated:  # the world's particles move by themselves: physics every tick
             with self.engine_lock:
                 self._pose()
@@ -301,6 +307,27 @@ class Cart:
     def snapshot(self, **kwargs) -> Snapshot:
         snaps = [arm.snapshot(**kwargs) for arm in self.psms]
         return Snapshot(snaps[0].sim_ns, {k: np.concatenate([s.fields[k] for s in snaps]) for k in snaps[0].fields})
+
+    def _clearance(self) -> list:
+        """The PSMs' instruments and the ECM's scope that start or stop touching (arm_clearance):
+        a warning, then a status, on each arm of the pair."""
+        capsules = {}
+        for row, arm in enumerate(self.psms):
+            F = self.psm_bases[row] @ dh_forward_kinematics(arm.measured[0].numpy(), all_frames=True)
+            capsules[self.names[row]] = (F[2, :3, 3], F[5, :3, 3], INSTRUMENT_RADIUS)  # tool base to jaw pivot
+        F = self.ecm_base @ ecm_forward_kinematics(self.ecm.measured, all_frames=True)
+        capsules[self.ecm.name] = (F[2, :3, 3], F[3, :3, 3], SCOPE_RADIUS)
+        onsets, partings = self.clearance.update(capsules)
+        events = []
+        for pairs, topic, text in ((onsets, "warning", "collides with {} (their instruments touch)"),
+                                   (partings, "status", "clear of {}")):
+            for a, b in pairs:
+                for name, other in ((a, b), (b, a)):
+                    if name == self.ecm.name:
+                        self.ecm_events.append((topic, text.format(other)))
+                    else:
+                        events.append(Event(self.names.index(name), topic, f"{name}: {text.format(other)}"))
+        return events
 
     def step_engine(self, *, render: bool = False, sense: bool = False):
         """A sensor frame. Over a still world the arms' links and the eyes are posed at the measured
