@@ -194,3 +194,13 @@ def test_instruments_that_touch_are_reported(make_cart):
     psm2.setpoint[:], psm2.measured[:] = home, home
     assert {(e.env, e.value) for e in cart.tick() if e.topic == "status"} == {(0, "PSM1: clear of PSM2"),
                                                                             (1, "PSM2: clear of PSM1")}
+
+
+def test_a_cart_refuses_what_it_cannot_run():
+    from cressim.twin import ConfigError
+
+    scene = load_scene("patient_cart.yaml")
+    with pytest.raises(ConfigError, match="patient_cart.yaml: num_envs: a patient cart runs in one env"):
+        Cart(TwinConfig(scene=scene, num_envs=2))
+    with pytest.raises(ConfigError, match="patient_cart.yaml: dynamics: a patient cart's arms are kinematic"):
+        Cart(TwinConfig(scene=scene, dynamics="dynamic"))

@@ -78,6 +78,9 @@ class Cart:
         if config.value("num_envs") != 1:
             raise ConfigError(f"{scene.path}: num_envs: a patient cart runs in one env "
                               f"(got {config.value('num_envs')})")
+        if config.value("dynamics") != "kinematic":
+            raise ConfigError(f"{scene.path}: dynamics: a patient cart's arms are kinematic "
+                              f"(got {config.value('dynamics')})")
         self.scene = scene
         self.publish_rate, self.physics_rate = config.value("publish_rate"), config.value("physics_rate")
         psm_specs = [a for a in scene.cart if a.kind == "psm"]
