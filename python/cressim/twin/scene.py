@@ -29,8 +29,9 @@ ECM_HOME = (0.0, 0.0, 0.05, 0.0)  # rad, m: the endoscope 5 cm in
 @dataclass(frozen=True)
 class CartArm:
     """One arm of a patient cart (scene file `cart:`): its dVRK name (also its ROS namespace and
-    frame prefix), kind (psm, ecm, mtm), PSM instrument, and where its setup joints hold its
-    base (the RCM; an MTM's base frame) in the world."""
+    frame prefix), kind (psm, ecm, mtm), PSM instrument, and where its base (the RCM) is in the
+    world (given, or where its setup joints hold it). An MTM has none of these: its base frame is
+    the surgeon console's."""
     name: str
     kind: str
     robot: str = "psm_lnd"
@@ -264,7 +265,7 @@ def _parse_cart(p, node, scene):
         if name in ("operator", "origin"):
             continue
         kind = CART_ARMS[name]
-        keys = {"base"} | ({"setup_joints"} if kind != "mtm" else set()) \
+        keys = ({"base", "setup_joints"} if kind != "mtm" else set()) \
             | ({"robot", "initial_jp", "home_jp"} if kind == "psm" else set()) \
             | ({"initial_jp", "home_jp", "endoscope"} if kind == "ecm" else set())
         fields = p.mapping(arm_node, f"cart.{name}", keys) if not _is_null(arm_node) else {}
