@@ -17,6 +17,13 @@ def test_cart_node_namespaces_stereo_and_ecm(make_node):
     for eye in ("left", "right"):
         for product in ("color", "depth", "segmentation"):
             assert f"/camera/{eye}/{product}/image_raw" in topics and f"/camera/{eye}/{product}/camera_info" in topics
+        assert f"/camera/{eye}/color/image_raw/compressed" in topics
+        assert f"/camera/{eye}/depth/image_raw/compressedDepth" in topics
+    for arm in ("MTML", "MTMR"):
+        for topic in ("measured_cp", "gripper/measured_js", "operating_state", "move_cp", "lock_orientation"):
+            assert f"/{arm}/{topic}" in topics, f"{arm}/{topic}"
+    assert {"/footpedals/clutch", "/footpedals/camera", "/console/operator_present", "/operator/present",
+            "/operator/MTMR/servo_cp"} <= topics
     left, right = node.camera.infos
     fx = left.p[0]
     assert left.p[3] == 0.0 and right.p[3] == pytest.approx(-fx * 0.005)  # ROS: Tx = -fx B (the scene's baseline)
