@@ -231,7 +231,7 @@ class TwinNode(Node):
         self.sensors.render_now()  # builds every pipeline before the first tick (can take a minute cold)
         if recorder is not None:
             self._open_recording(recorder)
-        if self.arms.bodies.device.type == "cpu" and not self.arms.dynamic and not self.cart:
+        if self.arms.bodies.device.type == "cpu" and not self.arms.dynamic:
             # lavapipe renders on the CPU: frames take the time the 100 Hz tick leaves (a dynamic
             # arm's physics runs on the same driver threads, so they keep their priority there)
             self.sensors.lower_priority(self.arms.engine_threads | (process_threads() - self._threads_before_engine))
@@ -239,32 +239,28 @@ class TwinNode(Node):
         self._set_rate()
 
     def _publish_static_tf(self):
-        """world -> base (the scene's base pose), world -> camera and probe of every env, latched."""
+        """world -> base (the scene's base pose), world -> camera and probe of every env, latched;
+        a cart's: world -> every arm's base, the ECM's tip -> each eye."""
         stamp, N, scene = self.stamp(), self.num_envs, self.scene
         spec = self.arms.bodies.scenery
         transforms = []
-        if self.cart:  # every arm's base where its setup joints hold it; the eyes on the ECM's tip
-            cart = self.cart
-            for row, name in enumerate(self.arm_names):
-                transforms.append(_transform(stamp, "world", f"{name}_base", matrix_to_pose7(
-                    torch.as_tensor(cart.psm_bases[row][None]))[0].numpy()))
-            ecm = cart.ecm.name
-            transforms.append(_transform(stamp, "world", f"{ecm}_base", matrix_to_pose7(
-                torch.as_tensor(cart.ecm_base[None]))[0].numpy()))
-            for view, offset in zip(self.camera.views, cart.eye_offsets()):
-                transforms.append(_transform(stamp, ecm, view.frame, matrix_to_pose7(
-                    torch.as_tensor(offset[None]))[0].numpy()))
-            N = 0
-        for env in range(N):
-            prefix = env_frame_prefix(env, N)
-            transforms.append(_transform(stamp, f"{prefix}world", f"{prefix}{self.arm}_base",
-                                         (*scene.base_position, *scene.base_rotation)))
-            transforms.append(_transform(stamp, f"{prefix}world", camera_frame(env, N),
-                                         (*spec.camera.position, *spec.camera_rotation)))
-            if spec.ultrasound is not None:
-                position, rotation = spec.probe_pose()
-                transforms.append(_transform(stamp, f"{prefix}world", ultrasound_frame(env, N, spec.ultrasound.frame),
-                                             (*position, *rotation)))
+        if self.cart:
+            cart, ecm = self.cart, self.cart.ecm.name
+            frames = [("world", f"{name}_base", base) for name, base in zip(self.arm_names, cart.psm_bases)]
+            frames.append(("world", f"{ecm}_base", cart.ecm_base))
+            frames += [(ecm, view.frame, offset) for view, offset in zip(self.camera.views, cart.eye_offsets())]
+            transforms = [_transform(stamp, parent, child, _pose7(T)) for parent, child, T in frames]
+        else:
+            for env in range(N):
+                prefix = env_frame_prefix(env, N)
+                transforms.append(_transform(stamp, f"{prefix}world", f"{prefix}{self.arm}_base",
+                                             (*scene.base_position, *scene.base_rotation)))
+                transforms.append(_transform(stamp, f"{prefix}world", camera_frame(env, N),
+                                             (*spec.camera.position, *spec.camera_rotation)))
+                if spec.ultrasound is not None:
+                    position, rotation = spec.probe_pose()
+                    probe = ultrasound_frame(env, N, spec.ultrasound.frame)
+                    transforms.append(_transform(stamp, f"{prefix}world", probe, (*position, *rotation)))
         self.static_tf = TFMessage(transforms=transforms)
         self.tf_static_pub.publish(self.static_tf)
 
@@ -765,6 +761,11 @@ def _transform(stamp, parent, child, p) -> TransformStamped:
     r = t.transform.rotation
     r.x, r.y, r.z, r.w = float(p[3]), float(p[4]), float(p[5]), float(p[6])
     return t
+
+
+def _pose7(T) -> np.ndarray:
+    """A 4x4 -> x, y, z, qx, qy, qz, qw."""
+    return matrix_to_pose7(torch.as_tensor(np.asarray(T, dtype=np.float64)[None]))[0].numpy()
 
 
 def _joint_state(stamp, names, position, velocity, effort) -> JointState:
