@@ -9,6 +9,8 @@ pytestmark = pytest.mark.ros
 
 
 def test_cart_node_namespaces_stereo_and_ecm(make_node):
+    from cressim_ros.twin_node import _transform
+
     node = make_node(scene="patient_cart.yaml")
     topics = {name for name, _ in node.get_topic_names_and_types()}
     for arm in ("/PSM1", "/PSM2", "/ECM"):
@@ -24,6 +26,10 @@ def test_cart_node_namespaces_stereo_and_ecm(make_node):
             assert f"/{arm}/{topic}" in topics, f"{arm}/{topic}"
     assert {"/footpedals/clutch", "/footpedals/camera", "/console/operator_present", "/operator/present",
             "/operator/MTMR/servo_cp"} <= topics
+    # each arm as robot_state_publisher would give it, under its own name
+    assert {"/PSM1/robot_description", "/PSM2/robot_description", "/ECM/robot_description", "/PSM1/joint_states",
+            "/ECM/joint_states"} <= topics
+    assert "<robot" in node.robot_states[1].description.data and "PSM2_shaft_link" in node.robot_states[1].description.data
     left, right = node.camera.infos
     fx = left.p[0]
     assert left.p[3] == 0.0 and right.p[3] == pytest.approx(-fx * 0.005)  # ROS: Tx = -fx B (the scene's baseline)
@@ -41,6 +47,9 @@ def test_cart_node_namespaces_stereo_and_ecm(make_node):
     assert cart.psms[1].measured[0, 0] == pytest.approx(0.2, abs=1e-3)
     assert cart.psms[0].measured[0, 0] == pytest.approx(0.0, abs=1e-9)
     assert np.allclose(cart.ecm.measured, [0.1, 0.05, 0.06, -1.4], atol=1e-3)
+    links = {(t.header.frame_id, t.child_frame_id) for rs in node.robot_states
+             for t in rs.publish(node.stamp(), _transform)}
+    assert ("PSM2_pitch_front_link", "PSM2_insertion_link") in links and ("ECM_base", "ECM_yaw_link") in links
     frames = {(t.header.frame_id, t.child_frame_id) for t in node.static_tf.transforms}
     assert {("world", "PSM1_base"), ("world", "PSM2_base"), ("world", "ECM_base"),
             ("ECM", "camera_left_optical_frame"), ("ECM", "camera_right_optical_frame")} <= frames

@@ -212,6 +212,12 @@ class Cart:
             out.append(T)
         return out
 
+    def ecm_joints(self) -> tuple[torch.Tensor, torch.Tensor]:
+        """The ECM's measured joints as ArmBodies takes them: (1, 6) (4 used) and a (1, 1) jaw of 0."""
+        q = torch.zeros(1, 6, dtype=torch.float64)
+        q[0, :4] = torch.as_tensor(self.ecm.measured)
+        return q, torch.zeros(1, 1, dtype=torch.float64)
+
     def images(self, products) -> dict:
         """product -> [left, right] host images of the last rendered frame."""
         return self._images.read(products)
@@ -347,9 +353,7 @@ class Cart:
         """Every arm's links at its measured joints and the eyes on the ECM's tip (GPU targets)."""
         for arm in self.psms:
             arm.bodies.write(arm.measured, arm.jaw_meas)
-        q = torch.zeros(1, 6, dtype=torch.float64)
-        q[0, :4] = torch.as_tensor(self.ecm.measured)
-        self.ecm_bodies.write(q, torch.zeros(1, 1, dtype=torch.float64))
+        self.ecm_bodies.write(*self.ecm_joints())
         p7 = matrix_to_pose7(torch.as_tensor(np.stack(self.eye_poses())))
         targets = torch.from_dlpack(self.engine.buffer("control.body_target_positions"))
         rotations = torch.from_dlpack(self.engine.buffer("control.body_target_rotations"))

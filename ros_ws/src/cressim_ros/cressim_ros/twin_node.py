@@ -28,6 +28,7 @@ import threading
 import time
 import traceback
 from array import array
+from types import SimpleNamespace
 
 import numpy as np
 import rclpy
@@ -49,7 +50,7 @@ from crtk_msgs.srv import QueryForwardKinematics, QueryInverseKinematics, Trigge
 from cressim.robots import PSM_JOINT_NAMES
 from cressim.robots.kinematics import matrix_to_pose7
 from cressim.twin import ConfigError, Sensor, SensorLoop, StateReport, TwinArms, TwinConfig
-from cressim.twin.cart import EYES, Cart
+from cressim.twin.cart import EYES, Cart, ecm_urdf
 from cressim.twin.command_checks import stale_refusal
 from cressim.twin.sensor_loop import process_threads
 from cressim.twin.scene import DEFAULT_SCENE, SceneError, load_scene
@@ -184,8 +185,16 @@ class TwinNode(Node):
         self.ultrasound = None
         if scenery.ultrasound is not None:
             self.ultrasound = UltrasoundTopics(self, engine, scenery.ultrasound, self.num_envs)
-        # the URDF's links on /tf and /joint_states (a cart publishes each arm's base -> tip)
-        self.robot_state = None if self.cart else RobotStateTopics(self, arms, arms.psm.urdf_path.read_text())
+        # the URDF's links on /tf, /joint_states and /robot_description (a cart's under each arm's name)
+        if self.cart:
+            cart = self.cart
+            self.robot_states = [RobotStateTopics(self, psm, psm.psm.urdf_path.read_text(), namespace=f"/{name}")
+                                 for name, psm in zip(self.arm_names, cart.psms)]
+            self.robot_states.append(RobotStateTopics(
+                self, SimpleNamespace(num_envs=1, arm=cart.ecm.name), ecm_urdf().read_text(),
+                namespace=f"/{cart.ecm.name}", bodies=cart.ecm_bodies, state=cart.ecm_joints))
+        else:
+            self.robot_states = [RobotStateTopics(self, arms, arms.psm.urdf_path.read_text())]
         images = self.camera.images  # grabbed right after the frame, converted and published off the engine lock
         sensors = [Sensor("camera", cfg["camera_rate"], render=True, read=lambda: images.grab(self.cfg["sensors"]),
                           publish=lambda raw, stamp: self.camera.publish(images.convert(raw), stamp,
@@ -277,7 +286,7 @@ class TwinNode(Node):
             self._record(self.camera.labels_topic(env), self.camera.labels)
             for _, topic, value in self._latched_events(env):
                 self._record(f"{self.namespaces[env][0]}/{topic}", self._message(env, topic, value))
-        for topic, msg in self.robot_state.topics_for_recording() if self.robot_state is not None else ():
+        for topic, msg in (item for rs in self.robot_states for item in rs.topics_for_recording()):
             self._record(topic, msg)
 
     def _set_rate(self):
@@ -679,8 +688,9 @@ class TwinNode(Node):
                         pub.publish(msg)
                         if record is not None and k == 0:
                             record(f"{self.namespaces[env][0]}/{topic}", msg)
-        if publish_tf and self.robot_state is not None:
-            transforms += self.robot_state.publish(stamp, _transform, record)
+        if publish_tf:
+            for robot_state in self.robot_states:
+                transforms += robot_state.publish(stamp, _transform, record)
         if self.ecm is not None:
             self.ecm.publish(stamp)
             self.console.publish(stamp)
