@@ -109,7 +109,9 @@ class Cart:
                                collision_group=1 << (FIRST_GROUP_BIT + k), name=spec.name)
             first = 1 + IDS_PER_ARM * k
             bodies.show(world, [0], first_id=first)
-            labels.update({first + j: f"{spec.name}/{name}" for j, name in enumerate(bodies.body_names)})
+            # the URDF says PSM1_* for every PSM: each arm's bodies under its own name (PSM2_shaft_link)
+            labels.update({first + j: name.replace("PSM1_", f"{spec.name}_")
+                           for j, name in enumerate(bodies.body_names)})
             arm_bodies.append(bodies)
         self.ecm_bodies = arm_bodies[-1]
 
