@@ -204,3 +204,42 @@ def test_a_cart_refuses_what_it_cannot_run():
         Cart(TwinConfig(scene=scene, num_envs=2))
     with pytest.raises(ConfigError, match="patient_cart.yaml: dynamics: a patient cart's arms are kinematic"):
         Cart(TwinConfig(scene=scene, dynamics="dynamic"))
+
+
+def test_ecm_inverse_kinematics_and_move_cp():
+    """The ECM's closed-form IK inverts the dVRK's DH FK over its joint ranges; move_cp reaches the
+    pose and a pose off the RCM's line is refused."""
+    from geometry_msgs.msg import Pose
+
+    from cressim.robots.ecm import ECM_LOWER, ECM_UPPER, ecm_inverse_kinematics
+    from cressim.robots.kinematics import matrix_to_pose7
+    from cressim.twin.ecm_arm import EcmArm
+
+    rng = np.random.default_rng(0)
+    q = ECM_LOWER + (ECM_UPPER - ECM_LOWER) * rng.random((500, 4))
+    q[:, 2] = np.maximum(q[:, 2], 0.01)  # the tip past the RCM
+    for qi in q:
+        back, ok = ecm_inverse_kinematics(ecm_forward_kinematics(qi))
+        assert ok and np.allclose(back, qi, atol=1e-8)
+
+    def pose(T):
+        p7, m = matrix_to_pose7(torch.as_tensor(T[None]))[0].numpy(), Pose()
+        m.position.x, m.position.y, m.position.z = map(float, p7[:3])
+        m.orientation.x, m.orientation.y, m.orientation.z, m.orientation.w = map(float, p7[3:])
+        return m
+
+    ecm = EcmArm((0, 0, 0.05, 0), (0, 0, 0.05, 0))
+    ecm.state_command("enable")
+    ecm.state_command("home")
+    while ecm.state.is_busy or not ecm.state.is_homed:
+        ecm.tick(0.01)
+    goal = np.array([0.2, -0.1, 0.08, 0.3])
+    assert [t for t, _ in ecm.move_cp(pose(ecm_forward_kinematics(goal)))] == ["operating_state"]
+    events = []
+    while ecm.state.is_busy:
+        events += ecm.tick(0.01)
+    assert ("goal_reached", True) in events and np.allclose(ecm.setpoint, goal, atol=1e-9)
+    off = ecm_forward_kinematics(goal)
+    off[:3, 3] += 0.01 * off[:3, 0]  # beside the scope's line: no joint values put the tip there so
+    (topic, text), = ecm.move_cp(pose(off))
+    assert topic == "error" and "not reachable" in text

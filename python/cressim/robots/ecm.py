@@ -47,4 +47,30 @@ def ecm_forward_kinematics(q, *, all_frames: bool = False):
     return out.numpy() if is_numpy else out
 
 
-__all__ = ["ECM_DH", "ECM_JOINT_NAMES", "ECM_LOWER", "ECM_UPPER", "ECM_VELOCITY", "ecm_forward_kinematics"]
+def ecm_inverse_kinematics(T, *, position_tol: float = 1e-5, rotation_tol: float = 1e-4):
+    """(4, 4) tip pose in ECM_base -> (q (4,), reachable). Closed form: the scope passes through
+    the RCM, so the tip's position gives yaw, pitch (the shaft's direction, which from the DH table
+    is z3 = (sin q1 cos q2, -sin q2, -cos q1 cos q2)) and insertion (the tip is 0.3829 - 0.3822 m
+    beyond the RCM at q3 = 0); the roll turns frame 3 about the shaft onto the pose's x. A pose
+    whose z is off the shaft (4 joints reach no other) or that needs joints beyond their limits
+    is not reachable; q is then the nearest in the limits."""
+    T = np.asarray(T, dtype=np.float64)
+    p = T[:3, 3]
+    r = float(np.linalg.norm(p))
+    z3 = p / r if r > 1e-9 else T[:3, 2]
+    q = np.zeros(4)
+    q[1] = math.atan2(-z3[1], math.hypot(z3[0], z3[2]))
+    q[0] = math.atan2(z3[0], -z3[2])
+    q[2] = r - (ECM_DH[3].d + ECM_DH[2].offset)
+    R3 = ecm_forward_kinematics(np.array([q[0], q[1], q[2], 0.0]))[:3, :3]
+    M = R3.T @ T[:3, :3]  # frame 3 -> the pose: Rz(roll) when the pose is reachable
+    q[3] = math.atan2(M[1, 0], M[0, 0])
+    q = np.clip(q, ECM_LOWER, ECM_UPPER)
+    F = ecm_forward_kinematics(q)
+    R = F[:3, :3].T @ T[:3, :3]
+    angle = math.atan2(np.linalg.norm([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]]) / 2,
+                       (np.trace(R) - 1) / 2)
+    return q, bool(np.linalg.norm(F[:3, 3] - p) < position_tol and angle < rotation_tol)
+
+
+__all__ = ["ecm_inverse_kinematics", "ECM_DH", "ECM_JOINT_NAMES", "ECM_LOWER", "ECM_UPPER", "ECM_VELOCITY", "ecm_forward_kinematics"]

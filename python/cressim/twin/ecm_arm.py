@@ -8,7 +8,9 @@
 Events are (topic, value) pairs as TwinArms' (`operating_state` a StateReport, `goal_reached`,
 `desired_state`, `status`, `error`). The ECM is kinematic: the cart poses its links and the
 stereo cameras on its tip from `measured` (cressim.twin.cart). Cartesian commands (move_cp,
-servo_cp) are not taken: the ECM has no closed-form IK here yet; they are refused with that reason.
+servo_cp, a pose of the tip in measured_cp's frame) go through the ECM's closed-form IK
+(cressim.robots.ecm): a pose its 4 joints cannot reach (its z off the line through the RCM, or
+beyond the limits) is refused with that reason.
 """
 from __future__ import annotations
 
@@ -16,7 +18,8 @@ import math
 
 import numpy as np
 
-from cressim.robots.ecm import ECM_JOINT_NAMES, ECM_LOWER, ECM_UPPER, ECM_VELOCITY, ecm_forward_kinematics
+from cressim.robots.ecm import (ECM_JOINT_NAMES, ECM_LOWER, ECM_UPPER, ECM_VELOCITY, ecm_forward_kinematics,
+                                ecm_inverse_kinematics)
 
 from .arm_state import ArmState
 from .command_checks import joint_values, pose_matrix
@@ -121,8 +124,38 @@ class EcmArm:
         self._busy(events)
         return events
 
-    def cartesian_refusal(self, kind: str):
-        return [("warning", f"{kind} refused: the twin's ECM takes joint commands only (servo_jp, move_jp)")]
+    def _cartesian(self, kind, pose):
+        """(joint values, None) for a tip pose in measured_cp's frame, or (None, reason)."""
+        problem = self.state.motion_refusal(kind)
+        T, problem = (None, problem) if problem else pose_matrix(pose, what=kind)
+        if problem:
+            return None, problem
+        local = np.linalg.solve(self.base_frame, T)
+        q, ok = ecm_inverse_kinematics(local)
+        if not ok:
+            p = local[:3, 3]
+            return None, (f"{kind} refused: pose at ({p[0]:.4g}, {p[1]:.4g}, {p[2]:.4g}) m (ECM_base) is not "
+                          "reachable: its z must point along the line from the RCM, within the joint limits")
+        return q, None
+
+    def servo_cp(self, pose):
+        q, problem = self._cartesian("servo_cp", pose)
+        if problem:
+            return [("error", problem)]
+        events = []
+        self._stop(events)
+        self.setpoint = q
+        self._busy(events)
+        return events
+
+    def move_cp(self, pose):
+        q, problem = self._cartesian("move_cp", pose)
+        if problem:
+            return [("error", problem)]
+        events = []
+        self._start(q, "move", events)
+        self._busy(events, force=True)
+        return events
 
     def set_base_frame(self, pose):
         T, problem = pose_matrix(pose, what="set_base_frame")

@@ -4,9 +4,8 @@ Published every tick: measured_js, setpoint_js (yaw, pitch, insertion, roll), me
 setpoint_cp (the endoscope's tip in `ECM_base`, or in the frame set by set_base_frame),
 local/measured_cp, local/setpoint_cp; on events (transient local): operating_state,
 desired_state, goal_reached, error, warning, status. Subscribed: state_command, servo_jp,
-move_jp, hold, set_base_frame; servo_cp and move_cp are refused on `warning` (joint commands
-only). Service: operating_state, crtk_version. QoS and message types are the PSM's (one topic
-table, cressim.record.schema).
+move_jp, servo_cp, move_cp, hold, set_base_frame. Services: operating_state, crtk_version. QoS
+and message types are the PSM's (one topic table, cressim.record.schema).
 """
 from __future__ import annotations
 
@@ -41,8 +40,7 @@ class EcmTopics:
                      for name in STATE + EVENTS}
         handlers = {"state_command": lambda m: ecm.state_command(m.string), "servo_jp": ecm.servo_jp,
                     "move_jp": ecm.move_jp, "hold": lambda m: ecm.hold(), "set_base_frame": self._set_base_frame,
-                    "servo_cp": lambda m: ecm.cartesian_refusal("servo_cp"),
-                    "move_cp": lambda m: ecm.cartesian_refusal("move_cp")}
+                    "servo_cp": lambda m: ecm.servo_cp(m.pose), "move_cp": lambda m: ecm.move_cp(m.pose)}
         self.subs = [node.create_subscription(msg_class(specs[name]), f"{namespace}/{name}",
                                               lambda m, h=handler, n=name: self._on(n, h, m), qos(specs[name]))
                      for name, handler in handlers.items()]
