@@ -53,3 +53,21 @@ def test_cart_node_namespaces_stereo_and_ecm(make_node):
     frames = {(t.header.frame_id, t.child_frame_id) for t in node.static_tf.transforms}
     assert {("world", "PSM1_base"), ("world", "PSM2_base"), ("world", "ECM_base"),
             ("ECM", "camera_left_optical_frame"), ("ECM", "camera_right_optical_frame")} <= frames
+
+
+def test_cart_recording_holds_every_arm(make_node, tmp_path):
+    import yaml
+
+    bag = tmp_path / "bag"
+    node = make_node(scene="patient_cart.yaml", record=str(bag))
+    for _ in range(10):
+        node._tick()
+    node.close()
+    meta = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    counts = {t["topic_metadata"]["name"]: t["message_count"] for t in meta["topics_with_message_count"]}
+    for topic in ("/PSM1/measured_js", "/PSM2/measured_cp", "/ECM/measured_js", "/ECM/measured_cp",
+                  "/MTMR/measured_cp", "/MTML/gripper/measured_js"):
+        assert counts.get(topic) == 10, (topic, counts.get(topic))
+    for topic in ("/ECM/operating_state", "/MTMR/operating_state", "/footpedals/clutch", "/PSM2/robot_description",
+                  "/camera/left/color/image_raw", "/camera/right/color/camera_info"):
+        assert counts.get(topic, 0) >= 1, topic

@@ -72,6 +72,16 @@ class MtmTopics:
         self.frame = f"{mtm.name}_base"
         self.emit([("operating_state", mtm.report())])
 
+    def _out(self, name, msg):
+        """Publishes on the MTM's topic `name` and records it when the node records."""
+        self.pubs[name].publish(msg)
+        if self.node.recorder is not None:
+            self.node._record(f"/{self.mtm.name}/{name}", msg)
+
+    def latched(self) -> list:
+        """(topic, message) a new recording opens with: the MTM's state."""
+        return [(f"/{self.mtm.name}/operating_state", self._state_msg(self.mtm.report()))]
+
     def _on(self, name, handler, msg):
         if name == "state_command" and not self._latched.first(name, msg):
             return  # the same command through the other reader
@@ -97,7 +107,7 @@ class MtmTopics:
                 msg = String(data=text)
                 if topic in ("error", "warning"):
                     self.node.get_logger().warning(text, throttle_duration_sec=1.0)
-            self.pubs[topic].publish(msg)
+            self._out(topic, msg)
 
     def publish(self, stamp):
         pose = matrix_to_pose7(torch.as_tensor(self.mtm.pose[None]))[0].numpy()
@@ -105,12 +115,12 @@ class MtmTopics:
             m = PoseStamped()
             m.header.stamp, m.header.frame_id = stamp, self.frame
             fill_pose(m.pose, pose)
-            self.pubs[name].publish(m)
+            self._out(name, m)
         m = JointState(name=["gripper"])
         m.header.stamp = stamp
         m.position, m.velocity, m.effort = array("d", [self.mtm.gripper]), array("d", [self.mtm.gripper_v]), \
             array("d", [0.0])
-        self.pubs["gripper/measured_js"].publish(m)
+        self._out("gripper/measured_js", m)
 
     def _srv_state(self, request, response):
         response.operating_state = self._state_msg(self.mtm.report())
@@ -166,6 +176,8 @@ class ConsoleTopics:
                 m = Joy(buttons=[int(pressed)])
                 m.header.stamp = stamp
                 self.button_pubs[name].publish(m)
+                if self.node.recorder is not None:
+                    self.node._record(BUTTONS[name], m)
             self._published, self._next_ns = buttons, now + BUTTON_PERIOD_NS
 
 

@@ -55,6 +55,16 @@ class EcmTopics:
             node.create_service(Trigger, f"{namespace}/crtk_version", self._srv_version)]
         self.emit([("operating_state", ecm.report())])
 
+    def _out(self, name, msg):
+        """Publishes on the ECM's topic `name` and records it when the node records."""
+        self.pubs[name].publish(msg)
+        if self.node.recorder is not None:
+            self.node._record(f"{self.ns}/{name}", msg)
+
+    def latched(self) -> list:
+        """(topic, message) a new recording opens with: the ECM's state."""
+        return [(f"{self.ns}/operating_state", self._state_msg(self.ecm.report()))]
+
     def _set_base_frame(self, msg):
         events = self.ecm.set_base_frame(msg.pose)
         if msg.header.frame_id and not any(t == "error" for t, _ in events):
@@ -86,7 +96,7 @@ class EcmTopics:
                 msg = String(data=f"{self.ecm.name}: {value}" if topic in ("error", "warning") else str(value))
                 if topic in ("error", "warning"):
                     self.node.get_logger().warning(msg.data, throttle_duration_sec=1.0)
-            self.pubs[topic].publish(msg)
+            self._out(topic, msg)
 
     def publish(self, stamp):
         """The periodic topics, then the ECM's events of the tick."""
@@ -97,7 +107,7 @@ class EcmTopics:
             m.header.stamp = stamp
             m.name = list(ECM_JOINT_NAMES)
             m.position, m.velocity, m.effort = array("d", q), array("d", v), array("d", [0.0] * 4)
-            self.pubs[name].publish(m)
+            self._out(name, m)
         for which in ("measured", "setpoint"):
             local = ecm.local_cp(which)
             for name, T, frame in ((f"local/{which}_cp", local, f"{ecm.name}_base"),
@@ -105,7 +115,7 @@ class EcmTopics:
                 m = msg_class(self.specs[name])()
                 m.header.stamp, m.header.frame_id = stamp, frame
                 fill_pose(m.pose, matrix_to_pose7(torch.as_tensor(T[None]))[0].numpy())
-                self.pubs[name].publish(m)
+                self._out(name, m)
         self.emit(self.node.arms.ecm_events)
 
     def tip_pose7(self) -> np.ndarray:

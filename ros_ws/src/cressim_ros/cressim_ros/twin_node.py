@@ -288,6 +288,9 @@ class TwinNode(Node):
                 self._record(f"{self.namespaces[env][0]}/{topic}", self._message(env, topic, value))
         for topic, msg in (item for rs in self.robot_states for item in rs.topics_for_recording()):
             self._record(topic, msg)
+        if self.cart:  # the ECM's and the MTMs' states
+            for topic, msg in self.ecm.latched() + [item for mtm in self.console.mtms for item in mtm.latched()]:
+                self._record(topic, msg)
 
     def _set_rate(self):
         self.arms.set_rate(self.cfg["publish_rate"])
