@@ -209,7 +209,7 @@ def test_a_cart_refuses_what_it_cannot_run():
 def test_ecm_inverse_kinematics_and_move_cp():
     """The ECM's closed-form IK inverts the dVRK's DH FK over its joint ranges; move_cp reaches the
     pose and a pose off the RCM's line is refused."""
-    from geometry_msgs.msg import Pose
+    from types import SimpleNamespace
 
     from cressim.robots.ecm import ECM_LOWER, ECM_UPPER, ecm_inverse_kinematics
     from cressim.robots.kinematics import matrix_to_pose7
@@ -222,11 +222,10 @@ def test_ecm_inverse_kinematics_and_move_cp():
         back, ok = ecm_inverse_kinematics(ecm_forward_kinematics(qi))
         assert ok and np.allclose(back, qi, atol=1e-8)
 
-    def pose(T):
-        p7, m = matrix_to_pose7(torch.as_tensor(T[None]))[0].numpy(), Pose()
-        m.position.x, m.position.y, m.position.z = map(float, p7[:3])
-        m.orientation.x, m.orientation.y, m.orientation.z, m.orientation.w = map(float, p7[3:])
-        return m
+    def pose(T):  # what a geometry_msgs/Pose carries (no ROS here)
+        x, y, z, qx, qy, qz, qw = map(float, matrix_to_pose7(torch.as_tensor(T[None]))[0].numpy())
+        return SimpleNamespace(position=SimpleNamespace(x=x, y=y, z=z),
+                               orientation=SimpleNamespace(x=qx, y=qy, z=qz, w=qw))
 
     ecm = EcmArm((0, 0, 0.05, 0), (0, 0, 0.05, 0))
     ecm.state_command("enable")

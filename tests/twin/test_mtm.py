@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 import pytest
-from geometry_msgs.msg import Pose
+from types import SimpleNamespace
 
 from cressim.twin import parse_scene
 from cressim.twin.mtm import Keyframe, MtmArm, Operator, ScriptedOperator
@@ -12,10 +12,10 @@ from cressim.twin.scene import SceneError
 
 
 def _pose(position, xyzw):
-    p = Pose()
-    p.position.x, p.position.y, p.position.z = position
-    p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w = xyzw
-    return p
+    """What a geometry_msgs/Pose carries (no ROS here)."""
+    x, y, z, w = xyzw
+    return SimpleNamespace(position=SimpleNamespace(x=position[0], y=position[1], z=position[2]),
+                           orientation=SimpleNamespace(x=x, y=y, z=z, w=w))
 
 
 def test_mtm_follows_the_hand_and_its_wrist():
