@@ -22,9 +22,10 @@ def qos(spec: TopicSpec) -> QoSProfile:
 
 
 # Commands that clients publish latched (crtk's state_command is transient local): each also gets
-# a transient-local reader, which receives a command sent before the readers matched (crtk sends
-# `enable` right after creating its publisher; a volatile reader loses it while discovery runs).
-# Both readers see later ones: `FirstDelivery` passes each (stamp, command) once.
+# a transient-local reader, which only latched writers match and which receives a command sent
+# before the readers matched (crtk sends `enable` right after creating its publisher; a volatile
+# reader loses it while discovery runs), however late: it is not refused as stale. Both readers
+# see a latched writer's later ones: `FirstDelivery` passes each (stamp, command) once.
 LATCHED_COMMANDS = ("state_command",)
 
 

@@ -364,10 +364,13 @@ class TwinNode(Node):
             for env, namespaces in enumerate(self.namespaces):
                 for ns in namespaces:
                     callback = functools.partial(self._on_command, spec.name, handler, env)
-                    for profile in (qos(spec), latched_reader_qos(spec)) if spec.name in LATCHED_COMMANDS \
-                            else (qos(spec),):
-                        self._command_subs.append(self.create_subscription(msg_class(spec), f"{ns}/{spec.name}",
-                                                                           callback, profile))
+                    self._command_subs.append(self.create_subscription(msg_class(spec), f"{ns}/{spec.name}",
+                                                                       callback, qos(spec)))
+                    if spec.name in LATCHED_COMMANDS:  # its latched writers' (topics.LATCHED_COMMANDS)
+                        self._command_subs.append(self.create_subscription(
+                            msg_class(spec), f"{ns}/{spec.name}",
+                            functools.partial(self._on_command, spec.name, handler, env, latched=True),
+                            latched_reader_qos(spec)))
         console = {"power_on": "enable", "power_off": "disable", "home": "home"}  # every arm
         for ns in CONSOLE_NAMESPACES:
             for topic, command in console.items():
@@ -489,15 +492,15 @@ class TwinNode(Node):
                              self.scene.stale_command_after, what=kind)
 
     # ------------------------------------------------------------------ subscriptions
-    def _on_command(self, kind, handler, env, msg, info):
+    def _on_command(self, kind, handler, env, msg, info, *, latched=False):
         try:
             if kind in LATCHED_COMMANDS and not self._latched.first((env, kind), msg):
                 return  # the same command through the other reader (topics.LATCHED_COMMANDS)
             if self.recorder is not None:
                 self._record(f"{self.namespaces[env][0]}/{kind}", msg)
-            # a state command is no setpoint that goes out of date, and a latched one (crtk's) may
-            # come through the transient-local reader as late as discovery took
-            problem = None if kind in LATCHED_COMMANDS else self._stale(kind, msg, info)
+            # a latched writer's command (crtk's state_command) may come through the transient-local
+            # reader as late as discovery took: it is the writer's last word, not a stale one
+            problem = None if latched else self._stale(kind, msg, info)
             if problem:
                 self._refuse(env, kind, problem)
                 return
