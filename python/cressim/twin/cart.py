@@ -7,15 +7,19 @@
     cart.step_engine(render=True)              # every arm's links and both cameras posed, physics, render
     left, right = cart.images(["color"])["color"]
 
-One world. The scene file's `cart:` names the arms (ECM, PSM1..3, MTML, MTMR) and where their
-setup joints hold each base (the RCM) in the world. Every PSM and the ECM is an ArmBodies of
-that world with a collision group of its own, so their links collide with each other and with
-the scenery (the table and tissue block, or the scene's `world` file); one engine steps them
-all. The arms are kinematic: their links follow the twin's measured joints.
+One world. The scene file's `cart:` names the arms (ECM, PSM1..3, MTML, MTMR) and where each
+base (the RCM) is: given, or where the dVRK's setup joints hold it (cressim.robots.suj). Every
+PSM and the ECM is an ArmBodies of that world with a collision group of its own; the scenery is
+the table and tissue block, or the scene's `world` file (simulated every tick when it has
+particles); one engine steps them all. The arms are kinematic: their links follow the twin's
+measured joints, so the engine lets them pass through each other, and each tick the cart checks
+where their instruments would touch instead (cressim.twin.arm_clearance).
 
 Rows. To the ROS node the cart looks like TwinArms with one row per PSM (row k is `names[k]`,
 published under /PSMk): every command `(row, ...)` goes to that PSM's TwinArms (env 0), and the
-events come back with the row. The ECM and the MTMs have their own objects and topics.
+events come back with the row. The ECM (EcmArm) and the MTMs (cressim.twin.mtm, with the
+operator who holds them) have their own objects and topics. The PSMs' measured_cp is expressed
+in the endoscope's frame (the ECM's tip, following it) until a client sets a base frame.
 
 The stereo endoscope. Two pinhole cameras of the scene's `camera:` size and field of view sit on
 the ECM's tip (DH frame 4, z out of the scope), `endoscope.baseline` apart along the tip's x,
