@@ -6,6 +6,7 @@
 #   source .gpu/prelude.sh; CRESSIM_TESTS=OFF bash benchmarks/gpu_batch.sh setup bench-policy  # issue 19
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-policy-ppo  # issue 19: PPO, training
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-twin-tissue  # the twin over tissue
+#   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-cart  # the patient cart (ECM, 3 PSMs, stereo)
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-heat  # the cautery scene; the twin's tick
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-sew   # the continuum robot and suture scenes
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-soft bench-fluid  # SoftBodyPush, FluidPour
@@ -103,6 +104,9 @@ for stage in "$@"; do
       ;;
     bench-twin)  # the twin's 100 Hz tick with the default scene's 640x480 camera per env at 30 Hz
       run twin 600 python3 benchmarks/bench_twin.py --envs 1,64,1024 --seconds 10 --json "$OUT/twin.json"
+      ;;
+    bench-cart)  # the patient cart: ECM + 3 PSMs, stereo 640x480 at 30 Hz (issue 17)
+      run cart 300 python3 benchmarks/bench_cart.py --seconds 10 --json "$OUT/cart.json"
       ;;
     bench-twin-tissue)  # the twin over the retraction scene's flap: kinematic at 200 Hz physics, dynamic at 800
       run twin_tissue 300 python3 benchmarks/bench_twin.py --scene psm_retraction.yaml --envs 1,16 \
