@@ -100,6 +100,10 @@ void main(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
         p.place.w = 0;
       } else if (p.ids.x == PUNCTURE_THROUGH && p.place.z < 0) {
         p.ids.x = PUNCTURE_FREE;
+      } else if (p.ids.x == PUNCTURE_THROUGH) {
+        // the last substep's force on the thread (the friction limit of this one reads it)
+        p.force = p.impulse / (pc.gravity.w * pc.gravity.w);
+        p.impulse = float4(0, 0, 0, 0);
       }
       punctures[r] = p;
       indenting = indenting || p.ids.x == PUNCTURE_INDENTING;
@@ -136,14 +140,16 @@ void main(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
   if (best_tri != CRESSIM_NONE) {
     const uint3 c = corners(best_tri);
     const float3 x0 = positions[c.x].xyz, x1 = positions[c.y].xyz, x2 = positions[c.z].xyz;
-    const float4 hit = crossing(state.xyz, tip, x0, x1, x2);
+    const float3 from = state.xyz;
+    const float4 hit = crossing(from, tip, x0, x1, x2);
     for (uint r = n.records.x; r < n.records.x + n.records.y; ++r) {
       if (punctures[r].ids.x != PUNCTURE_FREE) continue;
       Puncture p;
       // the side it came from by its way across (its start may lie on the surface itself); w: no knot
-      p.ids = uint4(PUNCTURE_INDENTING, best_tri, dot(tip - state.xyz, cross(x1 - x0, x2 - x0)) < 0 ? 1 : 0, 0);
+      p.ids = uint4(PUNCTURE_INDENTING, best_tri, dot(tip - from, cross(x1 - x0, x2 - x0)) < 0 ? 1 : 0, 0);
       p.place = float4(hit.yz, 0, 0);
-      p.contact = float4(lerp(state.xyz, tip, best), 0);
+      p.contact = float4(lerp(from, tip, best), 0);
+      p.force = p.impulse = float4(0, 0, 0, 0);
       punctures[r] = p;
       break;
     }
