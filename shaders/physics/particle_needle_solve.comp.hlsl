@@ -11,11 +11,21 @@
 //   nearest the surface point by what Coulomb friction cannot hold (position-level friction, as
 //   PBD contacts do: the slide sticks within mu times the point's distance from the path), and the
 //   tissue goes to the path there.
-// - Punctured, on the thread: the thread, light and slack, is drawn through the puncture (it moves
-//   across to it; the tissue stays), s following the nearest point along it. Once s reaches the
+// - Punctured, on the thread, squeeze 0 (the default, and every shipped scene): the thread, light
+//   and slack, is drawn through the puncture (it moves across to it; the tissue stays), s
+//   following the nearest point along it; `friction` acts on the needle only. Once s reaches the
 //   path's end, the thread's last particle is a knot: it neither passes nor comes back out, and
 //   it and the tissue there meet by inverse mass (the thread, far lighter, does most of the
 //   moving: pulled on against the knot, it gives rather than tear the tissue away).
+// - Punctured, on the thread, squeeze N > 0 (opt-in, NOT validated; docs/particles.md): the
+//   puncture holds the thread's material point s, its impulse along the thread summed over the
+//   substep's iterations and clamped to a capstan limit T_high <= T_low exp(mu theta) + mu N (the
+//   tensions from the puncture's force over the last substep; thread_through). Known faults: s
+//   is arc length from the tail, so length the tail side gains (a cut segment opening, stretch)
+//   pushes the thread through the puncture whatever the friction; a straight thread pushed
+//   lengthwise is pushed through (it does not buckle); the tensions read in a quasi-static pull do
+//   not follow the capstan law.
+// Each puncture on the thread reports the force it put on it over the last substep (Puncture.force).
 // Not modelled: a taut thread's squeeze on the punctures it runs through (it passes them without
 // pulling them), so pulling a running suture tight moves the tissue at the knot only. Tried: split
 // by inverse mass, a thread 100 times lighter than the tissue still dragged it toward the straight
@@ -183,7 +193,7 @@ void main(uint3 id : SV_DispatchThreadID) {
         pin(c, b, x, x - wp / (wp + wk) * d);
         p.impulse.xyz += d / (wp + wk);
       }
-    } else if (mu > 0 || n.puncture.y > 0) {
+    } else if (n.puncture.y > 0) {  // opt-in (squeeze > 0): not yet validated, docs/particles.md
       thread_through(n, a, p, x, mu);
     } else {
       slide_through(n, a, p, x);
