@@ -45,7 +45,7 @@ void sew(NeedleModel n, Arc a) {
   float s = a.radius * a.angle;
   for (uint i = 0; i < n.ids.z; ++i) {
     const uint k = n.ids.y + i;
-    const float l = i + 1 < n.ids.z ? distance(positions[k].xyz, positions[k + 1].xyz) : 0;
+    const float l = i + 1 < n.ids.z ? rest_length(k) : 0;  // s by rest lengths, as load_thread's
     float below = -1e30, above = 1e30;
     uint below_side = 1, above_side = 0;
     bool near = false;

@@ -26,7 +26,9 @@ def quat(theta):
 START = math.pi + math.asin(H / R) - 0.2 - A  # the tip 0.2 rad above where it meets the top
 
 
-def scene(make_engine, envs=1, thread_length=0.06, gravity=(0, 0, 0), density=1140, **needle):
+def scene(make_engine, envs=1, thread_length=0.06, gravity=(0, 0, 0), density=1140, strand=None, **needle):
+    """The block, and per env a needle at START with its thread; `strand`: the thread's Strand arguments
+    (default a 2-0 braid: a rod of the given density)."""
     world = cressim.World(cressim.SceneLayout(envs))
     mesh = cressim.TetMesh.box(HALF, (12, 8, 4))
     rest = np.asarray(mesh.positions)
@@ -40,7 +42,8 @@ def scene(make_engine, envs=1, thread_length=0.06, gravity=(0, 0, 0), density=11
         count = int(round(thread_length / 0.002)) + 1
         pts = tail + np.linspace(0, thread_length, count)[:, None] * np.array([-0.6, 0, 0.8])
         thread = world.create_entity(env=env, name="thread")
-        thread.add(cressim.Strand(pts.astype(np.float32), radius=0.00015, youngs_modulus=5e7, density=density, damping=2.0))
+        strand = strand or {"youngs_modulus": 5e7, "density": density, "damping": 2.0}
+        thread.add(cressim.Strand(pts.astype(np.float32), radius=0.00015, **strand))
         body = world.create_entity(env=env, name="needle")
         body.add(cressim.Transform(position=(0, 0, H), rotation=quat(START)))
         body.add(cressim.RigidBody(kinematic=True, mass=0.001, inertia=(1e-8, 1e-8, 1e-8)))

@@ -17,7 +17,7 @@ import pytest
 import cressim
 from cressim.suture import punctures
 
-from .particle_scenes import positions
+from .particle_scenes import positions, step
 from .test_suture import A, H, R, quat, scene, turn
 
 G = 9.81
@@ -79,3 +79,56 @@ def test_a_frictionless_puncture_passes_the_tension_on_as_a_pulley(make_engine):
     assert t_needle == pytest.approx(t_tunnel_exit, rel=0.2)
     assert t_tunnel_entry == pytest.approx(t_hanging, rel=0.2)
     assert t_tunnel_exit == pytest.approx(t_tunnel_entry, rel=0.2)
+
+
+MASS = 3e-6  # kg a particle (1.5 g/m): its own weight is the load
+# a thread with no bending or twisting stiffness to speak of (a rope: the friction alone holds it)
+ROPE = {"mass": MASS, "bend_compliance": 1e9, "twist_compliance": 1e9, "damping": 10.0, "soft_body_contacts": False}
+
+
+def test_a_straight_pass_holds_the_thread_up_to_coulombs_limit(make_engine):
+    """Coulomb's threshold: the bite's thread laid straight along the line of its two punctures (no
+    turn), cut loose from the needle, and loaded along that line by its own weight with g raised
+    slowly from 0: it holds while the weight beyond the exit, W, is below 2 mu N (N per puncture)
+    and slides from there (within 10 %; measured onset 1.04 x)."""
+    mu, squeeze, past = 0.3, 0.0015, 0.0033
+    engine, needles, tissue = scene(make_engine, friction=mu, squeeze=squeeze, strand=ROPE)
+    dt = engine.physics.dt
+    theta = 2 * math.pi - math.asin(H / R) + past / R  # the tail 3.3 mm (along the arc) past the exit
+    turn(engine, needles, to=theta)
+    # the needle turned about its tail, arc up, the tail just past the exit on the line of the
+    # punctures (the tip stays above the block); then the thread's first segment is cut
+    x_exit = math.sqrt(R * R - H * H)
+    tail = np.array([x_exit + past - 0.0002, 0.0, 0.0003])
+    frames = int(round(0.3 / dt))
+    for f in range(frames):
+        t = (f + 1) / frames
+        centre = np.array([0.0, 0.0, H]) + t * (tail + np.array([0.0, 0.0, R]) - np.array([0.0, 0.0, H]))
+        needles[0].transform = cressim.Transform(position=tuple(float(v) for v in centre),
+                                                 rotation=quat(theta + t * (1.5 * math.pi - theta)))
+        engine.step_physics()
+        engine.end_frame()
+    for family in ("stretch", "stretch_shear", "bend", "bend_twist"):
+        engine.cut_constraints(family, [0])
+    step(engine, 6)
+    exit_, entry = sorted(punctures(engine)[0], key=lambda r: r["s"])
+    assert exit_["s"] - R * A > 0.002  # past the cut segment
+    beyond = sum(1 for k in range(31) if 0.002 * k > exit_["s"] - R * A)  # particles beyond the exit
+    start_s = entry["s"]
+    limit_g = 2 * mu * squeeze / (beyond * MASS)
+    frames = int(round(0.75 / dt))
+    onset = None
+    for f in range(frames):
+        g = 1.5 * limit_g * (f + 1) / frames
+        engine.physics = cressim.PhysicsSettings(gravity=(-g, 0, 0))  # along the punctures' line
+        step(engine, 1)
+        records = sorted(punctures(engine)[0], key=lambda r: r["s"])
+        if start_s - records[1]["s"] > 0.0003:  # the thread's material point at the entry moved on
+            onset = g
+            break
+    assert onset is not None, "the thread held at 1.5 x its Coulomb limit"
+    print(f"onset at {onset / limit_g:.3f} x 2 mu N, friction {[round(r['friction'] * 1e3, 3) for r in records]} mN")
+    assert onset / limit_g == pytest.approx(1.0, abs=0.1)
+    # at the onset both punctures pass on their full mu N (the force they report along the thread)
+    for r in records:
+        assert abs(r["friction"]) == pytest.approx(mu * squeeze, rel=0.1)
