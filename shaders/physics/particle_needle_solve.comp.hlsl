@@ -17,14 +17,13 @@
 //   path's end, the thread's last particle is a knot: it neither passes nor comes back out, and
 //   it and the tissue there meet by inverse mass (the thread, far lighter, does most of the
 //   moving: pulled on against the knot, it gives rather than tear the tissue away).
-// - Punctured, on the thread, squeeze N > 0 (opt-in, NOT validated; docs/particles.md): the
-//   puncture holds the thread's material point s, its impulse along the thread summed over the
-//   substep's iterations and clamped to a capstan limit T_high <= T_low exp(mu theta) + mu N (the
-//   tensions from the puncture's force over the last substep; thread_through). Known faults: s
-//   is arc length from the tail, so length the tail side gains (a cut segment opening, stretch)
-//   pushes the thread through the puncture whatever the friction; a straight thread pushed
-//   lengthwise is pushed through (it does not buckle); the tensions read in a quasi-static pull do
-//   not follow the capstan law.
+// - Punctured, on the thread, squeeze N > 0 (opt-in; docs/particles.md): the puncture holds the
+//   thread's material point s (s counts rest lengths: particle_needle.hlsli), its impulse along the
+//   thread summed over the substep's iterations and clamped to a capstan limit
+//   T_high <= T_low exp(mu theta) + mu N (the tensions from the puncture's force over the last
+//   substep; thread_through). Checked: Coulomb's threshold of a straight pass (theta 0). Not met:
+//   the capstan law at a turn (the polyline turns at particles and the clamp acts along the
+//   segment through s, not the direction the thread slides), so no shipped scene uses it.
 // Each puncture on the thread reports the force it put on it over the last substep (Puncture.force).
 // Not modelled: a taut thread's squeeze on the punctures it runs through (it passes them without
 // pulling them), so pulling a running suture tight moves the tissue at the knot only. Tried: split

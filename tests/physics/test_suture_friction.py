@@ -1,8 +1,8 @@
 """A thread sliding through its punctures (cressim.Needle's `friction` and `squeeze`;
 particle_needle_solve.comp.hlsl), on lavapipe. Checked: a frictionless puncture (the pulley), the
-thread's path whenever `squeeze` is 0 (the default and every shipped scene). Friction on the thread
-(squeeze > 0) is opt-in and not validated: neither the capstan law nor Coulomb's threshold of a
-straight pass is met yet (docs/particles.md, "Suturing"). The needle of
+thread's path whenever `squeeze` is 0 (the default and every shipped scene), and Coulomb's threshold
+of a straight pass with squeeze > 0. Not met yet: the capstan law where the thread turns at a
+puncture (docs/particles.md, "Suturing"), so friction on the thread stays opt-in. The needle of
 test_suture bites through the block's top and on, so that its thread runs in at one point of the
 top, along a straight tunnel under it and out at another. With gravity along +z (away from the
 top) the thread's far end hangs straight "up" out of the entry, and the needle, above the exit, pulls
