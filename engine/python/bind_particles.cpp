@@ -292,10 +292,9 @@ void bind_particles(py::module_& m) {
            "the surface takes `puncture_force` (N) or the tip is `puncture_depth` (m) past where it met it, then "
            "passes through; the punctured points slide along the "
            "needle against Coulomb `friction`, then the thread slides through them freely, and they stop at the "
-           "thread's last particle (a knot). `squeeze` > 0 (N, the tissue's grip on the thread; opt-in: Coulomb's "
-           "limit of a straight pass is checked, the capstan law at a turn is not, docs/particles.md) holds the "
-           "thread at a puncture up to T_high <= T_low exp(friction * turn) + friction * squeeze. `max_punctures` "
-           "records (entries and exits).")
+           "thread's last particle (a knot). `squeeze` > 0 (N, the tissue's grip on the thread) switches on "
+           "friction on the thread: a puncture holds it up to T_high <= T_low exp(friction * turn) + friction * "
+           "squeeze (docs/particles.md). `max_punctures` records (entries and exits).")
       .def_readonly("arc_radius", &scene::Needle::arc_radius)
       .def_readonly("arc_angle", &scene::Needle::arc_angle)
       .def_readonly("thread", &scene::Needle::thread);

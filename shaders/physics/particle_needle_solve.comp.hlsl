@@ -17,13 +17,12 @@
 //   path's end, the thread's last particle is a knot: it neither passes nor comes back out, and
 //   it and the tissue there meet by inverse mass (the thread, far lighter, does most of the
 //   moving: pulled on against the knot, it gives rather than tear the tissue away).
-// - Punctured, on the thread, squeeze N > 0 (opt-in; docs/particles.md): the puncture holds the
-//   thread's material point s (s counts rest lengths: particle_needle.hlsli), its impulse along the
-//   thread summed over the substep's iterations and clamped to a capstan limit
-//   T_high <= T_low exp(mu theta) + mu N (the tensions from the puncture's force over the last
-//   substep; thread_through). Checked: Coulomb's threshold of a straight pass (theta 0). Not met:
-//   the capstan law at a turn (the polyline turns at particles and the clamp acts along the
-//   segment through s, not the direction the thread slides), so no shipped scene uses it.
+// - Punctured, on the thread, squeeze N > 0 (friction on the thread; docs/particles.md): the
+//   puncture holds the thread's material point s (s counts rest lengths: particle_needle.hlsli),
+//   its impulse along the thread summed over the substep's iterations and clamped to the capstan
+//   limit T_high <= T_low exp(mu theta) + mu N (the tensions from the puncture's force over the
+//   last substep; thread_through), along the thread's chord across the puncture. Checked with a
+//   rope: Coulomb's threshold of a straight pass and the capstan law at a turn.
 // Each puncture on the thread reports the force it put on it over the last substep (Puncture.force).
 // Not modelled: a taut thread's squeeze on the punctures it runs through (it passes them without
 // pulling them), so pulling a running suture tight moves the tissue at the knot only. Tried: split
@@ -93,16 +92,21 @@ void thread_through(NeedleModel n, Arc a, inout Puncture p, float3 x, float mu) 
     return;
   }
   const float W = g0 * g0 * w0 + g1 * g1 * w1;
-  const float3 across = d - along * q.t;
+  // the way the thread slides through: its chord across the puncture (at a turn, the bisector of
+  // its two sides, which the capstan limit is written along), not the one segment s lies on
+  const float3 chord = path_at(n, a, p.place.z + 0.003).x - path_at(n, a, p.place.z - 0.003).x;
+  const float3 t = dot(chord, chord) > 1e-12 ? normalize(chord) : q.t;
+  const float slide = dot(d, t);
+  const float3 across = d - slide * t;
   const float h2 = pc.gravity.w * pc.gravity.w;
   const float limit = holding_force(n, a, p.place.z, x, p.force.xyz, mu) * h2;
   const float before = p.impulse.w;
-  const float held = clamp(before + along / W, -limit, limit);
-  const float3 push = across / W + (held - before) * q.t;  // the impulse on the thread, times h
+  const float held = clamp(before + slide / W, -limit, limit);
+  const float3 push = across / W + (held - before) * t;  // the impulse on the thread, times h
   positions[i0].xyz += w0 * g0 * push;
   positions[i1].xyz += w1 * g1 * push;
   p.impulse = float4(p.impulse.xyz + push, held);
-  p.place.z += along - (held - before) * W;  // what friction did not hold slid through
+  p.place.z += slide - (held - before) * W;  // what friction did not hold slid through
 }
 
 // Without friction the light thread is drawn through the puncture: it moves across to it (the
@@ -192,7 +196,7 @@ void main(uint3 id : SV_DispatchThreadID) {
         pin(c, b, x, x - wp / (wp + wk) * d);
         p.impulse.xyz += d / (wp + wk);
       }
-    } else if (n.puncture.y > 0) {  // opt-in (squeeze > 0): not yet validated, docs/particles.md
+    } else if (n.puncture.y > 0) {  // squeeze > 0: friction on the thread
       thread_through(n, a, p, x, mu);
     } else {
       slide_through(n, a, p, x);
