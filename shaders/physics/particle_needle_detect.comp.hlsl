@@ -5,13 +5,15 @@
 // on the path at the tip and slides along it); one the tip no longer pushes (it backed away the
 // way it came, past the surface point) is let go; a punctured point the needle has slid back off (s < 0, before the tip) is
 // let go. Then, while no point is being indented, the tip's move over the substep is tested
-// against the env's soft-body surface: the first triangle it crosses, either way (in at an entry,
-// out at an exit), starts an indented point there. Triangles that share a corner with a point
+// against the env's soft-body surface (in each triangle's frame, from a substep back:
+// start_against): the first triangle it crosses, either way (in at an entry, out at an exit),
+// starts an indented point there. Triangles that share a corner with a point
 // punctured within the tip's first 10 % are skipped: the tip has just gone through there.
 #include "particle_needle.hlsli"
 
 RWStructuredBuffer<float4> needle_states;
 RWStructuredBuffer<uint4> phases;
+StructuredBuffer<float4> prev_positions;  // at the substep's start: how far each triangle moved
 StructuredBuffer<uint4> initial_phases;
 static const float RETREAT = 1e-5;  // m behind the surface point: the tip no longer touches it  // per needle: xyz the tip at the last substep, w its push (N; < 0: no tip yet)
 
@@ -61,6 +63,18 @@ void sew(NeedleModel n, Arc a) {
     phases[k].w = (phases[k].w & ~PARTICLE_NO_SOFT_CONTACT) | (inside ? PARTICLE_NO_SOFT_CONTACT : authored);
     s += l;
   }
+}
+
+// The tip's way tested against a triangle: from a substep's way back (a tip that the surface met
+// in the previous substep's solve, after that substep's test, lies just past it at this one's
+// start: tissue rising under gravity past a descending tip was crossed by neither test), in the
+// triangle's frame (the start carried along by the triangle's own move over this substep, its
+// corners' mean, predicted place against place at the substep's start). A crossing already taken
+// is not taken again (the fresh test below).
+float3 start_against(uint3 c, float3 start, float3 tip) {
+  const float3 moved = positions[c.x].xyz + positions[c.y].xyz + positions[c.z].xyz -
+                       prev_positions[c.x].xyz - prev_positions[c.y].xyz - prev_positions[c.z].xyz;
+  return start + moved / 3 - (tip - start);
 }
 
 // one workgroup per needle: its first thread moves the records on and writes the result, all of
@@ -117,7 +131,7 @@ void main(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
   if (scan_on) {
     for (uint k = n.records.z + lane; k < n.records.z + n.records.w; k += SCAN_THREADS) {
       const uint3 c = corners(k);
-      const float4 hit = crossing(state.xyz, tip, positions[c.x].xyz, positions[c.y].xyz, positions[c.z].xyz);
+      const float4 hit = crossing(start_against(c, state.xyz, tip), tip, positions[c.x].xyz, positions[c.y].xyz, positions[c.z].xyz);
       if (hit.x < 0 || hit.x >= best) continue;
       bool fresh = false;
       for (uint r = n.records.x; r < n.records.x + n.records.y && !fresh; ++r) {
@@ -140,7 +154,7 @@ void main(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
   if (best_tri != CRESSIM_NONE) {
     const uint3 c = corners(best_tri);
     const float3 x0 = positions[c.x].xyz, x1 = positions[c.y].xyz, x2 = positions[c.z].xyz;
-    const float3 from = state.xyz;
+    const float3 from = start_against(c, state.xyz, tip);
     const float4 hit = crossing(from, tip, x0, x1, x2);
     for (uint r = n.records.x; r < n.records.x + n.records.y; ++r) {
       if (punctures[r].ids.x != PUNCTURE_FREE) continue;

@@ -90,6 +90,21 @@ def test_a_needle_turned_along_its_arc_goes_in_and_out_and_leaves_the_tissue_in_
     assert np.linalg.norm(positions(engine)[:tissue] - rest, axis=1).max() < 0.0015
 
 
+def test_a_bite_on_tissue_moving_under_gravity_finds_both_crossings(make_engine):
+    """Gravity (along +z, away from the top) on from the start sets the block bouncing (its top by up
+    to 0.4 mm): where its top rose past the descending tip in a substep's solve, after that
+    substep's crossing test, the entry was missed (the tip then lay below the surface at the next
+    test's start). Both crossings are found, at the arc's crossings of the top."""
+    engine, needles, tissue = scene(make_engine, gravity=(0, 0, 9.81))
+    turn(engine, needles, to=2 * math.pi - math.asin(H / R) - 0.4)  # the tip out, the tail still in
+    records = punctures(engine)[0]
+    assert [r["state"] for r in records] == [PUNCTURED, PUNCTURED]
+    entry, exit_ = sorted(records, key=lambda r: -r["s"])
+    xs = surface_crossings()
+    assert entry["point"][0] == pytest.approx(xs[0], abs=0.001)
+    assert exit_["point"][0] == pytest.approx(xs[1], abs=0.001)
+
+
 @pytest.mark.parametrize("force,depth,through", [(0.02, 0.05, "force"), (100.0, 0.001, "depth"), (100.0, 1.0, None)])
 def test_the_surface_gives_way_at_the_puncture_force_or_depth(make_engine, force, depth, through):
     engine, needles, tissue = scene(make_engine, puncture_force=force, puncture_depth=depth)
