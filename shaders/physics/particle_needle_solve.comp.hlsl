@@ -35,6 +35,7 @@ RWStructuredBuffer<float4> tet_pins;  // per particle: sum K T, sum K (cleared e
 
 static const float PUNCTURE_GRIP = 1e4;  // N/m: 0.1 mm of give under 1 N
 
+static const float TURN_SPAN = 0.003;     // m along the path either side of a puncture: a turn's extent
 static const float REACH = 0.002;         // m: the most a punctured point slides along the path an iteration
 
 // the spring that pulls surface point p = sum b_i x_i (corners c) toward `goal`: on corner i the
@@ -58,8 +59,7 @@ void pin(uint3 c, float3 b, float3 p, float3 goal) {
 // T_b - T_a = ((T_a + T_b)(E - 1) + 2 mu N) / (E + 1), E = exp(mu theta); for a straight pass
 // (theta -> 0) this is Coulomb's mu (F across + N).
 float holding_force(NeedleModel n, Arc a, float s, float3 x, float3 F, float mu) {
-  const float span = 0.003;  // m along the path each side: the turn's extent
-  const float3 ta = normalize(x - path_at(n, a, s - span).x), tb = normalize(path_at(n, a, s + span).x - x);
+  const float3 ta = normalize(x - path_at(n, a, s - TURN_SPAN).x), tb = normalize(path_at(n, a, s + TURN_SPAN).x - x);
   const float theta = acos(clamp(dot(ta, tb), -1.0, 1.0));
   const float3 t = normalize(ta + tb + 1e-9);
   const float across = length(F - dot(F, t) * t);
@@ -69,8 +69,8 @@ float holding_force(NeedleModel n, Arc a, float s, float3 x, float3 F, float mu)
 }
 
 // A punctured point on the thread holds the thread's material point s (the point of the path at s
-// goes to it, the least motion of its segment's two ends); along the thread by no more than the
-// friction can hold over the substep (the impulse along it summed over the iterations and clamped,
+// goes to it, the least motion of its segment's two ends); along the thread (its chord across the
+// puncture) by no more than the friction can hold over the substep (the impulse along it summed over the iterations and clamped,
 // as sequential impulses are), and where that is not enough the thread slides through: s moves on
 // by what was left. Across the thread it is held fully; that force (the thread's turn there, and
 // its tension across a puncture it crosses) sets what friction can hold.
@@ -94,7 +94,7 @@ void thread_through(NeedleModel n, Arc a, inout Puncture p, float3 x, float mu) 
   const float W = g0 * g0 * w0 + g1 * g1 * w1;
   // the way the thread slides through: its chord across the puncture (at a turn, the bisector of
   // its two sides, which the capstan limit is written along), not the one segment s lies on
-  const float3 chord = path_at(n, a, p.place.z + 0.003).x - path_at(n, a, p.place.z - 0.003).x;
+  const float3 chord = path_at(n, a, p.place.z + TURN_SPAN).x - path_at(n, a, p.place.z - TURN_SPAN).x;
   const float3 t = dot(chord, chord) > 1e-12 ? normalize(chord) : q.t;
   const float slide = dot(d, t);
   const float3 across = d - slide * t;
