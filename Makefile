@@ -81,6 +81,7 @@ test-cpp: build/cpp/build.ninja
 
 # ros_ws/env.sh puts rclpy, the built messages and the twin on the paths
 test-python: $(STAMPS)/build $(STAMPS)/ros $(STAMPS)/pykdl
+	@echo "pytest: start $$(date -u +%FT%TZ)"
 	source ros_ws/env.sh && CRESSIM_VALIDATION=1 $(PY) -m pytest tests
 
 test: test-cpp test-python

@@ -3,7 +3,10 @@
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh setup tests      # build, ctest, pytest
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-a           # CartPole, rendering
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-b bench-twin  # ultrasound; the twin
+#   source .gpu/prelude.sh; CRESSIM_TESTS=OFF bash benchmarks/gpu_batch.sh setup bench-policy  # issue 19
+#   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-policy-ppo  # issue 19: PPO, training
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-twin-tissue  # the twin over tissue
+#   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-cart  # the patient cart (ECM, 3 PSMs, stereo)
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-heat  # the cautery scene; the twin's tick
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-sew   # the continuum robot and suture scenes
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-soft bench-fluid  # SoftBodyPush, FluidPour
@@ -73,6 +76,24 @@ for stage in "$@"; do
       run targetcenter_compute 120 env CRESSIM_RASTER=compute python3 -m cressim bench TargetCenter \
         --envs 256,1024,4096,8192 --mode step --out "$OUT/targetcenter_compute"
       ;;
+    bench-policy)  # issue 19: the policy in the engine's frame; the CUDA -> Vulkan hand-off
+      run pytest_engine_policy 200 env CRESSIM_VALIDATION=1 python3 -m pytest -q -p no:cacheprovider \
+        tests/learn/test_engine_policy.py tests/learn/test_engine_rollout.py tests/learn/test_bench_smoke.py \
+        tests/learn/test_cuda_graph_ppo.py
+      run handoff 120 python3 benchmarks/bench_handoff.py --envs 8192 --json "$OUT/handoff.json"
+      mkdir -p "$OUT/policy"
+      run cartpole_policy 270 python3 -m cressim bench CartPole --envs 1024,4096,8192,16384 --mode all --device cuda \
+        --out "$OUT/policy"
+      ;;
+    bench-policy-ppo)  # issue 19: PPO with the actor in torch, in the engine with a compiled learner; training
+      mkdir -p "$OUT/policy_torch_ppo" "$OUT/policy_compiled_ppo"
+      run cartpole_ppo_torch 150 python3 -m cressim bench CartPole --envs 8192 --mode ppo --policy torch --device cuda \
+        --out "$OUT/policy_torch_ppo"
+      run cartpole_ppo_compiled 250 python3 -m cressim bench CartPole --envs 8192 --mode ppo --compile --device cuda \
+        --out "$OUT/policy_compiled_ppo"
+      run train_engine_rollout 200 python3 -m cressim train CartPole --envs 8192 --iterations 60 --engine-rollout \
+        --device cuda --save-every 60 --out "$OUT/train_engine_rollout"
+      ;;
     bench-b)
       mkdir -p "$OUT/ultrasound" "$OUT/ultrasound_sweep"
       run ultrasound 200 python3 -m cressim bench UltrasoundScan --envs 1,8,32,64 --mode both --out "$OUT/ultrasound"
@@ -83,6 +104,9 @@ for stage in "$@"; do
       ;;
     bench-twin)  # the twin's 100 Hz tick with the default scene's 640x480 camera per env at 30 Hz
       run twin 600 python3 benchmarks/bench_twin.py --envs 1,64,1024 --seconds 10 --json "$OUT/twin.json"
+      ;;
+    bench-cart)  # the patient cart: ECM + 3 PSMs, stereo 640x480 at 30 Hz (issue 17)
+      run cart 300 python3 benchmarks/bench_cart.py --seconds 10 --json "$OUT/cart.json"
       ;;
     bench-twin-tissue)  # the twin over the retraction scene's flap: kinematic at 200 Hz physics, dynamic at 800
       run twin_tissue 300 python3 benchmarks/bench_twin.py --scene psm_retraction.yaml --envs 1,16 \

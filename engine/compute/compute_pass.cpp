@@ -5,6 +5,7 @@
 #include <cstring>
 #include <regex>
 
+#include "compute/dispatch_stamps.h"
 #include "compute/element_type.h"
 #include "gpu/context.h"
 #include "gpu/embedded_shaders.h"
@@ -23,7 +24,8 @@ std::string list(std::vector<std::string> names) {
 std::shared_ptr<ComputePass> build(std::shared_ptr<gpu::Context> ctx, const std::string& name,
                                    const std::vector<uint32_t>& spirv, const std::string& entry,
                                    const std::map<std::string, std::shared_ptr<TypedBuffer>>& bindings,
-                                   bool allow_internal_writes, const std::string* source) {
+                                   bool allow_internal_writes, const std::string* source,
+                                   const std::set<std::string>& internal_writes = {}) {
   auto pass = std::make_shared<ComputePass>();
   static std::atomic<uint64_t> next_uid{1};
   pass->name = name;
@@ -44,9 +46,10 @@ std::shared_ptr<ComputePass> build(std::shared_ptr<gpu::Context> ctx, const std:
     auto it = bindings.find(b.name);
     if (it == bindings.end() || !it->second) { missing.push_back(b.name); continue; }
     const TypedBuffer& buf = *it->second;
-    if (b.writable && buf.read_only && !allow_internal_writes)
+    if (b.writable && buf.read_only && !allow_internal_writes && !internal_writes.count(buf.key))
       throw BindingError("pass '" + name + "': '" + b.name + "' is bound to internal buffer " + buf.describe() +
-                         ", which custom passes may only read; declare it StructuredBuffer<...>, not RW");
+                         ", which custom passes may only read; declare it StructuredBuffer<...>, not RW "
+                         "(or name its key in internal_writes)");
     check_element_type(name, b, buf);
     gpu::bind_buffer(*ctx, pass->pipeline, b.binding, buf.storage->buffer.buffer);
     pass->bindings[b.name] = it->second;
@@ -107,11 +110,12 @@ void ComputePass::set_threads(std::array<uint64_t, 3> threads) {
 
 void ComputePass::record(VkCommandBuffer cmd) const {
   gpu::record_dispatch(cmd, pipeline, constants.data(), groups.data());
+  if (auto* stamps = active_dispatch_stamps(); stamps && stamps->passes) stamps->stamp(cmd, name);
 }
 
 std::shared_ptr<ComputePass> create_compute_pass(std::shared_ptr<gpu::Context> ctx, const PassSpec& spec) {
   auto spirv = gpu::compile_hlsl(spec.source, spec.name, spec.entry);
-  auto pass = build(ctx, spec.name, spirv, spec.entry, spec.bindings, false, &spec.source);
+  auto pass = build(ctx, spec.name, spirv, spec.entry, spec.bindings, false, &spec.source, spec.internal_writes);
   if (spec.threads[0]) pass->set_threads(spec.threads);
   else if (spec.groups[0]) pass->set_groups(spec.groups);
   else throw BindingError("pass '" + spec.name + "': give dispatch=(groups x, y, z) or threads=n");

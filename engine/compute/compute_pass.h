@@ -6,6 +6,7 @@
 #include <map>
 #include <memory>
 #include <stdexcept>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -26,6 +27,9 @@ struct PassSpec {
   std::map<std::string, std::shared_ptr<TypedBuffer>> bindings;  // HLSL name -> buffer
   std::array<uint32_t, 3> groups{0, 0, 0};   // thread groups; or
   std::array<uint64_t, 3> threads{0, 0, 0};  // threads, rounded up to whole groups
+  // internal buffers (keys) this pass may write, named one by one: domain randomization writes
+  // the model buffers (masses, frictions, colours) that custom passes otherwise only read
+  std::set<std::string> internal_writes;
 };
 
 struct ComputePass {

@@ -329,8 +329,10 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
     if (p) moving_.push_back(p);
   // and the load of the tissue a dynamic body holds
   if (has_rigid_ && dynamic_bodies && elastic && na > 0) rigid_hold_ = pass("physics/particle_rigid_hold", uint64_t(ne));
-  if (has_rigid_) rigid_forces_ = pass("physics/particle_rigid_forces", uint64_t(ne));
-  health_ = pass("physics/particle_health", uint64_t(ne));
+  // one thread group an env (shader::PARTICLE_ENV_GROUP threads)
+  const uint64_t env_groups = uint64_t(ne) * shader::PARTICLE_ENV_GROUP;
+  if (has_rigid_) rigid_forces_ = pass("physics/particle_rigid_forces", env_groups);
+  health_ = pass("physics/particle_health", env_groups);
   reset_ = pass("physics/particle_reset", uint64_t(std::max({n, na, no, ne_})));
   if (ne_ > 0) {
     orient_integrate_ = pass("physics/particle_orient_integrate", uint64_t(ne_));

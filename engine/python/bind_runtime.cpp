@@ -140,8 +140,10 @@ void bind_runtime(py::module_& m) {
            py::arg("name"), py::arg("shape"), py::arg("dtype") = "float32")
       .def("create_compute_pass",
            [](Engine& e, const std::string& source, const std::string& name, const std::string& entry,
-              py::dict bindings, py::object dispatch, py::object threads, py::dict constants) {
+              py::dict bindings, py::object dispatch, py::object threads, py::dict constants,
+              std::vector<std::string> internal_writes) {
              compute::PassSpec spec;
+             spec.internal_writes = {internal_writes.begin(), internal_writes.end()};
              spec.name = name;
              spec.source = source;
              spec.entry = entry;
@@ -174,7 +176,7 @@ void bind_runtime(py::module_& m) {
            },
            py::arg("source"), py::kw_only(), py::arg("name"), py::arg("entry") = "main",
            py::arg("bindings") = py::dict(), py::arg("dispatch") = py::none(), py::arg("threads") = py::none(),
-           py::arg("constants") = py::dict())
+           py::arg("constants") = py::dict(), py::arg("internal_writes") = std::vector<std::string>{})
       .def("buffer", &Engine::lookup, py::arg("key"), "A shared buffer by name or an internal buffer by key.")
       .def_property_readonly("internal_keys", &Engine::internal_keys)
       .def_property_readonly("shared_buffers", &Engine::shared_names)
@@ -249,7 +251,13 @@ void bind_runtime(py::module_& m) {
         d["reason"] = why;
         return d;
       })
-      .def_property_readonly("last_timings", &Engine::last_timings);
+      .def_property_readonly("last_timings", &Engine::last_timings)
+      .def_property("profile_passes", &Engine::profile_passes, &Engine::set_profile_passes,
+                    "With profiling on, also time every compute pass inside the frame's ops "
+                    "(last_pass_timings). The extra timestamps cost a little GPU time themselves.")
+      .def_property_readonly("last_pass_timings", &Engine::last_pass_timings,
+                             "(op, pass, ms) of the last frame profiled with profile_passes, in recorded order; "
+                             "'(rest)' is an op's work after its last pass (draws, copies, barriers).");
 }
 
 }  // namespace cressim::python

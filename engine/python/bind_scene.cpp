@@ -504,6 +504,7 @@ void bind_scene(py::module_& m) {
       .def_property_readonly("collider", [](const Entity& e) { return e.world->get<scene::Collider>(e.id); })
       .def_property_readonly("joint", [](const Entity& e) { return e.world->get<scene::Joint>(e.id); })
       .def_property_readonly("renderable", [](const Entity& e) { return e.world->get<scene::Renderable>(e.id); })
+      .def_property_readonly("light", [](const Entity& e) { return e.world->get<scene::Light>(e.id); })
       .def("__repr__", [](const Entity& e) { return "<Entity " + e.world->describe(e.id) + ">"; });
 
   py::class_<scene::World, std::shared_ptr<scene::World>>(m, "World")

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstring>
 
+#include "compute/dispatch_stamps.h"
 #include "gpu/error.h"
 #include "cressim/layout.h"
 #include "cressim/particle.h"
@@ -15,7 +16,7 @@ namespace cressim::runtime {
 namespace {
 
 constexpr size_t kFrameCacheSize = 8;      // distinct frame shapes kept recorded at once
-constexpr uint32_t kMaxProfiledOps = 255;  // timestamp slots per profiled frame
+constexpr uint32_t kMaxStamps = 8192;  // timestamp slots per profiled frame (ops and passes)
 
 using compute::DType;
 
@@ -313,7 +314,8 @@ void Engine::execute_compute_pass(const std::shared_ptr<compute::ComputePass>& p
 
 RecordedFrame& Engine::frame_for(const std::vector<FrameOp>& ops) {
   for (auto& f : frames_cache_)
-    if (f.epoch == epoch_ && f.profiled == profiling_ && f.ops == ops) return f;
+    if (f.epoch == epoch_ && f.profiled == profiling_ && f.passes == (profiling_ && profile_passes_) && f.ops == ops)
+      return f;
   // evict the least recently used, then record the new shape once
   if (frames_cache_.size() >= kFrameCacheSize) {
     auto lru = std::min_element(frames_cache_.begin(), frames_cache_.end(),
@@ -321,7 +323,8 @@ RecordedFrame& Engine::frame_for(const std::vector<FrameOp>& ops) {
     gpu::free_command_buffer(*ctx_, lru->cmd);
     frames_cache_.erase(lru);
   }
-  frames_cache_.push_back({ops, epoch_, profiling_, gpu::allocate_command_buffer(*ctx_), 0});
+  frames_cache_.push_back({ops, epoch_, profiling_, profiling_ && profile_passes_, {}, {},
+                           gpu::allocate_command_buffer(*ctx_), 0});
   record(frames_cache_.back());
   return frames_cache_.back();
 }
@@ -352,22 +355,29 @@ void Engine::record(RecordedFrame& f) {
   if (f.profiled && !timestamps_) {
     VkQueryPoolCreateInfo qi{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
     qi.queryType = VK_QUERY_TYPE_TIMESTAMP;
-    qi.queryCount = kMaxProfiledOps + 1;
+    qi.queryCount = kMaxStamps;
     gpu::check(vkCreateQueryPool(ctx_->device, &qi, nullptr, &timestamps_), "vkCreateQueryPool");
   }
   VkCommandBuffer cmd = f.cmd;
   gpu::begin_commands(cmd, false);
   std::vector<FrameOp> all{{Stage::UPLOAD, nullptr, 0, 0}};
   all.insert(all.end(), f.ops.begin(), f.ops.end());
-  const bool stamps = f.profiled && all.size() <= kMaxProfiledOps;
-  if (stamps) {
-    vkCmdResetQueryPool(cmd, timestamps_, 0, uint32_t(all.size()) + 1);
-    vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, timestamps_, 0);
+  compute::DispatchStamps stamps{timestamps_, kMaxStamps, f.passes};
+  if (f.profiled) {
+    vkCmdResetQueryPool(cmd, timestamps_, 0, kMaxStamps);
+    stamps.stamp(cmd, "");
+    compute::active_dispatch_stamps() = &stamps;
   }
   for (size_t i = 0; i < all.size(); ++i) {
+    stamps.op = int(i);
     record_op(cmd, all[i]);
     gpu::compute_barrier(cmd);
-    if (stamps) vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, timestamps_, uint32_t(i) + 1);
+    if (f.profiled) stamps.stamp(cmd, "(rest)");
+  }
+  compute::active_dispatch_stamps() = nullptr;
+  if (f.profiled && !stamps.overflowed) {
+    f.stamp_labels = std::move(stamps.labels);
+    f.stamp_ops = std::move(stamps.ops);
   }
   gpu::host_read_barrier(cmd);
   gpu::end_commands(cmd);
@@ -421,17 +431,23 @@ void Engine::end_frame() {
     reported_health_events_ = events;
   }
 
-  if (frame.profiled && frame.ops.size() + 1 <= kMaxProfiledOps) {
-    const uint32_t n = uint32_t(frame.ops.size()) + 2;
+  if (frame.profiled && !frame.stamp_labels.empty()) {
+    const size_t n = frame.stamp_labels.size();
     std::vector<uint64_t> ticks(n);
-    gpu::check(vkGetQueryPoolResults(ctx_->device, timestamps_, 0, n, n * 8, ticks.data(), 8,
+    gpu::check(vkGetQueryPoolResults(ctx_->device, timestamps_, 0, uint32_t(n), n * 8, ticks.data(), 8,
                                      VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
                "vkGetQueryPoolResults");
     const double ms_per_tick = ctx_->properties.limits.timestampPeriod * 1e-6;
-    timings_.clear();
-    timings_.push_back({"upload", double(ticks[1] - ticks[0]) * ms_per_tick});
-    for (size_t i = 0; i < frame.ops.size(); ++i)
-      timings_.push_back({frame.ops[i].label(), double(ticks[i + 2] - ticks[i + 1]) * ms_per_tick});
+    const auto label = [&](int op) { return op == 0 ? std::string("upload") : frame.ops[size_t(op) - 1].label(); };
+    timings_.assign(frame.ops.size() + 1, {});
+    for (size_t i = 0; i < timings_.size(); ++i) timings_[i].first = label(int(i));
+    pass_timings_.clear();
+    for (size_t i = 1; i < n; ++i) {
+      const double ms = double(ticks[i] - ticks[i - 1]) * ms_per_tick;
+      const int op = frame.stamp_ops[i];
+      timings_[size_t(op)].second += ms;
+      if (frame.passes) pass_timings_.emplace_back(label(op), frame.stamp_labels[i], ms);
+    }
   }
 }
 

@@ -8,6 +8,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -105,8 +106,14 @@ class Engine {
   bool cuda_host_sync() const { return cuda_host_sync_; }
   void set_profiling(bool on) { profiling_ = on; }
   bool profiling() const { return profiling_; }
+  // with profiling on, also a timestamp after every compute pass (last_pass_timings)
+  void set_profile_passes(bool on) { profile_passes_ = on; }
+  bool profile_passes() const { return profile_passes_; }
   // (op label, milliseconds) of the last profiled frame
   const std::vector<std::pair<std::string, double>>& last_timings() const { return timings_; }
+  // (op label, pass name, milliseconds) of the last frame profiled with passes, in recorded order;
+  // "(rest)" is the op's work after its last pass (draws, copies, barriers)
+  const std::vector<std::tuple<std::string, std::string, double>>& last_pass_timings() const { return pass_timings_; }
   void add_stage_recorder(Stage stage, StageRecorder r);
 
  private:
@@ -131,8 +138,9 @@ class Engine {
   std::shared_ptr<compute::CudaTimeline> cuda_timeline_;
   VkQueryPool timestamps_ = VK_NULL_HANDLE;
   std::vector<std::pair<std::string, double>> timings_;
+  std::vector<std::tuple<std::string, std::string, double>> pass_timings_;
 
-  bool prepared_ = false, uploaded_ = false, profiling_ = false;
+  bool prepared_ = false, uploaded_ = false, profiling_ = false, profile_passes_ = false;
   scene::LayoutMapping mapping_;
   uint64_t epoch_ = 1;  // bumps whenever resources a recorded frame refers to change
   uint64_t generation_ = 0;  // upload_world() count; internal buffers carry it

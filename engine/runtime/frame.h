@@ -30,6 +30,9 @@ struct RecordedFrame {
   std::vector<FrameOp> ops;
   uint64_t epoch = 0;      // engine resource epoch it was recorded against
   bool profiled = false;   // brackets every op with timestamps
+  bool passes = false;     // and stamps every compute pass inside them
+  std::vector<std::string> stamp_labels;  // what each timestamp closes (compute/dispatch_stamps.h)
+  std::vector<int> stamp_ops;             // the op each timestamp belongs to (-1: the frame's start)
   VkCommandBuffer cmd = VK_NULL_HANDLE;
   uint64_t last_used = 0;
 };

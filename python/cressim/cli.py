@@ -136,8 +136,8 @@ def _train(args: argparse.Namespace) -> int:
     result = train(args.task, num_envs=args.envs, iterations=args.iterations, device=args.device, seed=args.seed,
                    out_dir=args.out or f"runs/{args.task.lower()}", rollout=args.rollout, save_every=args.save_every,
                    backend=args.backend, minibatch=args.minibatch, task_options=_task_options(args.task_option),
-                   obs_normalization=args.obs_normalization or None,
-                   video_envs=_env_list(args.video_envs) if args.video else None)
+                   obs_normalization=args.obs_normalization or None, compile=args.compile or None,
+                   video_envs=_env_list(args.video_envs) if args.video else None, engine_rollout=args.engine_rollout)
     if not _leader():
         return 0
     last = result["history"][-1]
@@ -197,8 +197,9 @@ def _export(args: argparse.Namespace) -> int:
 def _bench(args: argparse.Namespace) -> int:
     from cressim.learn.bench import run
 
-    run(args.task, [int(n) for n in args.envs.split(",")] if args.envs else None, mode=args.mode, out_dir=args.out, device=args.device,
-        backend=args.backend, extend=args.extend, minibatch=args.minibatch)
+    run(args.task, [int(n) for n in args.envs.split(",")] if args.envs else None, mode=args.mode, out_dir=args.out,
+        device=args.device, backend=args.backend, extend=args.extend, minibatch=args.minibatch, policy=args.policy,
+        compile=args.compile)
     return 0
 
 
@@ -251,6 +252,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--video", action="store_true",
                    help="MP4s of the --video-envs in each checkpoint's rollout (--out/video_<k>_env<i>.mp4, PyAV)")
     p.add_argument("--video-envs", default="0", help="comma-separated env indices filmed (default 0)")
+    p.add_argument("--compile", action="store_true",
+                   help="the built-in learner's minibatch step through torch.compile (PPOConfig.compile)")
+    p.add_argument("--engine-rollout", action="store_true",
+                   help="the actor (an MLP) runs inside the engine's frame, a whole rollout a submit; torch only learns")
     p.set_defaults(run=_train)
     p = sub.add_parser("generate", help="record batched rollouts to MCAP bags, one a process, with an index")
     p.add_argument("task", nargs="?", default="CartPole")
@@ -290,11 +295,17 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--video", metavar="DIR", help="MP4s of the --video-envs' episodes here (eval_env<i>.mp4, PyAV)")
     p.add_argument("--video-envs", default="0", help="comma-separated env indices filmed (default 0)")
     p.set_defaults(run=_eval)
-    p = sub.add_parser("bench", help="stepping and PPO throughput (TASKS.md protocol)")
+    p = sub.add_parser("bench", help="stepping, policy-in-the-loop and PPO throughput (TASKS.md protocol)")
     p.add_argument("task", nargs="?", default="CartPole")
     p.add_argument("--envs", help="comma-separated counts (default: TASKS.md's sweep for the task, "
                                   "1,8,...,8192 for CartPole, 1,8,32,64 for UltrasoundScan, 1,8,...,256 for BloodSuction)")
-    p.add_argument("--mode", default="both", choices=("step", "ppo", "both"))
+    p.add_argument("--mode", default="both", choices=("step", "policy", "ppo", "both", "all"),
+                   help="step: zero actions, copied each step and in place; policy: a rollout with the PPO actor in "
+                        "the loop, in torch and in the engine; ppo: PPO end to end; both: step and ppo; all: the three")
+    p.add_argument("--policy", default="auto", choices=("auto", "engine", "torch"),
+                   help="where PPO's actor runs (auto: in the engine where the task's actor is an MLP)")
+    p.add_argument("--compile", action="store_true",
+                   help="the built-in learner's minibatch step through torch.compile (PPOConfig.compile)")
     p.add_argument("--out", default="benchmarks/results", help="folder for the JSON and PNG")
     p.add_argument("--device", help="torch device (default: what the env picks)")
     p.add_argument("--backend", default="auto", choices=("auto", "rsl_rl", "torch"), help="PPO learner")

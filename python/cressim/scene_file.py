@@ -64,6 +64,10 @@ key optional unless said)::
                                          # in the budget's free slots; with an emitter the block is optional
       - name: thread
         strand: {line: {start: [0, 0, 0.5], end: [0.3, 0, 0.5], count: 20}, radius: 0.004, fixed: [0]}
+    randomization:                       # domain randomization (docs/envs.md, "Domain randomization")
+      - {param: mass, entity: ball, distribution: uniform, range: [0.5, 2], operation: scale, when: reset}
+      - {param: color, entity: ground, range: [0.2, 0.9], operation: abs, when: interval, every: 100}
+      - {param: texture, entity: ground, distribution: choice, choices: [checker, -1], operation: abs}
 
 Surgical scenes built from these (docs/scenes.md): scenes/tissue_retraction.yaml,
 scenes/blood_suction.yaml, scenes/ultrasound_phantom.yaml.
@@ -258,11 +262,13 @@ class _Loader:
         self.materials: dict[str, dict] = {}
         self.material_fields: dict[str, dict[str, Field]] = {}
         self.inline_meshes: dict[tuple, int] = {}
+        self.randomization: list = []  # the file's domain randomization terms (cressim.randomization.Term)
 
     def load(self, world: cressim.World | None = None) -> cressim.World:
         """A new world, or the file's entities added to every env of `world` (its envs and
         layout then stand; the file's are checked but not used)."""
-        top = self.root.keys(("envs", "layout", "environment", "meshes", "textures", "materials", "entities"))
+        top = self.root.keys(("envs", "layout", "environment", "meshes", "textures", "materials", "entities",
+                              "randomization"))
         envs = top["envs"].int(1) if "envs" in top else 1
         layout = {}
         if "layout" in top:
@@ -274,6 +280,10 @@ class _Loader:
         self.world = world if world is not None else cressim.World(cressim.SceneLayout(envs, **layout))
         for name, f in (top["textures"].items() if "textures" in top else {}).items():
             self.textures[name] = self.world.add_texture(self.texture(f))
+        if "randomization" in top:  # checked here; used by the env that runs the scene (file_randomization)
+            from cressim.randomization import parse_terms
+
+            self.randomization = parse_terms(top["randomization"], self.textures)
         for name, f in (top["meshes"].items() if "meshes" in top else {}).items():
             self.meshes[name] = self.world.add_mesh(self.mesh(f))
         for name, f in (top["materials"].items() if "materials" in top else {}).items():
@@ -770,6 +780,7 @@ def load_scene(path) -> cressim.World:
 class AddedScene:
     labels: dict  # segmentation id drawn -> entity name
     probes: list  # (position, xyzw) of each ultrasound probe entity (as authored, env frame)
+    randomization: list  # the file's domain randomization terms, for the env that runs it
 
 
 def add_scene(world: cressim.World, path, *, segmentation_offset: int = 0, skip: tuple = ("camera",)) -> AddedScene:
@@ -778,7 +789,22 @@ def add_scene(world: cressim.World, path, *, segmentation_offset: int = 0, skip:
     camera); segmentation ids are offset by `segmentation_offset`."""
     loader = _loader(Path(path), segmentation_offset=segmentation_offset, skip=skip)
     loader.load(world)
-    return AddedScene(dict(loader.labels), list(loader.probes))
+    return AddedScene(dict(loader.labels), list(loader.probes), list(loader.randomization))
+
+
+def file_randomization(path) -> list:
+    """The domain randomization terms (cressim.randomization.Term) of a scene file's
+    `randomization:` section, or of a YAML file that is the list of terms itself; errors name
+    file:line and the field."""
+    from cressim.randomization import parse_terms
+
+    loader = _loader(Path(path))
+    if not loader.root.is_map():
+        return parse_terms(loader.root)
+    # texture choices may name the file's textures: their indices in a world of its own
+    names = loader.root.items()["textures"].items() if "textures" in loader.root.items() else {}
+    top = loader.root.items()
+    return parse_terms(top["randomization"], {n: i for i, n in enumerate(names)}) if "randomization" in top else []
 
 
 def _loader(path: Path, **options) -> _Loader:

@@ -15,6 +15,10 @@ static const uint PARTICLE_STRAND = 3;  // threads and cables
 // phase.w flags
 // the most particles one env may have for the one-workgroup-per-env constraint solve (group memory)
 static const uint PARTICLE_BLOCK_CAPACITY = 1024;
+// Thread-group width of the per-env reductions (health, contact forces on bodies): one group an
+// env, its threads striding over the env's particles. A thread an env looping over them all was
+// the slowest pass of small-env tasks (0.22 ms of 0.59 for 32 envs of 343 particles on an H100).
+static const uint PARTICLE_ENV_GROUP = 128;
 
 // neighbour list entries per particle (particles.neighbor_lists), taken once per substep
 static const uint PARTICLE_MAX_NEIGHBORS = 64;

@@ -86,6 +86,15 @@ def test_internal_buffers_are_read_only_in_passes(make_engine, world64):
     writer = "RWStructuredBuffer<float4> p;\n[numthreads(1,1,1)] void main() { p[0] = 0; }\n"
     with pytest.raises(cressim.BindingError, match="may only read"):
         engine.create_compute_pass(writer, name="w", threads=1, bindings={"p": "transform.positions"})
+    # unless the pass names that key in internal_writes (domain randomization writes model buffers)
+    with pytest.raises(cressim.BindingError, match="may only read"):
+        engine.create_compute_pass(writer, name="w", threads=1, bindings={"p": "transform.positions"},
+                                   internal_writes=["transform.rotations"])
+    w = engine.create_compute_pass(writer, name="w", threads=1, bindings={"p": "transform.positions"},
+                                   internal_writes=["transform.positions"])
+    engine.execute_compute_pass(w)
+    engine.end_frame()
+    assert (engine.buffer("transform.positions").read()[0] == 0).all()
     positions = engine.buffer("transform.positions")
     if positions.host_visible:  # and where numpy can view it, the view is read-only too
         assert not np.from_dlpack(positions).flags.writeable

@@ -104,3 +104,27 @@ def test_profiling_times_every_stage(make_engine):
     labels = [label for label, ms in engine.last_timings]
     assert labels == ["upload", "step_physics", "pass 'step'"]
     assert all(ms >= 0 for _, ms in engine.last_timings)
+
+
+def test_pass_profiling_names_every_pass_and_adds_up_to_the_ops(make_engine):
+    engine, state, step = setup(make_engine)
+    count = engine.create_compute_pass(COUNT, name="count", dispatch=(1, 1, 1),
+                                       bindings={"counter": engine.create_shared_buffer("counter", 1, "uint32")})
+    engine.profiling = True
+    engine.end_frame()
+    assert engine.last_pass_timings == []  # passes are timed only when asked for
+    engine.profile_passes = True
+    engine.execute_compute_pass(step)
+    engine.execute_compute_pass(count)
+    engine.execute_compute_pass(step)
+    engine.end_frame()
+    passes = engine.last_pass_timings
+    assert [(op, name) for op, name, _ in passes if name != "(rest)"] == [
+        ("upload", "scene/reset_envs"), ("pass 'step'", "step"), ("pass 'count'", "count"), ("pass 'step'", "step")]
+    assert all(ms >= 0 for *_, ms in passes)
+    for label in {op for op, _ in engine.last_timings}:  # an op's time is its passes' and what followed them
+        assert sum(ms for op, _, ms in passes if op == label) == pytest.approx(
+            sum(ms for op, ms in engine.last_timings if op == label), abs=1e-9)
+    engine.profile_passes = False
+    engine.end_frame()
+    assert [label for label, _ in engine.last_timings] == ["upload"]

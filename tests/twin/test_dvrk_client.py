@@ -108,7 +108,10 @@ def test_dvrk_client_session(session):
         q[5] += 0.3 * math.sin(2 * math.pi * 1.0 * t)
         arm.servo_jp(q)
         sent.append(q)
-        time.sleep(PERIOD)
+        # a command a tick, as a 100 Hz client gets against a twin keeping real time: a twin slowed
+        # by a loaded machine would otherwise get several commands' motion in one tick, and a
+        # dynamic arm's lag would measure the machine, not the drives
+        assert arm.wait_measured(1, timeout=30), "measured_js stopped"
     # checked tick by tick in the twin's own stamps, not against the client's wall clock: each
     # setpoint is one of the commands as sent, and the arm's measured joints of that tick follow it
     ticks = [(sp, m) for _, sp, m in arm.joint_states_since(start)]

@@ -154,6 +154,7 @@ class BloodSuction(VectorEnv):
     entries = ("apply_action", "evaluate", "observe")  # images: observe_image
     single_action_space = box((5,), -1.0, 1.0)
     own_cameras = True  # render() shows the task's camera
+    renders_cameras = True
     max_episode_steps = 240
     removal_reward = 0.03
 

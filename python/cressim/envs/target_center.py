@@ -33,6 +33,7 @@ class TargetCenter(VectorEnv):
     hlsl = Path(__file__).with_name("target_center.hlsl")
     single_action_space = box((2,), -1.0, 1.0)
     own_cameras = True  # render() shows the task's camera
+    renders_cameras = True
     max_episode_steps = 120
     action_scale = math.radians(0.2)
     fov_y = 50.0
@@ -127,22 +128,35 @@ class TargetCenter(VectorEnv):
             passes["observe_final"] += final
         return passes
 
-    def _frame(self, reset_all: bool):
-        e, p = self.engine, self.passes
+    def record_step(self, reset_all: bool = False) -> None:
+        e, p, r = self.engine, self.passes, self.randomizer
         e.execute_compute_pass(p["act_reset_all" if reset_all else "act"])
+        if r is not None:  # draws for the episodes act ended (and due intervals), shown from their next start
+            r.sample(reset_all)
         e.step_physics()
-        e.step_visual_sensors()
         if self.final_observation and not reset_all:  # the final image, then the finished envs' next start
+            self._render()
             self.observe(final=True)
             e.execute_compute_pass(p["start"])
             e.step_physics()  # the kinematic bodies to the new starts (the others stay where they are)
-            e.step_visual_sensors()
+        if r is not None:
+            r.apply()
+        self._render()
         self.observe()
-        e.end_frame()
+
+    def _render(self):
+        self.engine.step_visual_sensors()
+        if self.randomizer is not None:
+            self.randomizer.after_sensors()
+
+    def episode_flags(self) -> tuple:
+        return (self.buffers.terminated, self.buffers.truncated)
 
     def _set_seed(self, seed: int):
         for key in ("act", "act_reset_all", "start"):
             self.passes[key].set_constant("seed", seed)
+        if self.randomizer is not None:
+            self.randomizer.set_seed(seed)
 
     def centre_offset(self) -> torch.Tensor:
         """The target's current normalised distance from the image centre, per env."""

@@ -130,6 +130,7 @@ class TissueRetract(VectorEnv):
         added = add_scene(world, scene.world, skip=SKIPPED)
         if FLAP not in added.labels.values():
             raise ValueError(f"TissueRetract: {scene.world} has no entity '{FLAP}' to grasp")
+        self.scene_randomization = added.randomization
         self._world = world
         return world
 

@@ -71,11 +71,13 @@ class VectorEnv(gymnasium.vector.VectorEnv):
     # (own_cameras) the task's own camera in every env is what render() shows
     video_view: tuple = ((0.0, -3.0, 2.0), (0.0, 0.0, 0.0))
     own_cameras = False
+    scene_randomization: tuple = ()  # domain randomization terms of the scene file build_world loaded
+    renders_cameras = False  # sense() renders the task's cameras (their depth noise goes on each new image)
 
     def __init__(self, num_envs: int, *, device: str | torch.device | None = None, seed: int = 0,
                  validation: bool | None = None, vulkan_device: str | None = None, cuda_sync: str = "semaphore",
                  final_observation: bool = True, render_mode: str | None = None, render_envs=(0,),
-                 render_size: tuple = (320, 240), env_offset: int = 0):
+                 render_size: tuple = (320, 240), env_offset: int = 0, randomization=None):
         """`final_observation`: each step also observes every env before its reset (for
         `info["final_obs"]`); off, a step skips that observe pass and, in image tasks, a second
         render (learners that never read the final observation: `cressim train`, `cressim bench`).
@@ -84,7 +86,9 @@ class VectorEnv(gymnasium.vector.VectorEnv):
         from the task's own cameras. `env_offset`: where env 0 sits in a larger batch that this one
         is a shard of (one process's part under torch.distributed): env k draws the random numbers
         of env env_offset + k there, so the shards together run exactly the envs of the one large
-        batch."""
+        batch. `randomization`: domain randomization terms (a list of dicts, or a YAML file: a scene
+        file's `randomization:` section or the list itself; docs/envs.md), drawn on the GPU per env
+        at its reset or on an interval from the env's seed; `randomized(name)` gives the values."""
         name = type(self).__name__
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"{name}: num_envs must be a positive integer, got {num_envs!r}")
@@ -120,6 +124,20 @@ class VectorEnv(gymnasium.vector.VectorEnv):
         self.seed = seed
         self.buffers = self._create_buffers()
         self.passes = self._create_passes()
+        self.randomizer = None
+        # the scene file's randomization section (a task that loads one sets scene_randomization), then the task's
+        terms = list(self.scene_randomization)
+        if randomization is not None:
+            from cressim.randomization import load_terms
+
+            terms += load_terms(randomization, f"{name}(randomization=...)")
+        if terms:
+            from cressim.randomization import Randomizer
+
+            self.randomizer = Randomizer(self.engine, terms, seed=self.seed, env_offset=self.env_offset,
+                                         episode_flags=self.episode_flags())
+            if self.randomizer.sensor_noise and not self.renders_cameras:  # noise on a stale image would pile up
+                raise ValueError(f"{name}: depth_noise needs a camera the task renders every step; {name} renders none")
         if self.device.type == "cuda":  # frames wait for the actions written on torch's stream
             if cuda_sync not in ("semaphore", "host"):
                 raise ValueError(f"cuda_sync={cuda_sync!r}: use 'semaphore' (on the GPU) or 'host'")
@@ -134,6 +152,7 @@ class VectorEnv(gymnasium.vector.VectorEnv):
         self.episode_length = tensor_view(self.buffers.episode_length, self.device)
         self.finished_length = tensor_view(self.buffers.finished_length, self.device)
         self.health = tensor_view(self.engine.buffer("env.health"), self.device).view(torch.int32)
+        self._randomized = tensor_view(self.randomizer.values, self.device) if self.randomizer else None
         self._video = self._video_cameras() if render_mode is not None else []
 
     # --- what a task provides -------------------------------------------------------------
@@ -154,6 +173,11 @@ class VectorEnv(gymnasium.vector.VectorEnv):
         """What the actions do before the frame's physics: the task's `apply_action` pass; a task
         that moves its bodies in torch (no `apply_action` in `entries`) does it here instead."""
         self.engine.execute_compute_pass(self.passes["apply_action"])
+
+    def episode_flags(self) -> tuple:
+        """Buffers flagging the envs whose episode ended this step, for a task whose episodes
+        start without the engine's reset (none: env.reset_mask tells the randomizer)."""
+        return ()
 
     def sense(self) -> None:
         """Sensor stages the observation reads, recorded before `observe` (none by default)."""
@@ -203,6 +227,14 @@ class VectorEnv(gymnasium.vector.VectorEnv):
             return None
         return np.stack([image[..., :3].cpu().numpy() for image in self._video])
 
+    def randomized(self, name: str | None = None) -> torch.Tensor:
+        """The domain randomization values in use: (num_envs, components) of term `name` (its
+        `name`, by default "<param>/<entity>"), or every term's side by side; a view that the
+        next draw changes."""
+        if self.randomizer is None:
+            raise ValueError(f"{type(self).__name__}: no randomization configured (randomization=...)")
+        return self._randomized if name is None else self._randomized[:, self.randomizer.columns(name)]
+
     def rendered(self, env: int) -> bool:
         """Whether env `env` is drawn for render() (a task gives its bodies visuals there)."""
         return self.render_mode is not None and env in self.render_envs
@@ -242,9 +274,16 @@ class VectorEnv(gymnasium.vector.VectorEnv):
             views.append(tensor_view(self.engine.buffer(f"camera{group}.rgb"), self.device)[layer])  # (H, W, 4) uint8
         return views
 
+    def _sense(self):
+        self.sense()
+        if self.randomizer is not None:  # sensor noise, before the observation reads the images
+            self.randomizer.after_sensors()
+
     def _set_seed(self, seed: int):
         for key in ("evaluate", "evaluate_reset_all"):
             self.passes[key].set_constant("seed", seed)
+        if self.randomizer is not None:
+            self.randomizer.set_seed(seed)
 
     def _create_buffers(self) -> TaskBuffers:
         # flags and counters are int32: torch's uint32 support on CUDA is partial
@@ -311,6 +350,13 @@ class VectorEnv(gymnasium.vector.VectorEnv):
             self.engine.execute_compute_pass(observe)
 
     def _frame(self, reset_all: bool):
+        self.record_step(reset_all)
+        self.engine.end_frame()
+
+    def record_step(self, reset_all: bool = False) -> None:
+        """Records one env step into the frame being built, without submitting it: a caller that
+        records several (with its own passes between them, e.g. a policy in the engine) runs
+        them all in one submit at `engine.end_frame()`; `step()` is this and end_frame."""
         e, p = self.engine, self.passes
         if reset_all:  # no physics: flag and randomise every env, reset, observe
             e.execute_compute_pass(p["evaluate_reset_all"])
@@ -318,15 +364,19 @@ class VectorEnv(gymnasium.vector.VectorEnv):
             self.act()
             e.step_physics()
             if self.final_observation:  # every env's observation before evaluate starts the next episodes
-                self.sense()
+                self._sense()
                 self.observe(final=True)
             e.execute_compute_pass(p["evaluate"])
+        r = self.randomizer
+        if r is not None:  # draws for the envs flagged to reset (and due intervals), written after the reset
+            r.sample(reset_all)
         e.reset_flagged_envs()
-        self.sense()
+        if r is not None:
+            r.apply()
+        self._sense()
         self.observe()
         if self.render_mode is not None and not self.own_cameras:  # the video cameras
             e.step_visual_sensors()
-        e.end_frame()
 
 
 def checked_number(task: str, name: str, value, low: float = 0.0, high: float = math.inf, *,

@@ -31,6 +31,11 @@ class PPOConfig:
     # the numbers of the observation (not an image) by their running mean and std over the
     # rollouts so far, for actor and critic (rsl-rl's empirical normalisation)
     obs_normalization: bool = False
+    # the built-in learner's minibatch step through torch.compile (the loss's forward and backward,
+    # and the gradient clipping with Adam's step, as a few fused kernels): TASKS.md's small
+    # minibatches make an update thousands of optimizer steps of ~150 tiny kernels each; the
+    # first update compiles (about a minute)
+    compile: bool = False
 
     def num_mini_batches(self, num_envs: int) -> int:
         return max(1, round(num_envs * self.rollout / self.minibatch))

@@ -169,8 +169,7 @@ class TorchPPO:
         self._shuffle = torch.Generator(self.device)
         self._shuffle.manual_seed(torch.initial_seed() + 1)
         # capturable: the step count stays on the device, so the update can be a CUDA graph
-        self.optimizer = torch.optim.Adam(self.learned, lr=cfg.lr,
-                                          capturable=self.device.type == "cuda")
+        self.optimizer = torch.optim.Adam(self.learned, lr=cfg.lr, capturable=self.device.type == "cuda")
         self.learning_rate = cfg.lr
         self.num_mini_batches = cfg.num_mini_batches(num_envs)  # per process, as DDP's batch size is
         T, N = cfg.rollout, num_envs
@@ -185,6 +184,9 @@ class TorchPPO:
         self._act_obs = torch.zeros(N, num_obs, device=self.device, dtype=obs_dtype)
         self._minibatch = torch.zeros(T * N // self.num_mini_batches, device=self.device, dtype=torch.long)
         self._loss_sums = torch.zeros(3, device=self.device)  # value, surrogate, entropy; read once per update
+        # compiled: the loss's forward and backward, and the clipping with Adam's step, as a few fused kernels
+        self._losses = torch.compile(self._minibatch_losses) if cfg.compile else self._minibatch_losses
+        self._apply = torch.compile(self._apply_gradients) if cfg.compile else self._apply_gradients
         self._policy_step = Captured(self._sample_policy, self.device)
         self._learn_step = Captured(self._learn_minibatch, self.device)
 
@@ -235,8 +237,8 @@ class TorchPPO:
         std = (all_sum((a - mean).square().sum()) / (sums[1] - 1)).sqrt()
         self.advantages.copy_((a - mean) / (std + 1e-8))
 
-    def _learn_minibatch(self) -> None:
-        """One optimizer step on the samples indexed by self._minibatch."""
+    def _minibatch_losses(self) -> tuple:
+        """(loss, [value, surrogate, entropy] detached) on the samples indexed by self._minibatch."""
         c, b = self.cfg, self._minibatch
         flat = lambda x: x.flatten(0, 1)[b]  # noqa: E731
         obs, actions, old_logp = flat(self.obs), flat(self.actions), flat(self.log_prob)
@@ -247,13 +249,22 @@ class TorchPPO:
         value = (returns - self.critic(obs).squeeze(-1)).pow(2).mean()
         entropy = dist.entropy().sum(-1).mean()
         loss = surrogate + c.value_coef * value - c.entropy_coef * entropy
+        return loss, torch.stack([value, surrogate, entropy]).detach()
+
+    def _apply_gradients(self) -> None:
+        """Clips actor and critic gradients apart, then Adam's step."""
+        nn.utils.clip_grad_norm_(self.actor_params, self.cfg.max_grad_norm)
+        nn.utils.clip_grad_norm_(self.critic.parameters(), self.cfg.max_grad_norm)
+        self.optimizer.step()
+
+    def _learn_minibatch(self) -> None:
+        """One optimizer step on the samples indexed by self._minibatch."""
+        loss, parts = self._losses()
         self.optimizer.zero_grad()
         loss.backward()
         average_gradients(self.learned)
-        nn.utils.clip_grad_norm_(self.actor_params, c.max_grad_norm)
-        nn.utils.clip_grad_norm_(self.critic.parameters(), c.max_grad_norm)
-        self.optimizer.step()
-        self._loss_sums += torch.stack([value, surrogate, entropy]).detach()
+        self._apply()
+        self._loss_sums += parts
 
     def update(self) -> dict:
         c, n, size = self.cfg, self.num_mini_batches, self._minibatch.numel()

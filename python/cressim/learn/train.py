@@ -11,6 +11,7 @@ import torch
 
 from . import distributed
 from .config import ppo_config
+from .engine_rollout import EngineRollout
 from .learner import make_learner
 from .plot import plot_training
 from .rollout import EpisodeStats, collect_rollout, sync
@@ -49,7 +50,8 @@ def _fmt(x: float) -> str:
 
 def train(task: str = "CartPole", num_envs: int = 4096, iterations: int = 200, device=None, seed: int = 0,
           out_dir="runs/cartpole", *, rollout: int | None = None, save_every: int = 50, backend: str = "auto",
-          progress: bool = True, task_options: dict | None = None, video_envs=None, **ppo_overrides) -> dict:
+          progress: bool = True, task_options: dict | None = None, video_envs=None, engine_rollout: bool = False,
+          **ppo_overrides) -> dict:
     """Trains a PPO policy; returns a summary with the per-update history.
 
     device: the env's torch device (None: what the env picks, cuda where Vulkan shares memory
@@ -57,6 +59,8 @@ def train(task: str = "CartPole", num_envs: int = 4096, iterations: int = 200, d
     PPOConfig) override TASKS.md's settings, e.g. for a short smoke run. task_options: keywords
     of the task's constructor (TissueRetract's observation="crtk"). video_envs: env indices whose
     rollout in each checkpoint's update is written as `video_<k>_env<i>.mp4` (PyAV; rank 0's envs).
+    engine_rollout: the built-in learner's MLP actor runs inside the engine's frame and whole
+    rollouts run in one submit (engine_rollout.py); torch only learns.
 
     Under torchrun (WORLD_SIZE > 1) each process runs num_envs / WORLD_SIZE of the envs on its
     own GPU (or the cpu) and the learner's gradients are all-reduced; statistics cover every
@@ -66,6 +70,9 @@ def train(task: str = "CartPole", num_envs: int = 4096, iterations: int = 200, d
     """
     from cressim import envs
 
+    if engine_rollout and (video_envs is not None or backend not in ("auto", "torch")):
+        raise ValueError("train(engine_rollout=True): the built-in learner (backend 'torch') without video_envs")
+    backend = "torch" if engine_rollout else backend
     shard, env_device, vulkan = distributed.place(device)
     local_envs, offset = shard.envs(num_envs)
     out = Path(out_dir)
@@ -84,13 +91,15 @@ def train(task: str = "CartPole", num_envs: int = 4096, iterations: int = 200, d
     if backend == "rsl_rl" and shard.world > 1:  # its exploration noise: each process's own generator
         torch.manual_seed(seed + shard.rank)
     stats = EpisodeStats(local_envs, env.device)
+    in_engine = EngineRollout(env, alg, seed=seed) if engine_rollout else None
     progress = progress and shard.leader
     meta = {"task": task, "task_options": dict(task_options or {}), "num_envs": num_envs, "seed": seed,
-            "processes": shard.world, "device": str(env.device), "backend": backend,
+            "processes": shard.world, "device": str(env.device), "backend": backend, "engine_rollout": engine_rollout,
             "vulkan_device": env.engine.device["name"], "ppo": cfg.to_dict()}
     if progress:
         where = f"{local_envs} envs on each of {shard.world} processes" if shard.world > 1 else f"{num_envs} envs"
-        print(f"PPO ({backend}) on {task}: {where} on {env.device} ({meta['vulkan_device']}), "
+        in_frame = ", policy in the engine" if engine_rollout else ""
+        print(f"PPO ({backend}{in_frame}) on {task}: {where} on {env.device} ({meta['vulkan_device']}), "
               f"{cfg.num_mini_batches(local_envs)} minibatches{' a process' if shard.world > 1 else ''} x {cfg.epochs} epochs, "
               f"rollout {cfg.rollout}")
 
@@ -109,13 +118,17 @@ def train(task: str = "CartPole", num_envs: int = 4096, iterations: int = 200, d
         t0 = time.perf_counter()
         checkpointed = it % save_every == 0 or it == iterations
         filming = video is not None and checkpointed
-        collect_rollout(venv, alg, cfg.rollout, stats, after_step=video.capture if filming else None)
+        if in_engine is not None:
+            in_engine.collect()
+        else:
+            collect_rollout(venv, alg, cfg.rollout, stats, after_step=video.capture if filming else None)
         sync(env.device)
         t1 = time.perf_counter()
         losses = alg.update()
         sync(env.device)
         dt = time.perf_counter() - t0
-        rec = {"iteration": it, "env_steps": it * num_envs * cfg.rollout, **stats.pop(), **losses,
+        rec = {"iteration": it, "env_steps": it * num_envs * cfg.rollout,
+               **(in_engine.pop_stats() if in_engine is not None else stats.pop()), **losses,
                "steps_per_s": num_envs * cfg.rollout / dt, "rollout_steps_per_s": num_envs * cfg.rollout / (t1 - t0),
                "wall_s": time.perf_counter() - start}
         history.append(rec)

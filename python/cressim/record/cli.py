@@ -64,7 +64,8 @@ def add_replay_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
     p.add_argument("--settle", type=float, default=0.5, help="seconds to keep measuring after the last command")
     p.add_argument("--hold", default="zoh", choices=("zoh", "linear"), help="reference between commands")
     p.add_argument("--loopback", action="store_true",
-                   help="no ROS: replay into an in-process first-order model (tests the pipeline)")
+                   help="no ROS: replay into an in-process first-order model on simulated time (tests the "
+                        "pipeline; the same result on any machine)")
     p.add_argument("--clock", default="wall", choices=("wall", "sim"),
                    help="time the commands and samples by the wall clock, or by the twin's /clock (simulated "
                         "time: a twin slowed by a busy machine gets each command at the same simulated time)")
@@ -161,7 +162,8 @@ def record_main(args: argparse.Namespace) -> int:
 
 def replay_main(args: argparse.Namespace) -> int:
     from .reader import read_messages
-    from .replay import (LoopbackTwin, format_errors, load_commands, recorded_response, replay, tracking_error)
+    from .replay import (LoopbackTwin, SimulatedClock, format_errors, load_commands, recorded_response, replay,
+                         tracking_error)
     from .writer import BagWriter
 
     bag_ns = args.bag_ns or args.ns
@@ -190,9 +192,12 @@ def replay_main(args: argparse.Namespace) -> int:
 
     link = None
     try:
-        if args.loopback:
-            link = LoopbackTwin(recorder=recorder, ns=args.ns)
+        sleep = time.sleep
+        if args.loopback:  # the stand-in twin and the replay on simulated time: the same on any machine
+            sim = SimulatedClock()
+            link = LoopbackTwin(recorder=recorder, ns=args.ns, clock=sim)
             publish = _recording_publish(link.publish, recorder, args.ns)
+            sleep = sim.sleep
         else:
             from .ros import RclpyTwinLink, rclpy_problem
 
@@ -208,7 +213,7 @@ def replay_main(args: argparse.Namespace) -> int:
                 return 3
             link.drain()
             publish = link.publish
-        result = replay(commands, publish, link, rate=args.rate, settle=args.settle, clock=link.clock)
+        result = replay(commands, publish, link, rate=args.rate, settle=args.settle, clock=link.clock, sleep=sleep)
     finally:
         if link is not None and hasattr(link, "close"):
             link.close()

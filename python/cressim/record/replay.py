@@ -288,6 +288,21 @@ def replay(commands: Sequence[Command], publish: Callable[[str, str, bytes], Any
     return ReplayResult(sent, samples, lateness, clock() - start)
 
 
+class SimulatedClock:
+    """Time that passes only when slept: a loopback replay on it runs as fast as the machine
+    allows and gives the same result on any machine, loaded or not (a wall clock let a busy
+    machine's late wake-ups reach the stand-in twin's 100 Hz model as command timing)."""
+
+    def __init__(self, t0: float = 0.0):
+        self.t = t0
+
+    def __call__(self) -> float:
+        return self.t
+
+    def sleep(self, seconds: float) -> None:
+        self.t += max(0.0, seconds)
+
+
 class LoopbackTwin:
     """An in-process stand-in for the twin: publish() feeds position commands to a LagModel per
     joint group, drain() returns the measured_js / jaw/measured_js it produced at 100 Hz up to
@@ -334,6 +349,6 @@ class LoopbackTwin:
         return out
 
 
-__all__ = ["Command", "JointSample", "LoopbackTwin", "ReplayResult", "command_reference", "format_errors",
+__all__ = ["Command", "JointSample", "LoopbackTwin", "ReplayResult", "SimulatedClock", "command_reference", "format_errors",
            "joint_positions", "load_commands", "prepend_enable", "recorded_response", "replay", "restamp",
            "tracking_error"]

@@ -189,6 +189,36 @@ PSM_TOPICS: tuple[TopicSpec, ...] = (
 
 TOPICS_BY_NAME = {t.name: t for t in PSM_TOPICS}
 
+# The patient cart's topics beyond its arms' (docs/twin.md, "Patient cart"). The ECM speaks the
+# PSM's names above (4 joints, no jaw). An MTM's (relative to /MTML, /MTMR) besides the PSM's
+# events, state_command and services; the console's buttons; the operator's input (an input
+# device, or a test, is the surgeon; {mtm} is MTML or MTMR).
+_JOY, _QUAT = "sensor_msgs/msg/Joy", "geometry_msgs/msg/Quaternion"
+BUTTON_UNITS = "buttons[0]: 1 pressed, 0 released"
+MTM_TOPICS: tuple[TopicSpec, ...] = (
+    TopicSpec("measured_cp", _PS, "state", "100 Hz", BASE_FRAME, POSE_UNITS, "the grip in the MTM's base frame"),
+    TopicSpec("setpoint_cp", _PS, "state", "100 Hz", BASE_FRAME, POSE_UNITS, "as measured_cp"),
+    TopicSpec("gripper/measured_js", _JS, "state", "100 Hz", "", JAW_UNITS, 'name ["gripper"]'),
+    TopicSpec("move_cp", _PS, "command", "as sent", BASE_FRAME, POSE_UNITS, "the wrist turns the grip there"),
+    TopicSpec("servo_cp", _PS, "command", "as sent", BASE_FRAME, POSE_UNITS, "as move_cp"),
+    TopicSpec("body/servo_cf", _WS, "command", "as sent", "", "force N; torque N m", "zero: the hand moves it"),
+    TopicSpec("lock_orientation", _QUAT, "command", "as sent", "", "unit quaternion (x, y, z, w)",
+              "the grip keeps this orientation"),
+    TopicSpec("unlock_orientation", _EMPTY, "command", "as sent", "", "-", ""),
+    TopicSpec("use_gravity_compensation", _BOOL, "command", "as sent", "", "-", "kept"),
+)
+CONSOLE_TOPICS: tuple[TopicSpec, ...] = (
+    TopicSpec("/footpedals/clutch", _JOY, "state", "on change, 2 Hz", "", BUTTON_UNITS, "the clutch pedal"),
+    TopicSpec("/footpedals/camera", _JOY, "state", "on change, 2 Hz", "", BUTTON_UNITS, "the camera pedal"),
+    TopicSpec("/console/operator_present", _JOY, "state", "on change, 2 Hz", "", BUTTON_UNITS, "the head sensor"),
+    TopicSpec("/operator/clutch", _BOOL, "command", "as sent", "", "-", "the operator presses the clutch"),
+    TopicSpec("/operator/camera", _BOOL, "command", "as sent", "", "-", "the operator presses the camera pedal"),
+    TopicSpec("/operator/present", _BOOL, "command", "as sent", "", "-", "the operator sits at the console"),
+    TopicSpec("/operator/{mtm}/servo_cp", _PS, "command", "as sent", "", POSE_UNITS,
+              "where the hand holds the grip (position, in the MTM's base frame)"),
+    TopicSpec("/operator/{mtm}/gripper/servo_jp", _JS, "command", "as sent", "", "rad", "the gripper angle (one)"),
+)
+
 # commands that define a joint-space position reference, and the joints they address
 POSITION_COMMANDS = {"servo_jp": ARM_JOINTS, "move_jp": ARM_JOINTS, "jaw/servo_jp": JAW_JOINTS,
                      "jaw/move_jp": JAW_JOINTS}
@@ -246,7 +276,7 @@ def schema_markdown(ns: str = DEFAULT_NAMESPACE) -> str:
 
 
 __all__ = [
-    "ARM_JOINTS", "DEFAULT_NAMESPACE", "JAW_JOINTS", "JOINT_UNITS", "LATEST_WINS", "MEASURED_FOR", "OLD_ARM_JOINTS",
+    "ARM_JOINTS", "CONSOLE_TOPICS", "DEFAULT_NAMESPACE", "MTM_TOPICS", "JAW_JOINTS", "JOINT_UNITS", "LATEST_WINS", "MEASURED_FOR", "OLD_ARM_JOINTS",
     "POSITION_COMMANDS", "PSM_TOPICS", "SETPOINT_AS_COMMAND", "TOPICS_BY_NAME", "TopicSpec",
     "canonical_joint", "qos_dict", "relative_name", "schema_markdown", "spec_for", "topics",
 ]

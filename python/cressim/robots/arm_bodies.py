@@ -145,17 +145,21 @@ class ArmBodies:
     def __init__(self, urdf_path, num_envs: int, *, base_position, base_rotation, publish_rate: float,
                  physics_rate: float, initial_q: np.ndarray, initial_jaw: float, dof: int, device=None,
                  dynamics: str = "kinematic", gravity=(0.0, 0.0, -9.81), scenery=None,
-                 world: cressim.World | None = None, needle: dict | None = None, particle_rate: float = 0.0):
+                 world: cressim.World | None = None, needle: dict | None = None, particle_rate: float = 0.0,
+                 collision_group: int = ARM_GROUP, name: str = "arm"):
         """`particle_rate`: the scenery's particles (tissue, blood, thread) substep at this rate
         (Hz; 0: physics_rate), the bodies at physics_rate. `world`: author the arm into this world (a task's, beside its own entities) instead of
         one of its own; the caller then creates the engine with its own physics settings (a dynamic
         arm wants `iterations=SOLVER_ITERATIONS`) and calls `bind(engine)` after `upload_world()`.
-        `needle`: a suture needle held in the jaws (twin scene's arm.needle), with its thread."""
+        `needle`: a suture needle held in the jaws (twin scene's arm.needle), with its thread.
+        `collision_group`: the arm's links collide with everything but this group (one bit); arms
+        of one world in groups of their own collide with each other (cressim.twin.cart). `name`:
+        the prefix of the arm's shared buffers (one per arm of an engine)."""
         if dynamics not in DYNAMICS:
             raise ValueError(f"dynamics {dynamics!r} is not one of {', '.join(DYNAMICS)}")
         if world is not None and scenery is not None:
             raise ValueError("scenery is authored into the arm's own world: pass either scenery or world")
-        self.num_envs, self.dof, self.dynamics = num_envs, dof, dynamics
+        self.num_envs, self.dof, self.dynamics, self.name = num_envs, dof, dynamics, name
         self.dynamic = dynamics == "dynamic"
         urdf = yourdfpy.URDF.load(str(urdf_path), build_scene_graph=False, load_meshes=False)
         self.urdf, self.urdf_dir = urdf, Path(urdf_path).parent
@@ -237,7 +241,7 @@ class ArmBodies:
                 shapes = [s for link in b.links
                           for s in _link_shapes(link, np.linalg.solve(b.pose, poses[link.name]))]
                 if shapes:
-                    e.add(cressim.Collider(shapes, group=ARM_GROUP, mask=0xFFFFFFFF & ~ARM_GROUP))
+                    e.add(cressim.Collider(shapes, group=collision_group, mask=0xFFFFFFFF & ~collision_group))
                 if scenery is not None:
                     scenery.add_body_visual(e, k)
                 entities.append(e)
@@ -346,7 +350,8 @@ class ArmBodies:
         # the followers' poses: FK on the GPU from `joint_values` (interface joints, then the jaw)
         self.link_poses = LinkPoses(engine, self.urdf, self.follower_links,
                                     list(INTERFACE_JOINTS[:self.dof]) + ["jaw"], follower_rows.reshape(num_envs, -1),
-                                    self.base[:3, 3].tolist(), rotation_xyzw(self.base[:3, :3].numpy()))
+                                    self.base[:3, 3].tolist(), rotation_xyzw(self.base[:3, :3].numpy()),
+                                    name=self.name)
         self.joint_values = torch.from_dlpack(self.link_poses.joint_values)  # (N, dof + 1) float32
         self.body_rows = torch.as_tensor(np.vectorize(row_of_entity.get)(body_ids), device=self.device,
                                          dtype=torch.long).reshape(num_envs, len(bodies))
@@ -665,11 +670,12 @@ class ArmBodies:
         T[:, :3, 3] = p
         return T
 
-    def show(self, world: cressim.World, envs, links=None):
+    def show(self, world: cressim.World, envs, links=None, *, first_id: int = 0):
         """Renderables for cameras on a kinematic arm's bodies in `envs`: each named link's URDF
         visuals (ArmVisuals; `links` in this order, default every body), one mesh a link added to
         `world` once. In kinematic mode each body is one link in that link's frame; a dynamic arm
-        (the twin's) gets its visuals with its scenery."""
+        (the twin's) gets its visuals with its scenery. `first_id` > 0: body k is drawn with
+        segmentation id first_id + k (else 0, the background)."""
         from types import SimpleNamespace
 
         if self.dynamic:
@@ -686,7 +692,8 @@ class ArmBodies:
             k = self.body_names.index(name)
             for env in envs:
                 world.entity(int(self.body_entity_ids[env, k])).add(
-                    cressim.Renderable(mesh, color=visuals.colors[0], metallic=0.3, roughness=0.4))
+                    cressim.Renderable(mesh, color=visuals.colors[0], metallic=0.3, roughness=0.4,
+                                       segmentation_id=first_id + k if first_id > 0 else 0))
 
     def link_point(self, link: str, point) -> tuple[np.ndarray, np.ndarray]:
         """Where a point given in `link`'s frame sits on the body that carries the link: (each env's

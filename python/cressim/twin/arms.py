@@ -115,7 +115,9 @@ class TwinConfig:
 
 
 class TwinArms:
-    def __init__(self, config: TwinConfig):
+    def __init__(self, config: TwinConfig, bodies: ArmBodies | None = None):
+        """`bodies`: the arm's links already in an engine shared with other arms (a patient cart,
+        cressim.twin.cart, which steps that engine); default: an engine of its own."""
         scene = config.scene
         self.scene = scene
         self.num_envs, self.arm, self.robot = config.value("num_envs"), config.value("arm"), config.value("robot")
@@ -140,12 +142,14 @@ class TwinArms:
         plan = SceneryPlan(camera, UltrasoundSpec() if config.ultrasound else None, scene.world) if config.cameras else None
         jaw0 = scene.initial_jaw if self.psm.has_jaw else 0.0
         before = process_threads()
-        self.bodies = ArmBodies(urdf, self.num_envs, base_position=scene.base_position,
-                                base_rotation=scene.base_rotation, publish_rate=self.publish_rate,
-                                physics_rate=self.physics_rate, particle_rate=self.particle_rate,
-                                initial_q=initial, initial_jaw=jaw0,
-                                dof=self.psm.dof, dynamics=config.value("dynamics"), scenery=plan,
-                                device=config.device, needle=scene.needle if self.psm.has_jaw and plan else None)
+        if bodies is None:
+            bodies = ArmBodies(urdf, self.num_envs, base_position=scene.base_position,
+                               base_rotation=scene.base_rotation, publish_rate=self.publish_rate,
+                               physics_rate=self.physics_rate, particle_rate=self.particle_rate,
+                               initial_q=initial, initial_jaw=jaw0,
+                               dof=self.psm.dof, dynamics=config.value("dynamics"), scenery=plan,
+                               device=config.device, needle=scene.needle if self.psm.has_jaw and plan else None)
+        self.bodies = bodies
         self.engine_threads = process_threads() - before  # the Vulkan driver's (SensorLoop.lower_priority)
         self.dynamic = self.bodies.dynamic
         self.simulated = self.bodies.simulated  # the world moves: the engine steps in every tick

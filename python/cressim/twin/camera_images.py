@@ -1,4 +1,4 @@
-"""Every env's camera images on the host after a rendered frame: colour (rgb8), depth (metres,
+"""Every camera's images on the host after a rendered frame (one per env, or a cart's two eyes): colour (rgb8), depth (metres,
 NaN where nothing was hit, REP 118) and segmentation ids (uint16), in env order. One copy per
 product and camera group; what the ROS camera topics and the twin benchmark publish.
 """
@@ -14,8 +14,9 @@ class CameraImages:
     def __init__(self, engine):
         self.engine = engine
         cams = engine.cameras
-        # env -> (group, layer) of its camera: images of env i are camera{group}.*[layer]
-        order = np.argsort(cams["env"])
+        # each camera's (group, layer), by env and then as authored (a cart's left eye, then its
+        # right): images of camera k are camera{group}.*[layer]
+        order = np.argsort(cams["env"], kind="stable")
         self.where = [(int(cams["group"][k]), int(cams["layer"][k])) for k in order]
         self.groups = sorted({g for g, _ in self.where})
 

@@ -12,6 +12,7 @@ import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
 import yaml
 
 SCENE_DIR_ENV = "CRESSIM_SCENE_DIR"  # overrides where scenes/ is (an install outside the repo)
@@ -19,6 +20,25 @@ DEFAULT_SCENE = "psm_twin.yaml"
 ROBOTS = ("psm_lnd", "psm_suction")
 DYNAMICS = ("kinematic", "dynamic")  # arm.dynamics: the arm's links follow the twin, or are simulated
 SENSORS = ("joints", "cartesian", "velocity", "wrench", "jacobian", "tf", "clock", "color", "depth", "segmentation", "ultrasound")
+
+
+CART_ARMS = {"ECM": "ecm", "PSM1": "psm", "PSM2": "psm", "PSM3": "psm", "MTML": "mtm", "MTMR": "mtm"}
+ECM_HOME = (0.0, 0.0, 0.05, 0.0)  # rad, m: the endoscope 5 cm in
+
+
+@dataclass(frozen=True)
+class CartArm:
+    """One arm of a patient cart (scene file `cart:`): its dVRK name (also its ROS namespace and
+    frame prefix), kind (psm, ecm, mtm), PSM instrument, and where its base (the RCM) is in the
+    world (given, or where its setup joints hold it). An MTM has none of these: its base frame is
+    the surgeon console's."""
+    name: str
+    kind: str
+    robot: str = "psm_lnd"
+    base_position: tuple = (0.0, 0.0, 0.3)
+    base_rotation: tuple = (0.0, 0.0, 0.0, 1.0)
+    initial_jp: tuple | None = None  # None: the arm section's (PSM) or ECM_HOME
+    home_jp: tuple | None = None
 
 
 class SceneError(ValueError):
@@ -66,6 +86,9 @@ class Scene:
     # a suture needle held in the needle driver's jaws (arm.needle; None: none): cressim.Needle's
     # arc_radius, arc_angle, puncture_force, puncture_depth, friction and squeeze, and thread_length (m)
     needle: dict | None = None
+    cart: tuple = ()  # CartArm of a patient cart (cressim.twin.cart); empty: the one `arm`
+    endoscope_baseline: float = 0.005  # m between the ECM's two cameras (cart.ECM.endoscope.baseline)
+    operator: tuple = ()  # cressim.twin.mtm.Keyframe of a scripted surgeon (cart.operator)
     lines: dict = field(default_factory=dict, repr=False)  # field -> "file:line:col" (for later checks)
 
 
@@ -104,7 +127,7 @@ def parse_scene(text: str, path: str = "<string>") -> Scene:
     if root is None:  # an empty file: all defaults
         return scene
     p = _Parser(path)
-    top = p.mapping(root, "", {"arm", "num_envs", "rates", "camera", "sensors", "record", "world"})
+    top = p.mapping(root, "", {"arm", "num_envs", "rates", "camera", "sensors", "record", "world", "cart"})
     if "arm" in top:
         arm = p.mapping(top["arm"], "arm", {"name", "robot", "dynamics", "base", "initial_jp", "initial_jaw",
                                             "home_jp", "measured_lag", "trajectory", "stale_command_after",
@@ -176,6 +199,8 @@ def parse_scene(text: str, path: str = "<string>") -> Scene:
             if "acceleration_ratio" in traj:
                 scene.acceleration_ratio = p.number(traj["acceleration_ratio"], "arm.trajectory.acceleration_ratio",
                                                     low=1e-3, high=1e3)
+    if "cart" in top:
+        _parse_cart(p, top["cart"], scene)
     if "num_envs" in top:
         scene.num_envs = p.integer(top["num_envs"], "num_envs", low=1, high=4096)
     if "rates" in top:
@@ -223,6 +248,104 @@ def parse_scene(text: str, path: str = "<string>") -> Scene:
         name, why = problem
         raise SceneError(f"{scene.lines.get(name, path)}: rates.{RATE_KEYS[name]}: {why}")
     return scene
+
+
+def _parse_cart(p, node, scene):
+    """`cart:` {ECM: {...}, PSM1: {...}, ...}: the arms of a patient cart, each with its base."""
+    from cressim.robots.kinematics import rotation_xyzw
+    from cressim.robots.suj import suj_base
+
+    cart = p.mapping(node, "cart", set(CART_ARMS) | {"operator", "origin"})
+    origin = np.eye(4)  # the cart's frame (the setup joints' origin) in the world
+    if "origin" in cart:
+        position, rotation = _pose(p, cart["origin"], "cart.origin")
+        origin[:3, :3], origin[:3, 3] = _quat_matrix(rotation), position
+    arms = []
+    for name, arm_node in cart.items():
+        if name in ("operator", "origin"):
+            continue
+        kind = CART_ARMS[name]
+        keys = ({"base", "setup_joints"} if kind != "mtm" else set()) \
+            | ({"robot", "initial_jp", "home_jp"} if kind == "psm" else set()) \
+            | ({"initial_jp", "home_jp", "endoscope"} if kind == "ecm" else set())
+        fields = p.mapping(arm_node, f"cart.{name}", keys) if not _is_null(arm_node) else {}
+        values = dict(name=name, kind=kind)
+        if "base" in fields and "setup_joints" in fields:
+            p.fail(fields["setup_joints"], f"cart.{name}.setup_joints", "give either base or setup_joints")
+        if "setup_joints" in fields:  # the dVRK Classic SUJ puts the base there (cressim.robots.suj)
+            base = origin @ suj_base(name, p.numbers(fields["setup_joints"], f"cart.{name}.setup_joints", 6))
+            values["base_position"] = tuple(float(v) for v in base[:3, 3])
+            values["base_rotation"] = rotation_xyzw(base[:3, :3])
+        if "base" in fields:  # the base's pose in the world, as given
+            values["base_position"], values["base_rotation"] = _pose(p, fields["base"], f"cart.{name}.base")
+        if "robot" in fields:
+            values["robot"] = p.choice(fields["robot"], f"cart.{name}.robot", ROBOTS)
+        dof = 4 if kind == "ecm" else 6
+        for key in ("initial_jp", "home_jp"):
+            if key in fields:
+                values[key] = p.numbers(fields[key], f"cart.{name}.{key}", dof)
+        if "endoscope" in fields:
+            scope = p.mapping(fields["endoscope"], f"cart.{name}.endoscope", {"baseline"})
+            if "baseline" in scope:
+                scene.endoscope_baseline = p.number(scope["baseline"], f"cart.{name}.endoscope.baseline",
+                                                    low=1e-4, high=0.05)
+        arms.append(CartArm(**values))
+    if not any(a.kind == "ecm" for a in arms) or not any(a.kind == "psm" for a in arms):
+        p.fail(node, "cart", "a cart needs the ECM and at least one PSM")
+    scene.cart = tuple(arms)
+    if "operator" in cart:
+        scene.operator = _parse_operator(p, cart["operator"], [a.name for a in arms if a.kind == "mtm"])
+
+
+def _parse_operator(p, node, mtms) -> tuple:
+    """`cart.operator:` a list of keyframes {at: s, clutch/camera/present: bool, MTMx: {position:
+    [x, y, z], gripper: rad}}, in time order."""
+    from .mtm import GRIPPER_LIMITS, Keyframe
+
+    if not isinstance(node, yaml.SequenceNode):
+        p.fail(node, "cart.operator", "a list of keyframes {at, clutch, camera, present, MTML, MTMR} expected")
+    frames, last = [], -math.inf
+    for i, item in enumerate(node.value):
+        key = f"cart.operator[{i}]"
+        f = p.mapping(item, key, {"at", "clutch", "camera", "present", *mtms})
+        if "at" not in f:
+            p.fail(item, key, "every keyframe needs `at` (s)")
+        at = p.number(f["at"], f"{key}.at", low=0.0, high=1e6)
+        if at <= last:
+            p.fail(f["at"], f"{key}.at", f"{at:g} s is not after the keyframe before ({last:g} s)")
+        last = at
+        pedals = {k: p.boolean(f[k], f"{key}.{k}") for k in ("clutch", "camera", "present") if k in f}
+        hands, grips = {}, {}
+        for name in mtms:
+            if name in f:
+                hand = p.mapping(f[name], f"{key}.{name}", {"position", "gripper"})
+                if "position" in hand:
+                    hands[name] = p.numbers(hand["position"], f"{key}.{name}.position", 3)
+                if "gripper" in hand:
+                    grips[name] = p.number(hand["gripper"], f"{key}.{name}.gripper", *GRIPPER_LIMITS)
+        frames.append(Keyframe(at, hands, grips, pedals))
+    return tuple(frames)
+
+
+def _pose(p, node, key) -> tuple:
+    """{position: [x, y, z], rotation: [x, y, z, w]} (each optional) -> (position, xyzw), checked."""
+    pose = p.mapping(node, key, {"position", "rotation"})
+    position = p.numbers(pose["position"], f"{key}.position", 3) if "position" in pose else (0.0, 0.0, 0.0)
+    rotation = (0.0, 0.0, 0.0, 1.0)
+    if "rotation" in pose:
+        q = p.numbers(pose["rotation"], f"{key}.rotation", 4)
+        norm = math.sqrt(sum(v * v for v in q))
+        if abs(norm - 1.0) > 1e-3:
+            p.fail(pose["rotation"], f"{key}.rotation", f"quaternion x, y, z, w of norm 1 expected, norm is {norm:.6g}")
+        rotation = tuple(v / norm for v in q)
+    return position, rotation
+
+
+def _quat_matrix(q) -> np.ndarray:
+    x, y, z, w = q
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
 
 
 RATE_KEYS = {"physics_rate": "physics", "particle_rate": "particles"}
@@ -284,6 +407,12 @@ class _Parser:
         if not low <= value <= high:
             self.fail(node, key, f"{value:g} is outside [{low:g}, {high:g}]")
         return float(value)
+
+    def boolean(self, node, key) -> bool:
+        value = self.scalar(node, key)
+        if not isinstance(value, bool):
+            self.fail(node, key, f"true or false expected, got {node.value!r}")
+        return value
 
     def integer(self, node, key, low, high) -> int:
         value = self.scalar(node, key)

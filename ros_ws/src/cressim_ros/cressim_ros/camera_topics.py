@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import json
 from array import array
+from typing import NamedTuple
 
 import numpy as np
 from sensor_msgs.msg import CameraInfo, CompressedImage, Image
@@ -41,26 +42,42 @@ def camera_frame(env: int, num_envs: int) -> str:
     return "camera_color_optical_frame" if num_envs == 1 else f"env{env}/camera_color_optical_frame"
 
 
-class CameraTopics:
-    """Publishers of every env's camera products, fed from the engine after a rendered frame."""
+class CameraView(NamedTuple):
+    """One camera as ROS sees it: its namespace, optical frame and CameraInfo's P[3] (-fx B for a
+    stereo pair's right camera, 0 for a single or left one)."""
+    namespace: str
+    frame: str
+    p_tx: float = 0.0
 
-    def __init__(self, node, engine, spec, labels: dict, num_envs: int):
-        self.node, self.engine, self.spec, self.num_envs = node, engine, spec, num_envs
+
+def env_views(num_envs: int) -> list[CameraView]:
+    """The twin's one camera per env."""
+    return [CameraView(camera_namespace(env, num_envs), camera_frame(env, num_envs)) for env in range(num_envs)]
+
+
+class CameraTopics:
+    """Publishers of every camera's products (`views`, in the engine's camera order: env, then
+    authoring order; default one per env), fed from the engine after a rendered frame."""
+
+    def __init__(self, node, engine, spec, labels: dict, num_envs: int, views: list[CameraView] | None = None):
+        self.node, self.engine, self.spec = node, engine, spec
+        self.views = views or env_views(num_envs)
+        self.num_envs = len(self.views)  # cameras published (one per env unless `views`)
         self.images = CameraImages(engine)
-        self.pubs = [{} for _ in range(num_envs)]  # env -> {product: (image pub, info pub)}
-        self.infos = [self._camera_info(env) for env in range(num_envs)]
+        self.pubs = [{} for _ in self.views]  # view -> {product: (image pub, info pub)}
+        self.infos = [self._camera_info(k) for k in range(len(self.views))]
         self.labels = String(data=json.dumps({str(k): v for k, v in sorted(labels.items())}))
         self.label_pubs = []
-        for env in range(num_envs):
-            pub = node.create_publisher(String, self.labels_topic(env), LATCHED_QOS)
+        for k in range(len(self.views)):
+            pub = node.create_publisher(String, self.labels_topic(k), LATCHED_QOS)
             pub.publish(self.labels)
             self.label_pubs.append(pub)
 
-    def labels_topic(self, env: int) -> str:
-        return f"{camera_namespace(env, self.num_envs)}/segmentation/labels"
+    def labels_topic(self, view: int) -> str:
+        return f"{self.views[view].namespace}/segmentation/labels"
 
-    def topics(self, product: str, env: int) -> tuple[str, str]:
-        ns = f"{camera_namespace(env, self.num_envs)}/{product}"
+    def topics(self, product: str, view: int) -> tuple[str, str]:
+        ns = f"{self.views[view].namespace}/{product}"
         return f"{ns}/image_raw", f"{ns}/camera_info"
 
     def enable(self, products):
@@ -84,18 +101,18 @@ class CameraTopics:
         q = depth_quantization_for(self.spec.near, self.spec.far)
         return compress_depth(image, depth_max=self.spec.far, depth_quantization=q, header=header)
 
-    def _camera_info(self, env: int) -> CameraInfo:
+    def _camera_info(self, view: int) -> CameraInfo:
         s = self.spec
         fx, fy, cx, cy = s.intrinsics()
         cx, cy = cx - 0.5, cy - 0.5  # ROS: pixel centres at integer coordinates
         m = CameraInfo()
-        m.header.frame_id = camera_frame(env, self.num_envs)
+        m.header.frame_id = self.views[view].frame
         m.width, m.height = s.width, s.height
         m.distortion_model = "plumb_bob"
         m.d = [0.0] * 5
         m.k = [fx, 0.0, cx, 0.0, fy, cy, 0.0, 0.0, 1.0]
         m.r = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
-        m.p = [fx, 0.0, cx, 0.0, 0.0, fy, cy, 0.0, 0.0, 0.0, 1.0, 0.0]
+        m.p = [fx, 0.0, cx, float(self.views[view].p_tx), 0.0, fy, cy, 0.0, 0.0, 0.0, 1.0, 0.0]
         return m
 
     def host_images(self, products) -> dict:
@@ -128,4 +145,4 @@ class CameraTopics:
                     record(info_topic, info)
 
 
-__all__ = ["CameraTopics", "ENCODINGS", "IMAGE_QOS", "PRODUCTS", "camera_frame", "camera_namespace"]
+__all__ = ["CameraTopics", "CameraView", "ENCODINGS", "env_views", "IMAGE_QOS", "PRODUCTS", "camera_frame", "camera_namespace"]

@@ -42,9 +42,9 @@ class SimulationControl:
         self.state = SimulationState.STATE_PLAYING  # the twin starts playing, as the dVRK's console does
         arms = node.arms
         self.entities = {}  # name -> (env, "arm" | "needle")
-        for env in range(arms.num_envs):
+        for env in range(arms.num_envs):  # a cart's rows are its PSMs, by name
             prefix = env_frame_prefix(env, arms.num_envs)
-            self.entities[f"{prefix}{arms.arm}"] = (env, "arm")
+            self.entities[f"{node.prefixes[env]}{node.arm_names[env]}"] = (env, "arm")
             if arms.needle_offset is not None:
                 self.entities[f"{prefix}needle"] = (env, "needle")
         self.handles = [node.create_service(t, name, handler) for t, name, handler in (

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import importlib
 
+from rclpy.event_handler import PublisherEventCallbacks
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from cressim.record.schema import PSM_TOPICS, TOPICS_BY_NAME, TopicSpec
@@ -18,6 +19,46 @@ def qos(spec: TopicSpec) -> QoSProfile:
     durability = DurabilityPolicy.TRANSIENT_LOCAL if spec.role == "event" else DurabilityPolicy.VOLATILE
     return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=spec.depth, reliability=ReliabilityPolicy.RELIABLE,
                       durability=durability)
+
+
+# Commands that clients publish latched (crtk's state_command is transient local): each also gets
+# a transient-local reader, which only latched writers match and which receives a command sent
+# before the readers matched (crtk sends `enable` right after creating its publisher; a volatile
+# reader loses it while discovery runs), however late: it is not refused as stale. Both readers
+# see a latched writer's later ones: `FirstDelivery` passes each (stamp, command) once.
+LATCHED_COMMANDS = ("state_command",)
+
+
+def latched_reader_qos(spec: TopicSpec) -> QoSProfile:
+    profile = qos(spec)
+    profile.durability = DurabilityPolicy.TRANSIENT_LOCAL
+    return profile
+
+
+class FirstDelivery:
+    """Whether a latched command (a StringStamped) is new on its channel, or the same message
+    arriving through the other reader."""
+
+    def __init__(self):
+        self.last = {}
+
+    def first(self, channel, msg) -> bool:
+        key = (msg.header.stamp.sec, msg.header.stamp.nanosec, msg.string)
+        if self.last.get(channel) == key:
+            return False
+        self.last[channel] = key
+        return True
+
+
+def on_new_reader(callback) -> PublisherEventCallbacks:
+    """Event callbacks that call `callback()` when a reader matches the publisher. The arms'
+    operating_state uses it to say the state again: crtk's readers are volatile, so a client that
+    commands `enable` right after it starts (dvrk_teleoperation.py) would otherwise miss the
+    answer published before its reader matched, and wait for it until its timeout."""
+    def matched(status):
+        if status.current_count_change > 0:
+            callback()
+    return PublisherEventCallbacks(matched=matched)
 
 
 def msg_class(spec: TopicSpec):
@@ -78,7 +119,8 @@ def env_topic(topic: str, env: int, num_envs: int) -> str:
 
 __all__ = ["CLOCK_QOS", "CLOCK_TOPIC", "CONSOLE_NAMESPACES", "CRTK_VERSION", "DIAGNOSTICS_TOPIC", "IMAGE_QOS",
            "LATCHED_QOS", "ROBOT_DESCRIPTION_TOPIC", "SENSOR_TOPICS", "SERVICES", "TF_STATIC_TOPIC", "TF_TOPIC",
-           "TOPICS_BY_NAME", "arm_topics", "env_frame_prefix", "env_namespaces", "env_topic", "msg_class", "qos"]
+           "TOPICS_BY_NAME", "arm_topics", "env_frame_prefix", "env_namespaces", "env_topic", "msg_class", "qos",
+           "FirstDelivery", "LATCHED_COMMANDS", "latched_reader_qos", "on_new_reader"]
 
 
 def fill_pose(pose, p):

@@ -28,6 +28,7 @@ import threading
 import time
 import traceback
 from array import array
+from types import SimpleNamespace
 
 import numpy as np
 import rclpy
@@ -47,18 +48,23 @@ from crtk_msgs.msg import OperatingState
 from crtk_msgs.srv import QueryForwardKinematics, QueryInverseKinematics, TriggerOperatingState
 
 from cressim.robots import PSM_JOINT_NAMES
+from cressim.robots.kinematics import matrix_to_pose7
 from cressim.twin import ConfigError, Sensor, SensorLoop, StateReport, TwinArms, TwinConfig
+from cressim.twin.cart import EYES, Cart, ecm_urdf
 from cressim.twin.command_checks import stale_refusal
 from cressim.twin.sensor_loop import process_threads
 from cressim.twin.scene import DEFAULT_SCENE, SceneError, load_scene
 
 from . import params as P
-from .camera_topics import PRODUCTS, CameraTopics, camera_frame
+from .camera_topics import PRODUCTS, CameraTopics, CameraView, camera_frame
+from .console_topics import ConsoleTopics
+from .ecm_topics import EcmTopics
 from .diagnostics import build_diagnostics
 from .recorder import RecordingUnavailable, open_recorder
 from .robot_state import RobotStateTopics
 from .simulation_control import SimulationControl
-from .topics import (CLOCK_QOS, CLOCK_TOPIC, CONSOLE_NAMESPACES, CRTK_VERSION, DIAGNOSTICS_TOPIC, LATCHED_QOS,
+from .topics import (CLOCK_QOS, CLOCK_TOPIC, CONSOLE_NAMESPACES, CRTK_VERSION, DIAGNOSTICS_TOPIC, LATCHED_COMMANDS,
+                     LATCHED_QOS, FirstDelivery, latched_reader_qos, on_new_reader,
                      SENSOR_TOPICS, TF_STATIC_TOPIC, TF_TOPIC, TOPICS_BY_NAME, arm_topics, env_frame_prefix,
                      env_namespaces, env_topic, fill_pose, msg_class, qos)
 from .ultrasound_topics import UltrasoundTopics, ultrasound_frame
@@ -145,23 +151,50 @@ class TwinNode(Node):
     def _build(self, threaded_sensors: bool):
         cfg = self.cfg
         self._threads_before_engine = process_threads()
-        self.arms = TwinArms(TwinConfig(
+        config = TwinConfig(
             scene=self.scene, num_envs=cfg["num_envs"], robot=cfg["robot"], dynamics=cfg["dynamics"],
             arm=cfg["arm"], physics_rate=cfg["physics_rate"], particle_rate=cfg["particle_rate"],
             publish_rate=cfg["publish_rate"],
             camera_width=cfg["camera_width"], camera_height=cfg["camera_height"],
             # the probe and its scatterers exist when the node starts with the group
-            ultrasound="ultrasound" in cfg["sensors"]))
+            ultrasound="ultrasound" in cfg["sensors"])
+        # a patient cart (the scene's `cart:`): one row per PSM, each under its own name
+        self.cart = Cart(config) if self.scene.cart else None
+        self.arms = self.cart or TwinArms(config)
         arms = self.arms
         self.num_envs, self.arm, self.robot = arms.num_envs, arms.arm, arms.robot
-        self.namespaces = env_namespaces(self.arm, self.num_envs)
-        self.base_frame_id = [f"{env_frame_prefix(i, self.num_envs)}{self.arm}_base" for i in range(self.num_envs)]
+        if self.cart:
+            self.arm_names, self.prefixes = list(arms.names), [""] * self.num_envs
+            self.namespaces = [[f"/{name}"] for name in self.arm_names]
+        else:
+            self.arm_names = [self.arm] * self.num_envs
+            self.prefixes = [env_frame_prefix(i, self.num_envs) for i in range(self.num_envs)]
+            self.namespaces = env_namespaces(self.arm, self.num_envs)
+        self.base_frame_id = [f"{p}{name}_base" for p, name in zip(self.prefixes, self.arm_names)]
+        if self.cart:  # a cart's PSMs report measured_cp in the endoscope's frame, as the dVRK's console sets
+            self.base_frame_id = [self.cart.ecm.name] * self.num_envs
         engine, scenery = arms.bodies.engine, arms.bodies.scenery
-        self.camera = CameraTopics(self, engine, scenery.camera, scenery.labels, self.num_envs)
+        views = None
+        if self.cart:  # the endoscope's rectified pair: the right camera's P[3] = -fx B (ROS)
+            fx = scenery.camera.intrinsics()[0]
+            views = [CameraView(f"/camera/{eye}", f"camera_{eye}_optical_frame", -fx * scenery.baseline * k)
+                     for k, eye in enumerate(EYES)]
+        self.camera = CameraTopics(self, engine, scenery.camera, scenery.labels, self.num_envs, views)
+        self.ecm = EcmTopics(self, self.cart.ecm) if self.cart else None
+        self.console = ConsoleTopics(self, self.cart) if self.cart else None  # the MTMs, pedals, operator
         self.ultrasound = None
         if scenery.ultrasound is not None:
             self.ultrasound = UltrasoundTopics(self, engine, scenery.ultrasound, self.num_envs)
-        self.robot_state = RobotStateTopics(self, arms, arms.psm.urdf_path.read_text())
+        # the URDF's links on /tf, /joint_states and /robot_description (a cart's under each arm's name)
+        if self.cart:
+            cart = self.cart
+            self.robot_states = [RobotStateTopics(self, psm, psm.psm.urdf_path.read_text(), namespace=f"/{name}")
+                                 for name, psm in zip(self.arm_names, cart.psms)]
+            self.robot_states.append(RobotStateTopics(
+                self, SimpleNamespace(num_envs=1, arm=cart.ecm.name), ecm_urdf().read_text(),
+                namespace=f"/{cart.ecm.name}", bodies=cart.ecm_bodies, state=cart.ecm_joints))
+        else:
+            self.robot_states = [RobotStateTopics(self, arms, arms.psm.urdf_path.read_text())]
         images = self.camera.images  # grabbed right after the frame, converted and published off the engine lock
         sensors = [Sensor("camera", cfg["camera_rate"], render=True, read=lambda: images.grab(self.cfg["sensors"]),
                           publish=lambda raw, stamp: self.camera.publish(images.convert(raw), stamp,
@@ -215,20 +248,28 @@ class TwinNode(Node):
         self._set_rate()
 
     def _publish_static_tf(self):
-        """world -> base (the scene's base pose), world -> camera and probe of every env, latched."""
+        """world -> base (the scene's base pose), world -> camera and probe of every env, latched;
+        a cart's: world -> every arm's base, the ECM's tip -> each eye."""
         stamp, N, scene = self.stamp(), self.num_envs, self.scene
         spec = self.arms.bodies.scenery
         transforms = []
-        for env in range(N):
-            prefix = env_frame_prefix(env, N)
-            transforms.append(_transform(stamp, f"{prefix}world", f"{prefix}{self.arm}_base",
-                                         (*scene.base_position, *scene.base_rotation)))
-            transforms.append(_transform(stamp, f"{prefix}world", camera_frame(env, N),
-                                         (*spec.camera.position, *spec.camera_rotation)))
-            if spec.ultrasound is not None:
-                position, rotation = spec.probe_pose()
-                transforms.append(_transform(stamp, f"{prefix}world", ultrasound_frame(env, N, spec.ultrasound.frame),
-                                             (*position, *rotation)))
+        if self.cart:
+            cart, ecm = self.cart, self.cart.ecm.name
+            frames = [("world", f"{name}_base", base) for name, base in zip(self.arm_names, cart.psm_bases)]
+            frames.append(("world", f"{ecm}_base", cart.ecm_base))
+            frames += [(ecm, view.frame, offset) for view, offset in zip(self.camera.views, cart.eye_offsets())]
+            transforms = [_transform(stamp, parent, child, _pose7(T)) for parent, child, T in frames]
+        else:
+            for env in range(N):
+                prefix = env_frame_prefix(env, N)
+                transforms.append(_transform(stamp, f"{prefix}world", f"{prefix}{self.arm}_base",
+                                             (*scene.base_position, *scene.base_rotation)))
+                transforms.append(_transform(stamp, f"{prefix}world", camera_frame(env, N),
+                                             (*spec.camera.position, *spec.camera_rotation)))
+                if spec.ultrasound is not None:
+                    position, rotation = spec.probe_pose()
+                    probe = ultrasound_frame(env, N, spec.ultrasound.frame)
+                    transforms.append(_transform(stamp, f"{prefix}world", probe, (*position, *rotation)))
         self.static_tf = TFMessage(transforms=transforms)
         self.tf_static_pub.publish(self.static_tf)
 
@@ -245,8 +286,11 @@ class TwinNode(Node):
             self._record(self.camera.labels_topic(env), self.camera.labels)
             for _, topic, value in self._latched_events(env):
                 self._record(f"{self.namespaces[env][0]}/{topic}", self._message(env, topic, value))
-        for topic, msg in self.robot_state.topics_for_recording():
+        for topic, msg in (item for rs in self.robot_states for item in rs.topics_for_recording()):
             self._record(topic, msg)
+        if self.cart:  # the ECM's and the MTMs' states
+            for topic, msg in self.ecm.latched() + [item for mtm in self.console.mtms for item in mtm.latched()]:
+                self._record(topic, msg)
 
     def _set_rate(self):
         self.arms.set_rate(self.cfg["publish_rate"])
@@ -256,8 +300,13 @@ class TwinNode(Node):
                                        clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     def _create_event_publishers(self):
-        self.event_pubs = [[{t.name: self.create_publisher(msg_class(t), f"{ns}/{t.name}", qos(t))
-                             for t in arm_topics("event")} for ns in namespaces] for namespaces in self.namespaces]
+        def again(env):  # a new reader of operating_state: the arm's state now (topics.on_new_reader)
+            return on_new_reader(lambda: self._emit([(env, "operating_state", self.arms.report(env))]))
+
+        self.event_pubs = [[{t.name: self.create_publisher(
+            msg_class(t), f"{ns}/{t.name}", qos(t),
+            **({"event_callbacks": again(env)} if t.name == "operating_state" else {}))
+            for t in arm_topics("event")} for ns in namespaces] for env, namespaces in enumerate(self.namespaces)]
         console = {name: self.create_publisher(msg_class(TOPICS_BY_NAME[name]), name, qos(TOPICS_BY_NAME[name]))
                    for name in TOPICS_BY_NAME if name.startswith("/console/teleop/") and
                    TOPICS_BY_NAME[name].role == "event"}
@@ -309,6 +358,7 @@ class TwinNode(Node):
             **{name: functools.partial(self._unsupported, name) for name in UNSUPPORTED},
         }
         self._command_subs = []
+        self._latched = FirstDelivery()
         for spec in arm_topics("command"):
             handler = handlers[spec.name]
             for env, namespaces in enumerate(self.namespaces):
@@ -316,7 +366,12 @@ class TwinNode(Node):
                     callback = functools.partial(self._on_command, spec.name, handler, env)
                     self._command_subs.append(self.create_subscription(msg_class(spec), f"{ns}/{spec.name}",
                                                                        callback, qos(spec)))
-        console = {"power_on": "enable", "power_off": "disable", "home": "home"}
+                    if spec.name in LATCHED_COMMANDS:  # its latched writers' (topics.LATCHED_COMMANDS)
+                        self._command_subs.append(self.create_subscription(
+                            msg_class(spec), f"{ns}/{spec.name}",
+                            functools.partial(self._on_command, spec.name, handler, env, latched=True),
+                            latched_reader_qos(spec)))
+        console = {"power_on": "enable", "power_off": "disable", "home": "home"}  # every arm
         for ns in CONSOLE_NAMESPACES:
             for topic, command in console.items():
                 spec = TOPICS_BY_NAME[f"/console/{topic}"]
@@ -437,11 +492,15 @@ class TwinNode(Node):
                              self.scene.stale_command_after, what=kind)
 
     # ------------------------------------------------------------------ subscriptions
-    def _on_command(self, kind, handler, env, msg, info):
+    def _on_command(self, kind, handler, env, msg, info, *, latched=False):
         try:
+            if kind in LATCHED_COMMANDS and not self._latched.first((env, kind), msg):
+                return  # the same command through the other reader (topics.LATCHED_COMMANDS)
             if self.recorder is not None:
                 self._record(f"{self.namespaces[env][0]}/{kind}", msg)
-            problem = self._stale(kind, msg, info)
+            # a latched writer's command (crtk's state_command) may come through the transient-local
+            # reader as late as discovery took: it is the writer's last word, not a stale one
+            problem = None if latched else self._stale(kind, msg, info)
             if problem:
                 self._refuse(env, kind, problem)
                 return
@@ -486,13 +545,18 @@ class TwinNode(Node):
         try:
             for env in range(self.num_envs):
                 self._emit(self.arms.state_command(env, command))
+            if self.ecm is not None:
+                self.ecm.emit(self.cart.ecm.state_command(command))
+                for topics in self.console.mtms:
+                    topics.emit(topics.mtm.state_command(command))
         except Exception:  # noqa: BLE001
             self.get_logger().error(traceback.format_exc(), throttle_duration_sec=LOG_THROTTLE_S)
 
     def _on_teleop_enable(self, msg):
         if msg.data:
-            self.get_logger().warning("console teleop/enable refused: the twin has no MTM to teleoperate from",
-                                      throttle_duration_sec=LOG_THROTTLE_S)
+            why = ("the cart runs no teleoperation of its own: run the dVRK's dvrk_teleoperation.py against its MTMs"
+                   if self.cart else "the twin has no MTM to teleoperate from (a patient cart has)")
+            self.get_logger().warning(f"console teleop/enable refused: {why}", throttle_duration_sec=LOG_THROTTLE_S)
         self.console_pubs["/console/teleop/enabled"].publish(Bool(data=False))
 
     def _on_teleop_scale(self, msg):
@@ -601,8 +665,8 @@ class TwinNode(Node):
                 if arms.suction is not None:
                     msgs["suction/measured_js"] = _joint_state(stamp, ["suction"], snap.suction_valve[env], zeros1,
                                                                array("d", snap.suction_removed[env]))
-            prefix = env_frame_prefix(env, N)
-            local_frame, base_frame, tip_frame = f"{prefix}{self.arm}_base", self.base_frame_id[env], f"{prefix}{self.arm}"
+            prefix, name = self.prefixes[env], self.arm_names[env]
+            local_frame, base_frame, tip_frame = f"{prefix}{name}_base", self.base_frame_id[env], f"{prefix}{name}"
             if "cartesian" in groups:
                 msgs["local/measured_cp"] = _pose_stamped(stamp, local_frame, snap.local_measured_cp[env])
                 msgs["local/setpoint_cp"] = _pose_stamped(stamp, local_frame, snap.local_setpoint_cp[env])
@@ -631,7 +695,14 @@ class TwinNode(Node):
                         if record is not None and k == 0:
                             record(f"{self.namespaces[env][0]}/{topic}", msg)
         if publish_tf:
-            transforms += self.robot_state.publish(stamp, _transform, record)
+            for robot_state in self.robot_states:
+                transforms += robot_state.publish(stamp, _transform, record)
+        if self.ecm is not None:
+            self.ecm.publish(stamp)
+            self.console.publish(stamp)
+            if publish_tf:
+                ecm = self.cart.ecm.name
+                transforms.append(_transform(stamp, f"{ecm}_base", ecm, self.ecm.tip_pose7()))
         if transforms:  # all envs' transforms in one message
             tf = TFMessage(transforms=transforms)
             self.tf_pub.publish(tf)
@@ -706,6 +777,11 @@ def _transform(stamp, parent, child, p) -> TransformStamped:
     r = t.transform.rotation
     r.x, r.y, r.z, r.w = float(p[3]), float(p[4]), float(p[5]), float(p[6])
     return t
+
+
+def _pose7(T) -> np.ndarray:
+    """A 4x4 -> x, y, z, qx, qy, qz, qw."""
+    return matrix_to_pose7(torch.as_tensor(np.asarray(T, dtype=np.float64)[None]))[0].numpy()
 
 
 def _joint_state(stamp, names, position, velocity, effort) -> JointState:

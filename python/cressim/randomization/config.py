@@ -1,0 +1,338 @@
+"""Domain randomization terms: what to randomize, how, and when, read and checked from a task's
+config (Python dicts) or a scene file's `randomization:` section (YAML, errors with file:line).
+
+A term::
+
+    - param: mass                 # one of PARAMS
+      entity: cart                # entity name (fnmatch pattern) in every env
+      distribution: uniform       # uniform (range), log_uniform (range, > 0), gaussian (mean, std, clip),
+                                  # choice (choices: one of the listed values, each as likely)
+      range: [0.5, 2.0]           # [low, high], one pair for every component or one pair per component
+      operation: scale            # scale (x authored), add (+ authored) or abs (the value itself)
+      when: reset                 # reset (each env's episode start) or interval (every `every` steps)
+      name: cart_mass             # key of its sampled values (default "<param>/<entity>")
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import yaml
+
+INF = math.inf
+
+
+@dataclass(frozen=True)
+class Param:
+    """A randomizable parameter: the buffers it writes (`kind`), its code in randomize.hlsl, the
+    number of components, the operations that make sense and the values it may take."""
+
+    kind: str  # bodies, colliders, joints, objects, tets, renderables, lights, transforms, probes, depth
+    code: int
+    size: int
+    operations: tuple
+    low: float  # allowed values [low, high], low excluded when `open_low`
+    high: float
+    open_low: bool
+    unit: str
+    doc: str
+
+
+# the codes match the PARAM_* constants of randomize.hlsl
+PARAMS = {
+    "mass": Param("bodies", 1, 1, ("scale", "add", "abs"), 0, INF, True, "kg",
+                  "a dynamic rigid body's mass, its inertia scaled with it (same shape); or a particle "
+                  "object's (soft body, fluid, strand) total, every free particle's mass scaled alike"),
+    "damping": Param("bodies", 2, 1, ("scale", "add", "abs"), 0, INF, False, "1/s",
+                     "a rigid body's linear and angular damping, or a particle object's (soft body, fluid, strand)"),
+    "friction": Param("colliders", 3, 1, ("scale", "add", "abs"), 0, INF, False, "",
+                      "a collider's static and dynamic friction coefficients, or a particle object's friction"),
+    "restitution": Param("colliders", 4, 1, ("scale", "add", "abs"), 0, 1, False, "", "a collider's restitution"),
+    "joint_stiffness": Param("joints", 5, 1, ("scale", "add", "abs"), 0, INF, False, "N/m or N m/rad",
+                             "a joint drive's stiffness"),
+    "joint_damping": Param("joints", 6, 1, ("scale", "add", "abs"), 0, INF, False, "N s/m or N m s/rad",
+                           "a joint drive's damping"),
+    "youngs_modulus": Param("tets", 7, 1, ("scale", "add", "abs"), 0, INF, True, "Pa",
+                            "an elastic soft body's Young's modulus (its Poisson ratio kept)"),
+    "stiffness": Param("constraints", 16, 1, ("scale",), 0, INF, True, "",
+                       "a soft body's or strand's XPBD constraints (distance, volume, bend, stretch, "
+                       "bend and twist) made this many times stiffer: their compliances divided by it"),
+    "color": Param("renderables", 8, 3, ("scale", "add", "abs"), 0, 1, False, "linear RGB",
+                   "a renderable's base colour"),
+    "light_intensity": Param("lights", 9, 1, ("scale", "add", "abs"), 0, INF, False, "",
+                             "a light's intensity"),
+    "light_color": Param("lights", 10, 3, ("scale", "add", "abs"), 0, 1, False, "linear RGB", "a light's colour"),
+    "ambient": Param("environment", 17, 1, ("scale",), 0, INF, False, "",
+                     "the ambient light of the env of a light or environment entity: its sky and ground "
+                     "colours (and environment map) scaled by the draw"),
+    "camera_position": Param("transforms", 11, 3, ("add", "abs"), -INF, INF, False, "m",
+                             "a camera's position (its env frame)"),
+    "camera_rotation": Param("transforms", 12, 3, ("add",), -INF, INF, False, "rad",
+                             "a camera's orientation turned by a rotation vector in the camera's own frame"),
+    "depth_noise": Param("depth", 13, 1, ("add", "abs"), 0, INF, False, "m",
+                         "standard deviation of zero-mean gaussian noise added to a camera's depth image, "
+                         "drawn anew for every pixel and frame"),
+    "texture": Param("renderables", 15, 1, ("abs",), -1, INF, False, "texture index",
+                     "a renderable's colour texture: an index of World.add_texture (in a scene file also a name "
+                     "of its textures), -1 none; drawn by distribution choice"),
+    "ultrasound_gain": Param("probes", 14, 1, ("add", "abs", "scale"), -INF, INF, False, "dB",
+                             "an ultrasound probe's gain (the image's envelope scales by 10^(dB/20))"),
+}
+DISTRIBUTIONS = ("uniform", "log_uniform", "gaussian", "choice")
+OPERATIONS = ("scale", "add", "abs")
+WHEN = ("reset", "interval")
+TERM_KEYS = ("param", "entity", "distribution", "range", "mean", "std", "clip", "choices", "operation", "when", "every",
+             "name")
+
+
+class RandomizationError(ValueError):
+    """A randomization config that cannot be used; the message names where (file:line or the
+    field) and what."""
+
+
+@dataclass(frozen=True)
+class Term:
+    """One checked term. Per component: `low`, `high` the range (uniform, log_uniform), mean and
+    standard deviation (gaussian) or least and greatest choice; `clip` bounds a gaussian's draws
+    (None: unbounded); `choices` the values of a choice (one component)."""
+
+    name: str
+    param: str
+    entity: str
+    distribution: str
+    low: tuple
+    high: tuple
+    clip: tuple | None
+    operation: str
+    when: str
+    every: int
+    where: str  # file:line (or field path) for later errors
+    choices: tuple | None = None
+
+    @property
+    def spec(self) -> Param:
+        return PARAMS[self.param]
+
+    def bounds(self) -> tuple[tuple, tuple]:
+        """The least and greatest value each component can draw (+-inf: unbounded)."""
+        if self.distribution != "gaussian":
+            return self.low, self.high
+        if self.clip is None:
+            return tuple(m if s == 0 else -INF for m, s in zip(self.low, self.high)), \
+                tuple(m if s == 0 else INF for m, s in zip(self.low, self.high))
+        return self.clip
+
+
+class PyField:
+    """A Python value of a config and its field path, read like scene_file.Field (same methods)."""
+
+    def __init__(self, value, origin: str, path: str = ""):
+        self.value, self.origin, self.path = value, origin, path
+
+    @property
+    def where(self) -> str:
+        return self.origin
+
+    def fail(self, message: str) -> RandomizationError:
+        return RandomizationError(f"{self.origin}: {self.path or '(top)'}: {message}")
+
+    def is_list(self) -> bool:
+        return isinstance(self.value, (list, tuple))
+
+    def is_map(self) -> bool:
+        return isinstance(self.value, dict)
+
+    def items(self) -> dict:
+        if not isinstance(self.value, dict):
+            raise self.fail(f"expected a mapping (key: value), got {self.value!r}")
+        return {str(k): PyField(v, self.origin, f"{self.path}.{k}" if self.path else str(k))
+                for k, v in self.value.items()}
+
+    def keys(self, allowed: tuple) -> dict:
+        fields = self.items()
+        for k, f in fields.items():
+            if k not in allowed:
+                raise f.fail(f"unknown field '{k}'; expected one of: {', '.join(allowed)}")
+        return fields
+
+    def list(self) -> list:
+        if not self.is_list():
+            raise self.fail(f"expected a list, got {self.value!r}")
+        return [PyField(v, self.origin, f"{self.path}[{i}]") for i, v in enumerate(self.value)]
+
+    def str(self) -> str:
+        if not isinstance(self.value, str):
+            raise self.fail(f"expected a name, got {self.value!r}")
+        return self.value
+
+    def float(self) -> float:
+        v = self.value
+        if isinstance(v, bool) or not isinstance(v, (int, float)) and not hasattr(v, "__float__"):
+            raise self.fail(f"expected a number, got {v!r}")
+        return float(v)
+
+    def int(self, minimum: int | None = None) -> int:
+        v = self.value
+        if isinstance(v, bool) or not isinstance(v, int) and not (hasattr(v, "__index__")):
+            raise self.fail(f"expected an integer, got {v!r}")
+        if minimum is not None and v < minimum:
+            raise self.fail(f"must be >= {minimum}, got {v}")
+        return int(v)
+
+
+def _is_list(f) -> bool:
+    return f.is_list() if isinstance(f, PyField) else isinstance(f.node, yaml.SequenceNode)
+
+
+def _finite(f) -> float:
+    v = f.float()
+    if not math.isfinite(v):
+        raise f.fail(f"must be finite, got {v}")
+    return v
+
+
+def _pairs(f, size: int, what: str) -> tuple[tuple, tuple]:
+    """[a, b] for every component, or one [a, b] per component: ((a...), (b...))."""
+    items = f.list()
+    if items and all(_is_list(i) for i in items):
+        if len(items) != size:
+            raise f.fail(f"expected one [{what}] pair per component ({size}), got {len(items)}")
+        pairs = [(i, i.list()) for i in items]
+    else:
+        pairs = [(f, items)] * size
+    for field, p in pairs:
+        if len(p) != 2:
+            raise field.fail(f"expected [{what}], two numbers, got {len(p)}")
+    return tuple(_finite(p[0]) for _, p in pairs), tuple(_finite(p[1]) for _, p in pairs)
+
+
+def _numbers(f, size: int) -> tuple:
+    """A number for every component, or a list of one per component."""
+    if _is_list(f):
+        items = f.list()
+        if len(items) != size:
+            raise f.fail(f"expected {size} numbers (one per component), got {len(items)}")
+        return tuple(_finite(i) for i in items)
+    return (_finite(f),) * size
+
+
+def _choice(f, textures: dict | None) -> float:
+    """A choice: a number, or (a texture) a scene file's texture name."""
+    if textures is not None and not _is_list(f) and not f.is_map():
+        try:
+            return _finite(f)
+        except ValueError:
+            name = f.str()
+            if name not in textures:
+                raise f.fail(f"no texture named '{name}'; the textures are: {', '.join(textures) or '(none)'}") from None
+            return float(textures[name])
+    return _finite(f)
+
+
+def parse_term(f, index: int, textures: dict | None = None) -> Term:
+    """One term from a mapping field (scene_file.Field or PyField); raises naming the field.
+    `textures`: a scene file's texture names and indices, which texture choices may name."""
+    c = f.keys(TERM_KEYS)
+    for key in ("param", "entity"):
+        if key not in c:
+            raise f.fail(f"a randomization term needs '{key}'")
+    param = c["param"].str()
+    if param not in PARAMS:
+        raise c["param"].fail(f"unknown parameter '{param}'; expected one of: {', '.join(PARAMS)}")
+    spec = PARAMS[param]
+    entity = c["entity"].str()
+    if not entity:
+        raise c["entity"].fail("the entity name is empty")
+    dist = c["distribution"].str() if "distribution" in c else "uniform"
+    if dist not in DISTRIBUTIONS:
+        raise c["distribution"].fail(f"unknown distribution '{dist}'; expected one of: {', '.join(DISTRIBUTIONS)}")
+    clip = choices = None
+    if dist != "choice" and "choices" in c:
+        raise c["choices"].fail(f"'choices' is for distribution: choice, not {dist}")
+    if param == "texture" and dist != "choice":
+        raise f.fail("texture takes distribution: choice with choices: [texture indices]")
+    if dist == "choice":
+        for key in ("range", "mean", "std", "clip"):
+            if key in c:
+                raise c[key].fail(f"'{key}' is not for a choice; it takes choices: [values]")
+        if "choices" not in c:
+            raise f.fail("a choice needs choices: [values]")
+        if spec.size != 1:
+            raise c["choices"].fail(f"{param} has {spec.size} components; a choice draws one number")
+        items = c["choices"].list()
+        if not items:
+            raise c["choices"].fail("give at least one value")
+        choices = tuple(_choice(i, textures if param == "texture" else None) for i in items)
+        if param == "texture" and any(v != int(v) or v < -1 for v in choices):
+            raise c["choices"].fail(f"texture indices are integers >= -1 (-1: none), got {list(choices)}")
+        low, high = (min(choices),), (max(choices),)
+    elif dist == "gaussian":
+        for key in ("mean", "std"):
+            if key not in c:
+                raise f.fail(f"a gaussian needs '{key}' (and optionally clip: [low, high])")
+        if "range" in c:
+            raise c["range"].fail("a gaussian takes mean, std and clip, not range")
+        low, high = _numbers(c["mean"], spec.size), _numbers(c["std"], spec.size)
+        if any(s < 0 for s in high):
+            raise c["std"].fail(f"std must be >= 0, got {list(high)}")
+        if "clip" in c:
+            clip = _pairs(c["clip"], spec.size, "low, high")
+            if any(a > b for a, b in zip(*clip)):
+                raise c["clip"].fail(f"clip low must be <= high, got {[list(x) for x in clip]}")
+    else:
+        for key in ("mean", "std", "clip"):
+            if key in c:
+                raise c[key].fail(f"'{key}' is for a gaussian; {dist} takes range: [low, high]")
+        if "range" not in c:
+            raise f.fail(f"a {dist} distribution needs range: [low, high]")
+        low, high = _pairs(c["range"], spec.size, "low, high")
+        if any(a > b for a, b in zip(low, high)):
+            raise c["range"].fail(f"low must be <= high, got low {list(low)}, high {list(high)}")
+        if dist == "log_uniform" and any(a <= 0 for a in low):
+            raise c["range"].fail(f"a log_uniform range must be positive, got low {list(low)}")
+    op = c["operation"].str() if "operation" in c else spec.operations[0]
+    if op not in OPERATIONS:
+        raise c["operation"].fail(f"unknown operation '{op}'; expected one of: {', '.join(OPERATIONS)}")
+    if op not in spec.operations:
+        raise c["operation"].fail(f"{param} takes the operations {', '.join(spec.operations)}, not {op}")
+    when = c["when"].str() if "when" in c else "reset"
+    if when not in WHEN:
+        raise c["when"].fail(f"unknown 'when' {when!r}; expected reset or interval")
+    every = 0
+    if when == "interval":
+        if "every" not in c:
+            raise f.fail("when: interval needs every: <steps> (an integer >= 1)")
+        every = c["every"].int(1)
+        if every >= 2 ** 31:
+            raise c["every"].fail(f"must be < 2**31 steps, got {every}")
+    elif "every" in c:
+        raise c["every"].fail("'every' is for when: interval")
+    name = c["name"].str() if "name" in c else f"{param}/{entity}"
+    return Term(name, param, entity, dist, low, high, clip, op, when, every, f"{f.where}: {f.path}", choices)
+
+
+def parse_terms(f, textures: dict | None = None) -> list[Term]:
+    """The terms of a list field; term names must be distinct."""
+    terms = [parse_term(item, i, textures) for i, item in enumerate(f.list())]
+    seen = {}
+    for t, item in zip(terms, f.list()):
+        if t.name in seen:
+            raise item.fail(f"term name '{t.name}' is used twice (also {seen[t.name]}); give each a distinct name:")
+        seen[t.name] = t.where
+    return terms
+
+
+def load_terms(config, origin: str = "Randomizer(terms=...)") -> list[Term]:
+    """Terms from `config`: a list of term dicts, a path to a YAML file (a scene file's
+    `randomization:` section, or a file holding the list), or already parsed Terms."""
+    from pathlib import Path
+
+    if config is None:
+        return []
+    if isinstance(config, (str, Path)):
+        from cressim.scene_file import file_randomization
+
+        return file_randomization(Path(config))
+    if isinstance(config, (list, tuple)) and all(isinstance(t, Term) for t in config):
+        return list(config)
+    return parse_terms(PyField(config, origin, "randomization"))

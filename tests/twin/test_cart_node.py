@@ -1,0 +1,73 @@
+"""The patient cart's node in this process, ticked by hand: every arm under its dVRK namespace,
+the stereo camera_info, the ECM's state machine and motion."""
+import numpy as np
+import pytest
+
+from cressim.twin import JointCommand
+
+pytestmark = pytest.mark.ros
+
+
+def test_cart_node_namespaces_stereo_and_ecm(make_node):
+    from cressim_ros.twin_node import _transform
+
+    node = make_node(scene="patient_cart.yaml")
+    topics = {name for name, _ in node.get_topic_names_and_types()}
+    for arm in ("/PSM1", "/PSM2", "/ECM"):
+        for topic in ("measured_js", "setpoint_js", "measured_cp", "operating_state", "state_command", "servo_jp"):
+            assert f"{arm}/{topic}" in topics, f"{arm}/{topic}"
+    for eye in ("left", "right"):
+        for product in ("color", "depth", "segmentation"):
+            assert f"/camera/{eye}/{product}/image_raw" in topics and f"/camera/{eye}/{product}/camera_info" in topics
+        assert f"/camera/{eye}/color/image_raw/compressed" in topics
+        assert f"/camera/{eye}/depth/image_raw/compressedDepth" in topics
+    for arm in ("MTML", "MTMR"):
+        for topic in ("measured_cp", "gripper/measured_js", "operating_state", "move_cp", "lock_orientation"):
+            assert f"/{arm}/{topic}" in topics, f"{arm}/{topic}"
+    assert {"/footpedals/clutch", "/footpedals/camera", "/console/operator_present", "/operator/present",
+            "/operator/MTMR/servo_cp"} <= topics
+    # each arm as robot_state_publisher would give it, under its own name
+    assert {"/PSM1/robot_description", "/PSM2/robot_description", "/ECM/robot_description", "/PSM1/joint_states",
+            "/ECM/joint_states"} <= topics
+    assert "<robot" in node.robot_states[1].description.data and "PSM2_shaft_link" in node.robot_states[1].description.data
+    left, right = node.camera.infos
+    fx = left.p[0]
+    assert left.p[3] == 0.0 and right.p[3] == pytest.approx(-fx * 0.005)  # ROS: Tx = -fx B (the scene's baseline)
+    # PSM2 moves alone; the ECM follows its state machine and a move_jp
+    node._on_console("enable", None)
+    node._on_console("home", None)
+    cart = node.cart
+    while any(arm.states[0].is_busy for arm in cart.psms) or cart.ecm.state.is_busy:
+        node._tick()
+    assert cart.ecm.state.is_homed and all(arm.states[0].is_homed for arm in cart.psms)
+    node._emit(cart.servo_jp(1, JointCommand(position=[0.2, 0.0, 0.11, 0.0, 0.0, 0.0])))
+    node.ecm.emit(cart.ecm.move_jp(JointCommand(position=[0.1, 0.05, 0.06, -1.4])))
+    for _ in range(100):
+        node._tick()
+    assert cart.psms[1].measured[0, 0] == pytest.approx(0.2, abs=1e-3)
+    assert cart.psms[0].measured[0, 0] == pytest.approx(0.0, abs=1e-9)
+    assert np.allclose(cart.ecm.measured, [0.1, 0.05, 0.06, -1.4], atol=1e-3)
+    links = {(t.header.frame_id, t.child_frame_id) for rs in node.robot_states
+             for t in rs.publish(node.stamp(), _transform)}
+    assert ("PSM2_pitch_front_link", "PSM2_insertion_link") in links and ("ECM_base", "ECM_yaw_link") in links
+    frames = {(t.header.frame_id, t.child_frame_id) for t in node.static_tf.transforms}
+    assert {("world", "PSM1_base"), ("world", "PSM2_base"), ("world", "ECM_base"),
+            ("ECM", "camera_left_optical_frame"), ("ECM", "camera_right_optical_frame")} <= frames
+
+
+def test_cart_recording_holds_every_arm(make_node, tmp_path):
+    import yaml
+
+    bag = tmp_path / "bag"
+    node = make_node(scene="patient_cart.yaml", record=str(bag))
+    for _ in range(10):
+        node._tick()
+    node.close()
+    meta = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    counts = {t["topic_metadata"]["name"]: t["message_count"] for t in meta["topics_with_message_count"]}
+    for topic in ("/PSM1/measured_js", "/PSM2/measured_cp", "/ECM/measured_js", "/ECM/measured_cp",
+                  "/MTMR/measured_cp", "/MTML/gripper/measured_js"):
+        assert counts.get(topic) == 10, (topic, counts.get(topic))
+    for topic in ("/ECM/operating_state", "/MTMR/operating_state", "/footpedals/clutch", "/PSM2/robot_description",
+                  "/camera/left/color/image_raw", "/camera/right/color/camera_info"):
+        assert counts.get(topic, 0) >= 1, topic
