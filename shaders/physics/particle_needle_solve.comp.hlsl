@@ -115,6 +115,10 @@ void thread_through(NeedleModel n, Arc a, inout Puncture p, float3 x, float mu) 
 void slide_through(NeedleModel n, Arc a, inout Puncture p, float3 x) {
   p.place.z = min(nearest_s(n, a, x, p.place.z, REACH), path_length(a));
   const PathPoint q = path_at(n, a, p.place.z);
+  // s back at the tail (the thread's start: nearest_s gives exactly the needle's length for a
+  // point beside it) is on the needle again, which the next iteration holds the tissue to; there
+  // is no segment to draw (NONE + 1 would wrap to global particle 0, env 0's tissue)
+  if (q.segment == CRESSIM_NONE) return;
   const uint i0 = q.segment, i1 = q.segment + 1;
   const float3 d = x - q.x;
   float3 moved1;

@@ -209,3 +209,39 @@ def test_the_suture_demo_bites_twice_and_the_knot_catches(tmp_path):
     assert summary["thread_length_mm"] == pytest.approx(summary["thread_rest_length_mm"], rel=0.05)
     assert summary["health_events"] == 0
     assert len(list(tmp_path.glob("suture_*_rgb.png"))) >= 3
+
+
+def test_envs_of_the_demo_driven_alike_through_a_bite_stay_alike(make_engine):
+    """Envs are independent: two envs of the demo's scene, their needles driven alike through the
+    first bite, stay alike particle for particle, and the tissue far from the needle stays put.
+    (The thread's draw once wrote global particle 0, env 0's, at the tail: a record slid back to
+    the needle's length took the thread segment path_at gave it, NONE, and wrote NONE + 1.)"""
+    from cressim.demos import suture as demo
+
+    envs = 2
+    world = cressim.World(cressim.SceneLayout(envs))
+    meshes = {"table": world.add_mesh(cressim.Mesh.plane(0.1)),
+              "needle": world.add_mesh(demo.needle_mesh(demo.RADIUS, demo.ANGLE, 0.00035))}
+    needles = [demo.author_env(world, env, meshes, 32, 24, camera=False) for env in range(envs)]
+    engine = make_engine(world)
+    engine.prepare()
+    engine.upload_world()
+    m = engine.particle_mapping
+    flaps = np.concatenate([np.arange(int(o), int(o) + int(c)) for e, o, c in
+                            zip(m["object_entity"], m["object_offset"], m["object_count"])
+                            if world.entity(int(e)).env == 0 and world.entity(int(e)).name.endswith("_flap")])
+    start = positions(engine)
+    far = flaps[np.hypot(start[flaps, 0], start[flaps, 1] - demo.BITES[0]) > 0.012]  # beyond the arc's reach
+    for phase, centre, theta in demo.motion(engine.physics.dt):
+        if phase != "bite1":
+            break
+        for needle in needles:
+            needle.transform = cressim.Transform(position=tuple(centre), rotation=demo._quat(theta))
+        engine.step_physics()
+        engine.end_frame()
+    p = positions(engine)
+    first, second = punctures(engine)
+    assert len(first) == len(second) == 4  # the bite went in and out of both flaps in both envs
+    per_env = p.reshape(envs, -1, 3)
+    assert np.abs(per_env[1] - per_env[0]).max() <= 1e-9
+    assert np.linalg.norm(p[far] - start[far], axis=1).max() < 0.001
