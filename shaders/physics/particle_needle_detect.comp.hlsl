@@ -124,7 +124,9 @@ void main(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
     }
     scan_on = state.w >= 0 && !indenting;
   }
-  GroupMemoryBarrierWithGroupSync();
+  // the other lanes read the records lane 0 just moved on (a point punctured this substep is
+  // `fresh`): a barrier on groupshared memory alone leaves those buffer writes unordered
+  AllMemoryBarrierWithGroupSync();
   // each lane's first crossing among its share of the triangles
   float best = 2;
   uint best_tri = CRESSIM_NONE;
