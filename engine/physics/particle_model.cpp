@@ -619,7 +619,7 @@ ParticleModel build_particle_model(const scene::World& world, const scene::Layou
       const uint32_t tri_first = range.w ? m.surface_offset[range.z] : uint32_t(m.surface.size() / 3);
       nm.records = {m.puncture_records, n.max_punctures, tri_first, uint32_t(m.surface.size() / 3) - tri_first};
       nm.arc = {n.arc_radius, n.arc_angle, n.puncture_force, n.friction};
-      nm.puncture = {n.puncture_depth, 0, 0, 0};
+      nm.puncture = {n.puncture_depth, n.squeeze, 0, 0};
       nm.center = {n.center[0], n.center[1], n.center[2], 0};
       const float qn = std::sqrt(n.rotation[0] * n.rotation[0] + n.rotation[1] * n.rotation[1] + n.rotation[2] * n.rotation[2] +
                                  n.rotation[3] * n.rotation[3]);

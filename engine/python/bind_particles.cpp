@@ -270,28 +270,31 @@ void bind_particles(py::module_& m) {
 
   py::class_<scene::Needle>(m, "Needle")
       .def(py::init([](py::object thread, float arc_radius, float arc_angle, scene::Vec3 center, scene::Quat rotation,
-                       float puncture_force, float puncture_depth, float friction, uint32_t max_punctures) {
+                       float puncture_force, float puncture_depth, float friction, float squeeze,
+                       uint32_t max_punctures) {
              scene::Needle n;
              if (!thread.is_none()) n.thread = py::isinstance<Entity>(thread) ? int64_t(thread.cast<Entity>().id)
                                                                                : thread.cast<int64_t>();
              n.arc_radius = arc_radius, n.arc_angle = arc_angle, n.center = center, n.rotation = rotation;
              n.puncture_force = puncture_force, n.puncture_depth = puncture_depth, n.friction = friction;
-             n.max_punctures = max_punctures;
+             n.squeeze = squeeze, n.max_punctures = max_punctures;
              return n;
            }),
            py::kw_only(), py::arg("thread") = py::none(), py::arg("arc_radius") = 0.008f,
            py::arg("arc_angle") = 2.35619449f, py::arg("center") = scene::Vec3{0, 0, 0},
            py::arg("rotation") = scene::Quat{0, 0, 0, 1}, py::arg("puncture_force") = 1.0f,
            py::arg("puncture_depth") = 0.002f, py::arg("friction") = 0.3f,
-           py::arg("max_punctures") = 8u,
+           py::arg("squeeze") = 0.0f, py::arg("max_punctures") = 8u,
            "A curved suture needle on the entity's rigid body: a circular arc of `arc_radius` (m) in the xy plane "
            "of the arc frame (`center`, `rotation` in the body frame) about its z axis, from the tail at angle 0 "
            "to the tip at `arc_angle` (rad, counter-clockwise). `thread`: a Strand entity of the same env whose "
            "first particle is tied to the tail. Where the tip meets a soft body's surface it pushes it until "
            "the surface takes `puncture_force` (N) or the tip is `puncture_depth` (m) past where it met it, then "
            "passes through; the punctured points slide along the "
-           "needle and then the thread against Coulomb `friction`, and stop at the thread's last particle (a "
-           "knot). `max_punctures` records (entries and exits).")
+           "needle against Coulomb `friction`, then the thread slides through them freely, and they stop at the "
+           "thread's last particle (a knot). `squeeze` > 0 (N, the tissue's grip on the thread) switches on "
+           "friction on the thread: a puncture holds it up to T_high <= T_low exp(friction * turn) + friction * "
+           "squeeze (docs/particles.md). `max_punctures` records (entries and exits).")
       .def_readonly("arc_radius", &scene::Needle::arc_radius)
       .def_readonly("arc_angle", &scene::Needle::arc_angle)
       .def_readonly("thread", &scene::Needle::thread);

@@ -310,7 +310,8 @@ struct Tendons {
 // tip crosses a soft body's surface it pushes the surface ahead until that takes `puncture_force`
 // or the tip is `puncture_depth` past where it met it, then the surface point is punctured: it lies on the needle and then on the thread (a Strand of
 // the same env whose first particle is tied to the tail) and slides along them against Coulomb
-// friction; the thread's last particle is a knot that does not pass a puncture.
+// friction on the needle (on the thread only with squeeze > 0: capstan friction over its turn there
+// plus the squeeze); the thread's last particle is a knot that does not pass a puncture.
 struct Needle {
   float arc_radius = 0.008f;         // m (a 16 mm 3/8 circle needle by default)
   float arc_angle = 2.35619449f;     // rad, tail to tip (3/8 of a turn)
@@ -320,6 +321,7 @@ struct Needle {
   float puncture_force = 1.0f;       // N: the surface gives way when it takes this push ...
   float puncture_depth = 0.002f;     // m: ... or when the tip is this far past where it met it
   float friction = 0.3f;             // Coulomb coefficient of thread and needle in the tissue
+  float squeeze = 0.0f;              // N: the tissue's grip on the thread (> 0: friction on the thread)
   uint32_t max_punctures = 8;        // puncture records of this needle
 };
 

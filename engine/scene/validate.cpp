@@ -338,6 +338,7 @@ void needle(const Fields& c, const Needle& n) {
   c.positive("puncture_force", n.puncture_force);
   c.positive("puncture_depth", n.puncture_depth);
   c.non_negative("friction", n.friction);
+  c.non_negative("squeeze", n.squeeze);
   c.at_least("max_punctures", n.max_punctures, 2);
   if (n.thread >= 0) {
     const World& w = c.world();

@@ -14,7 +14,8 @@ def punctures(engine) -> list[list[dict]]:
     surface ahead; PUNCTURED: the surface point lies on the needle or thread), the surface triangle
     (row of particles.surface) and barycentric weights, the world point, its path parameter s (m
     from the tip along the needle, then the thread), whether the knot holds it, where the tip met the
-    surface, and the push (N) it took to go through."""
+    surface, the push (N) it took to go through, and (punctured on the thread) the force the puncture put on
+    the thread over the last substep (N, world) and its friction part along the thread (N)."""
     if "particles.punctures" not in engine.internal_keys:
         return []
     records = engine.buffer("particles.punctures").read()
@@ -32,7 +33,8 @@ def punctures(engine) -> list[list[dict]]:
             b = np.array([f[0], f[1], 1 - f[0] - f[1]])
             corners = surface[int(r[1])]
             live.append({"state": int(r[0]), "triangle": int(r[1]), "weights": b, "point": b @ x[corners],
-                         "s": float(f[2]), "knot": bool(r[3]), "contact": f[4:7].copy(), "push": float(f[7])})
+                         "s": float(f[2]), "knot": bool(r[3]), "contact": f[4:7].copy(), "push": float(f[7]),
+                         "force": f[8:11].copy(), "friction": float(f[11])})
         out.append(live)
     return out
 

@@ -100,7 +100,7 @@ struct NeedleModel {
   uint4 ids;       // x rigid body, y the thread's first particle (CRESSIM_NONE: none), z its particles, w env
   uint4 records;   // x first puncture record, y records, z first surface triangle of its env, w triangles
   float4 arc;      // x radius (m), y angle (rad), z puncture force (N), w friction coefficient
-  float4 puncture; // x puncture depth (m): the tip's way past where it met the surface
+  float4 puncture; // x puncture depth (m): the tip's way past where it met the surface, y squeeze (N)
   float4 center;   // xyz the arc's centre in the body frame
   float4 rotation; // the arc's frame in the body frame (xyzw)
 };
@@ -108,6 +108,8 @@ struct Puncture {
   uint4 ids;      // x state (PUNCTURE_*), y surface triangle (row of particles.surface), z the side the tip came from (1 outside, 0 inside), w 1: the knot holds it
   float4 place;   // xy barycentric weights of the triangle's corners 0 and 1, z path parameter s (m), w the push on the surface (N; indenting)
   float4 contact; // xyz where the tip met the surface (world), w the push (N) when it went through
+  float4 force;   // punctured on the thread: xyz the force on the thread (N), w its friction part along it (N), the last substep
+  float4 impulse; // the same summed over this substep's iterations, times h^2 (scratch)
 };
 
 // push constants of every particle pass

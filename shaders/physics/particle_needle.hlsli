@@ -10,6 +10,7 @@
 StructuredBuffer<NeedleModel> needles;
 RWStructuredBuffer<Puncture> punctures;
 RWStructuredBuffer<float4> positions;
+StructuredBuffer<float4> initial_positions;  // as authored: the thread's rest lengths
 StructuredBuffer<uint> surface;  // particles.surface: three particles a triangle
 StructuredBuffer<float4> body_positions;
 StructuredBuffer<float4> body_rotations;
@@ -41,8 +42,13 @@ float3 tip_of(Arc a) { return arc_point(a, a.angle); }
 float3 tail_of(Arc a) { return arc_point(a, 0); }
 
 // The thread's particles by path parameter: where along the path each one sits (the needle's
-// length plus the thread's up to it), taken once a pass (load_thread): a pass looks points up along
-// the thread many times, and walking it from its start each time was most of a step's cost.
+// length plus the thread's up to it, by its segments' rest lengths: s names a material point of
+// the thread, so a punctured point that holds s holds the thread there whatever the thread before
+// it does, stretched or cut), taken once a pass (load_thread): a pass looks points up along the
+// thread many times, and walking it from its start each time was most of a step's cost.
+// a thread segment's rest length: as authored (the strand's stretch constraints rest there too)
+float rest_length(uint k) { return distance(initial_positions[k].xyz, initial_positions[k + 1].xyz); }
+
 static const uint MAX_THREAD = 256;  // particles of a needle's thread (scene validation enforces it)
 static float thread_at[MAX_THREAD];
 static uint thread_count;
@@ -51,7 +57,7 @@ void load_thread(NeedleModel n, Arc a) {
   thread_count = n.ids.y == CRESSIM_NONE ? 0 : min(n.ids.z, MAX_THREAD);
   float s = a.radius * a.angle;
   for (uint i = 0; i < thread_count; ++i) {
-    if (i > 0) s += distance(positions[n.ids.y + i - 1].xyz, positions[n.ids.y + i].xyz);
+    if (i > 0) s += rest_length(n.ids.y + i - 1);
     thread_at[i] = s;
   }
 }
@@ -89,7 +95,7 @@ PathPoint path_at(NeedleModel n, Arc a, float s) {
   const float l = thread_at[i + 1] - thread_at[i];
   r.f = l > 1e-9 ? clamp((s - thread_at[i]) / l, 0.0, 1.0) : 0;
   r.x = lerp(x0, x1, r.f);
-  r.t = l > 1e-9 ? (x1 - x0) / l : float3(1, 0, 0);
+  r.t = dot(x1 - x0, x1 - x0) > 1e-18 ? normalize(x1 - x0) : float3(1, 0, 0);
   r.segment = n.ids.y + i;
   return r;
 }

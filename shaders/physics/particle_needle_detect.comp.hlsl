@@ -5,13 +5,15 @@
 // on the path at the tip and slides along it); one the tip no longer pushes (it backed away the
 // way it came, past the surface point) is let go; a punctured point the needle has slid back off (s < 0, before the tip) is
 // let go. Then, while no point is being indented, the tip's move over the substep is tested
-// against the env's soft-body surface: the first triangle it crosses, either way (in at an entry,
-// out at an exit), starts an indented point there. Triangles that share a corner with a point
+// against the env's soft-body surface (in each triangle's frame, from a substep back:
+// start_against): the first triangle it crosses, either way (in at an entry, out at an exit),
+// starts an indented point there. Triangles that share a corner with a point
 // punctured within the tip's first 10 % are skipped: the tip has just gone through there.
 #include "particle_needle.hlsli"
 
 RWStructuredBuffer<float4> needle_states;
 RWStructuredBuffer<uint4> phases;
+StructuredBuffer<float4> prev_positions;  // at the substep's start: how far each triangle moved
 StructuredBuffer<uint4> initial_phases;
 static const float RETREAT = 1e-5;  // m behind the surface point: the tip no longer touches it  // per needle: xyz the tip at the last substep, w its push (N; < 0: no tip yet)
 
@@ -45,7 +47,7 @@ void sew(NeedleModel n, Arc a) {
   float s = a.radius * a.angle;
   for (uint i = 0; i < n.ids.z; ++i) {
     const uint k = n.ids.y + i;
-    const float l = i + 1 < n.ids.z ? distance(positions[k].xyz, positions[k + 1].xyz) : 0;
+    const float l = i + 1 < n.ids.z ? rest_length(k) : 0;  // s by rest lengths, as load_thread's
     float below = -1e30, above = 1e30;
     uint below_side = 1, above_side = 0;
     bool near = false;
@@ -61,6 +63,18 @@ void sew(NeedleModel n, Arc a) {
     phases[k].w = (phases[k].w & ~PARTICLE_NO_SOFT_CONTACT) | (inside ? PARTICLE_NO_SOFT_CONTACT : authored);
     s += l;
   }
+}
+
+// The tip's way tested against a triangle: from a substep's way back (a tip that the surface met
+// in the previous substep's solve, after that substep's test, lies just past it at this one's
+// start: tissue rising under gravity past a descending tip was crossed by neither test), in the
+// triangle's frame (the start carried along by the triangle's own move over this substep, its
+// corners' mean, predicted place against place at the substep's start). A crossing already taken
+// is not taken again (the fresh test below).
+float3 start_against(uint3 c, float3 start, float3 tip) {
+  const float3 moved = positions[c.x].xyz + positions[c.y].xyz + positions[c.z].xyz -
+                       prev_positions[c.x].xyz - prev_positions[c.y].xyz - prev_positions[c.z].xyz;
+  return start + moved / 3 - (tip - start);
 }
 
 // one workgroup per needle: its first thread moves the records on and writes the result, all of
@@ -100,20 +114,26 @@ void main(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
         p.place.w = 0;
       } else if (p.ids.x == PUNCTURE_THROUGH && p.place.z < 0) {
         p.ids.x = PUNCTURE_FREE;
+      } else if (p.ids.x == PUNCTURE_THROUGH) {
+        // the last substep's force on the thread (the friction limit of this one reads it)
+        p.force = p.impulse / (pc.gravity.w * pc.gravity.w);
+        p.impulse = float4(0, 0, 0, 0);
       }
       punctures[r] = p;
       indenting = indenting || p.ids.x == PUNCTURE_INDENTING;
     }
     scan_on = state.w >= 0 && !indenting;
   }
-  GroupMemoryBarrierWithGroupSync();
+  // the other lanes read the records lane 0 just moved on (a point punctured this substep is
+  // `fresh`): a barrier on groupshared memory alone leaves those buffer writes unordered
+  AllMemoryBarrierWithGroupSync();
   // each lane's first crossing among its share of the triangles
   float best = 2;
   uint best_tri = CRESSIM_NONE;
   if (scan_on) {
     for (uint k = n.records.z + lane; k < n.records.z + n.records.w; k += SCAN_THREADS) {
       const uint3 c = corners(k);
-      const float4 hit = crossing(state.xyz, tip, positions[c.x].xyz, positions[c.y].xyz, positions[c.z].xyz);
+      const float4 hit = crossing(start_against(c, state.xyz, tip), tip, positions[c.x].xyz, positions[c.y].xyz, positions[c.z].xyz);
       if (hit.x < 0 || hit.x >= best) continue;
       bool fresh = false;
       for (uint r = n.records.x; r < n.records.x + n.records.y && !fresh; ++r) {
@@ -136,14 +156,16 @@ void main(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
   if (best_tri != CRESSIM_NONE) {
     const uint3 c = corners(best_tri);
     const float3 x0 = positions[c.x].xyz, x1 = positions[c.y].xyz, x2 = positions[c.z].xyz;
-    const float4 hit = crossing(state.xyz, tip, x0, x1, x2);
+    const float3 from = start_against(c, state.xyz, tip);
+    const float4 hit = crossing(from, tip, x0, x1, x2);
     for (uint r = n.records.x; r < n.records.x + n.records.y; ++r) {
       if (punctures[r].ids.x != PUNCTURE_FREE) continue;
       Puncture p;
       // the side it came from by its way across (its start may lie on the surface itself); w: no knot
-      p.ids = uint4(PUNCTURE_INDENTING, best_tri, dot(tip - state.xyz, cross(x1 - x0, x2 - x0)) < 0 ? 1 : 0, 0);
+      p.ids = uint4(PUNCTURE_INDENTING, best_tri, dot(tip - from, cross(x1 - x0, x2 - x0)) < 0 ? 1 : 0, 0);
       p.place = float4(hit.yz, 0, 0);
-      p.contact = float4(lerp(state.xyz, tip, best), 0);
+      p.contact = float4(lerp(from, tip, best), 0);
+      p.force = p.impulse = float4(0, 0, 0, 0);
       punctures[r] = p;
       break;
     }

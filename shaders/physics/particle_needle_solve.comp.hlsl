@@ -11,11 +11,19 @@
 //   nearest the surface point by what Coulomb friction cannot hold (position-level friction, as
 //   PBD contacts do: the slide sticks within mu times the point's distance from the path), and the
 //   tissue goes to the path there.
-// - Punctured, on the thread: the thread, light and slack, is drawn through the puncture (it moves
-//   across to it; the tissue stays), s following the nearest point along it. Once s reaches the
+// - Punctured, on the thread, squeeze 0 (the default, and every shipped scene): the thread, light
+//   and slack, is drawn through the puncture (it moves across to it; the tissue stays), s
+//   following the nearest point along it; `friction` acts on the needle only. Once s reaches the
 //   path's end, the thread's last particle is a knot: it neither passes nor comes back out, and
 //   it and the tissue there meet by inverse mass (the thread, far lighter, does most of the
 //   moving: pulled on against the knot, it gives rather than tear the tissue away).
+// - Punctured, on the thread, squeeze N > 0 (friction on the thread; docs/particles.md): the
+//   puncture holds the thread's material point s (s counts rest lengths: particle_needle.hlsli),
+//   its impulse along the thread summed over the substep's iterations and clamped to the capstan
+//   limit T_high <= T_low exp(mu theta) + mu N (the tensions from the puncture's force over the
+//   last substep; thread_through), along the thread's chord across the puncture. Checked with a
+//   rope: Coulomb's threshold of a straight pass and the capstan law at a turn.
+// Each puncture on the thread reports the force it put on it over the last substep (Puncture.force).
 // Not modelled: a taut thread's squeeze on the punctures it runs through (it passes them without
 // pulling them), so pulling a running suture tight moves the tissue at the knot only. Tried: split
 // by inverse mass, a thread 100 times lighter than the tissue still dragged it toward the straight
@@ -27,6 +35,7 @@ RWStructuredBuffer<float4> tet_pins;  // per particle: sum K T, sum K (cleared e
 
 static const float PUNCTURE_GRIP = 1e4;  // N/m: 0.1 mm of give under 1 N
 
+static const float TURN_SPAN = 0.003;     // m along the path either side of a puncture: a turn's extent
 static const float REACH = 0.002;         // m: the most a punctured point slides along the path an iteration
 
 // the spring that pulls surface point p = sum b_i x_i (corners c) toward `goal`: on corner i the
@@ -41,6 +50,91 @@ void pin(uint3 c, float3 b, float3 p, float3 goal) {
     const float K = PUNCTURE_GRIP * b[k];
     tet_pins[i] += float4(K * (goal - p + positions[i].xyz), K);
   }
+}
+
+// The friction that can hold the thread at a puncture (N, along it): the capstan law over the turn
+// theta the thread takes there, T_high <= T_low exp(mu theta) + mu N (N: the tissue's squeeze),
+// in terms of the force the puncture bears, F (the last substep's): across the thread's mean
+// direction it is (T_a + T_b) sin(theta / 2), along it (T_b - T_a) cos(theta / 2). At the limit
+// T_b - T_a = ((T_a + T_b)(E - 1) + 2 mu N) / (E + 1), E = exp(mu theta); for a straight pass
+// (theta -> 0) this is Coulomb's mu (F across + N).
+float holding_force(NeedleModel n, Arc a, float s, float3 x, float3 F, float mu) {
+  const float3 ta = normalize(x - path_at(n, a, s - TURN_SPAN).x), tb = normalize(path_at(n, a, s + TURN_SPAN).x - x);
+  const float theta = acos(clamp(dot(ta, tb), -1.0, 1.0));
+  const float3 t = normalize(ta + tb + 1e-9);
+  const float across = length(F - dot(F, t) * t);
+  const float half_theta = min(0.5 * theta, 1.4);  // a thread doubled back has no mean direction
+  const float per_across = half_theta > 1e-3 ? tanh(mu * half_theta) / sin(half_theta) : mu;
+  return cos(half_theta) * (across * per_across + 2 * mu * n.puncture.y / (1 + exp(2 * mu * half_theta)));
+}
+
+// A punctured point on the thread holds the thread's material point s (the point of the path at s
+// goes to it, the least motion of its segment's two ends); along the thread (its chord across the
+// puncture) by no more than the friction can hold over the substep (the impulse along it summed over the iterations and clamped,
+// as sequential impulses are), and where that is not enough the thread slides through: s moves on
+// by what was left. Across the thread it is held fully; that force (the thread's turn there, and
+// its tension across a puncture it crosses) sets what friction can hold.
+void thread_through(NeedleModel n, Arc a, inout Puncture p, float3 x, float mu) {
+  const PathPoint q = path_at(n, a, p.place.z);
+  const uint i0 = q.segment, i1 = q.segment + 1;
+  const float w0 = max(positions[i0].w, 0.0), w1 = max(positions[i1].w, 0.0);
+  const float g0 = 1 - q.f, g1 = q.f;
+  const float3 d = x - q.x;
+  const float along = dot(d, q.t);
+  if (w0 <= 0) {
+    // the segment from the tail (driven): turned about it to run through the puncture, which it
+    // passes freely (moving its far end alone by the least motion would take d / f, unbounded near
+    // the tail)
+    const float3 from = x - positions[i0].xyz;
+    if (length(from) > 1e-7)
+      positions[i1].xyz = positions[i0].xyz + distance(positions[i0].xyz, positions[i1].xyz) * normalize(from);
+    p.place.z += along;
+    return;
+  }
+  const float W = g0 * g0 * w0 + g1 * g1 * w1;
+  // the way the thread slides through: its chord across the puncture (at a turn, the bisector of
+  // its two sides, which the capstan limit is written along), not the one segment s lies on
+  const float3 chord = path_at(n, a, p.place.z + TURN_SPAN).x - path_at(n, a, p.place.z - TURN_SPAN).x;
+  const float3 t = dot(chord, chord) > 1e-12 ? normalize(chord) : q.t;
+  const float slide = dot(d, t);
+  const float3 across = d - slide * t;
+  const float h2 = pc.gravity.w * pc.gravity.w;
+  const float limit = holding_force(n, a, p.place.z, x, p.force.xyz, mu) * h2;
+  const float before = p.impulse.w;
+  const float held = clamp(before + slide / W, -limit, limit);
+  const float3 push = across / W + (held - before) * t;  // the impulse on the thread, times h
+  positions[i0].xyz += w0 * g0 * push;
+  positions[i1].xyz += w1 * g1 * push;
+  p.impulse = float4(p.impulse.xyz + push, held);
+  p.place.z += slide - (held - before) * W;  // what friction did not hold slid through
+}
+
+// Without friction the light thread is drawn through the puncture: it moves across to it (the
+// least motion of its segment's ends; the segment from the driven tail turned about it), s
+// following the path's nearest point.
+void slide_through(NeedleModel n, Arc a, inout Puncture p, float3 x) {
+  p.place.z = min(nearest_s(n, a, x, p.place.z, REACH), path_length(a));
+  const PathPoint q = path_at(n, a, p.place.z);
+  // s back at the tail (the thread's start: nearest_s gives exactly the needle's length for a
+  // point beside it) is on the needle again, which the next iteration holds the tissue to; there
+  // is no segment to draw (NONE + 1 would wrap to global particle 0, env 0's tissue)
+  if (q.segment == CRESSIM_NONE) return;
+  const uint i0 = q.segment, i1 = q.segment + 1;
+  const float3 d = x - q.x;
+  float3 moved1;
+  if (positions[i0].w <= 0) {
+    const float3 from = x - positions[i0].xyz;
+    moved1 = float3(0, 0, 0);
+    if (length(from) > 1e-7)
+      moved1 = positions[i0].xyz + distance(positions[i0].xyz, positions[i1].xyz) * normalize(from) - positions[i1].xyz;
+  } else {
+    const float k = 1 / ((1 - q.f) * (1 - q.f) + q.f * q.f);
+    positions[i0].xyz += (1 - q.f) * k * d;
+    p.impulse.xyz += (1 - q.f) * k * d / positions[i0].w;
+    moved1 = positions[i1].w > 0 ? q.f * k * d : float3(0, 0, 0);
+  }
+  positions[i1].xyz += moved1;
+  if (positions[i1].w > 0) p.impulse.xyz += moved1 / positions[i1].w;
 }
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
@@ -79,17 +173,22 @@ void main(uint3 id : SV_DispatchThreadID) {
       punctures[r] = p;
       continue;
     }
-    // where the path passes nearest, and how far along it from s
-    const float nearest = min(nearest_s(n, a, x, p.place.z, REACH), end);
-    const PathPoint q = path_at(n, a, nearest);
-    if (q.segment == CRESSIM_NONE) {  // on the rigid, driven needle: the tissue goes to the path
-      const float across = distance(x, q.x), slide = nearest - p.place.z;
-      if (abs(slide) > mu * across) p.place.z += sign(slide) * (abs(slide) - mu * across);
-      pin(c, b, x, path_at(n, a, p.place.z).x);
-      punctures[r] = p;
-      continue;
+    const float needle_length = a.radius * a.angle;
+    if (p.place.z <= needle_length || thread_count < 2) {
+      // where the path passes nearest, and how far along it from s
+      const float nearest = min(nearest_s(n, a, x, p.place.z, REACH), end);
+      const PathPoint q = path_at(n, a, nearest);
+      if (q.segment == CRESSIM_NONE) {  // on the rigid, driven needle: the tissue goes to the path
+        const float across = distance(x, q.x), slide = nearest - p.place.z;
+        if (abs(slide) > mu * across) p.place.z += sign(slide) * (abs(slide) - mu * across);
+        pin(c, b, x, path_at(n, a, p.place.z).x);
+        punctures[r] = p;
+        continue;
+      }
+      p.place.z = nearest;  // the tail has passed: on the thread from here
+      p.impulse = float4(0, 0, 0, 0);
     }
-    if (nearest >= end - 1e-6 || p.ids.w != 0) {
+    if (p.place.z >= end - 1e-6 || p.ids.w != 0) {
       // the knot does not pass (nor come back out): it and the tissue there meet by inverse mass
       p.place.z = end;
       p.ids.w = 1;
@@ -99,23 +198,12 @@ void main(uint3 id : SV_DispatchThreadID) {
       if (wp + wk > 0) {
         positions[k].xyz += wk / (wp + wk) * d;
         pin(c, b, x, x - wp / (wp + wk) * d);
+        p.impulse.xyz += d / (wp + wk);
       }
+    } else if (n.puncture.y > 0) {  // squeeze > 0: friction on the thread
+      thread_through(n, a, p, x, mu);
     } else {
-      p.place.z = nearest;
-      // slack, the light thread is drawn through the puncture: it moves across to it
-      const float3 d = x - q.x;
-      if (positions[q.segment].w <= 0) {
-        // the segment from the tail (driven): turned about it to run through the puncture
-        const float3 from = x - positions[q.segment].xyz;
-        if (length(from) > 1e-7)
-          positions[q.segment + 1].xyz = positions[q.segment].xyz +
-                                          distance(positions[q.segment].xyz, positions[q.segment + 1].xyz) * normalize(from);
-      } else {
-        // its point at f moved onto the puncture with the least motion of its two ends
-        const float k = 1 / ((1 - q.f) * (1 - q.f) + q.f * q.f);
-        positions[q.segment].xyz += (1 - q.f) * k * d;
-        if (positions[q.segment + 1].w > 0) positions[q.segment + 1].xyz += q.f * k * d;
-      }
+      slide_through(n, a, p, x);
     }
     punctures[r] = p;
   }

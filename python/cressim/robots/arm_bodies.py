@@ -321,7 +321,8 @@ class ArmBodies:
         body.add(cressim.Transform(position=tuple(float(v) for v in pose[:3, 3]), rotation=rotation_xyzw(pose[:3, :3])))
         body.add(cressim.RigidBody(kinematic=True, mass=0.001, inertia=(1e-9, 1e-9, 1e-9)))
         body.add(cressim.Needle(thread=thread, arc_radius=R, arc_angle=A, puncture_force=spec["puncture_force"],
-                                puncture_depth=spec["puncture_depth"], friction=spec["friction"]))
+                                puncture_depth=spec["puncture_depth"], friction=spec["friction"],
+                                squeeze=spec.get("squeeze", 0.0)))
         if drawn is not None:
             mesh, label = drawn
             body.add(cressim.Renderable(mesh, color=(0.75, 0.75, 0.78, 1.0), metallic=0.9, roughness=0.3,

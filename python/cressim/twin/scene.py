@@ -84,7 +84,7 @@ class Scene:
     cautery_power: float = 30.0  # W while the coag pedal is pressed
     cautery_mode: str = "coag"  # coag: heats; cut: also parts the tissue it has coagulated
     # a suture needle held in the needle driver's jaws (arm.needle; None: none): cressim.Needle's
-    # arc_radius, arc_angle, puncture_force, puncture_depth and friction, and thread_length (m)
+    # arc_radius, arc_angle, puncture_force, puncture_depth, friction and squeeze, and thread_length (m)
     needle: dict | None = None
     cart: tuple = ()  # CartArm of a patient cart (cressim.twin.cart); empty: the one `arm`
     endoscope_baseline: float = 0.005  # m between the ECM's two cameras (cart.ECM.endoscope.baseline)
@@ -187,7 +187,7 @@ def parse_scene(text: str, path: str = "<string>") -> Scene:
         if "needle" in arm:
             fields = {"arc_radius": (1e-3, 0.05, 0.008), "arc_angle": (0.5, 5.0, 3 * math.pi / 4),
                       "puncture_force": (1e-3, 100.0, 1.0), "puncture_depth": (1e-4, 0.02, 0.002),
-                      "friction": (0.0, 2.0, 0.3), "thread_length": (0.005, 0.5, 0.06)}
+                      "friction": (0.0, 2.0, 0.3), "squeeze": (0.0, 10.0, 0.0), "thread_length": (0.005, 0.5, 0.06)}
             needle = p.mapping(arm["needle"], "arm.needle", set(fields))
             scene.needle = {k: (p.number(needle[k], f"arm.needle.{k}", low=lo, high=hi) if k in needle else default)
                             for k, (lo, hi, default) in fields.items()}
