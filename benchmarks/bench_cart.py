@@ -27,6 +27,8 @@ from cressim.twin.cart import Cart
 from cressim.twin.scene import CartArm
 import dataclasses
 
+from bench_twin import paced
+
 PSM3 = CartArm("PSM3", "psm", base_position=(0.04, 0.0, 0.30), base_rotation=(0.0, 0.0, -0.7071068, 0.7071068),
                initial_jp=(0.0, 0.0, 0.1, 0.0, 0.0, 0.0), home_jp=(0.0, 0.0, 0.11, 0.0, 0.0, 0.0))
 
@@ -82,25 +84,7 @@ def main() -> None:
             cart._images.grab(PRODUCTS)
         frames.append(time.perf_counter() - a)
     row["stereo_frame_ms"] = float(np.median(frames)) * 1e3
-    period, ticks, tick_s = 1.0 / cart.publish_rate, 0, []
-    start = next_t = time.perf_counter()
-    while time.perf_counter() - start < args.seconds:
-        a = time.perf_counter()
-        _drive(cart, ticks)
-        cart.tick()
-        cart.snapshot()
-        sensors.offer(cart.sim_ns, stamp=ticks)
-        tick_s.append(time.perf_counter() - a)
-        ticks += 1
-        next_t += period
-        time.sleep(max(0.0, next_t - time.perf_counter()))
-    elapsed = time.perf_counter() - start
-    sensors.wait_idle(60)
-    stats = sensors.stats()["camera"]
-    sensors.close()
-    row.update(paced_tick_mean_ms=float(np.mean(tick_s)) * 1e3, paced_tick_max_ms=float(np.max(tick_s)) * 1e3,
-               paced_ticks_per_s=ticks / elapsed, stereo_frames_per_s=stats["rendered"] / elapsed,
-               stereo_frames_skipped=stats["skipped"], seconds=elapsed)
+    row.update(paced(cart, sensors, _drive, args.seconds, "stereo"))
     print(f"cart: ECM + {row['psms']} PSMs, stereo {row['camera']} at {args.camera_rate:g} Hz on {row['device']}: "
           f"unpaced tick {row['unpaced_tick_ms']:.2f} ms; paced {row['paced_ticks_per_s']:.1f} ticks/s, tick "
           f"{row['paced_tick_mean_ms']:.2f} ms (max {row['paced_tick_max_ms']:.1f}); stereo "

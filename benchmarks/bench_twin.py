@@ -39,6 +39,31 @@ def _drive(arms, k: int):
         arms.servo_jp(env, JointCommand(position=q))
 
 
+
+def paced(twin, sensors, drive, seconds: float, camera: str) -> dict:
+    """`twin` (TwinArms or Cart) ticked at its publish rate for `seconds` of wall time, driven by
+    `drive(twin, tick)`, its sensor loop offered every tick: the tick's cost, the rate reached
+    and the camera frames rendered and skipped (keys named after `camera`)."""
+    period, ticks, tick_s = 1.0 / twin.publish_rate, 0, []
+    start = next_t = time.perf_counter()
+    while time.perf_counter() - start < seconds:
+        a = time.perf_counter()
+        drive(twin, ticks)
+        twin.tick()
+        twin.snapshot()
+        sensors.offer(twin.sim_ns, stamp=ticks)
+        tick_s.append(time.perf_counter() - a)
+        ticks += 1
+        next_t += period
+        time.sleep(max(0.0, next_t - time.perf_counter()))
+    elapsed = time.perf_counter() - start
+    sensors.wait_idle(60)
+    stats = sensors.stats()["camera"]
+    sensors.close()
+    return {"paced_tick_mean_ms": float(np.mean(tick_s)) * 1e3, "paced_tick_max_ms": float(np.max(tick_s)) * 1e3,
+            "paced_ticks_per_s": ticks / elapsed, f"{camera}_frames_per_s": stats["rendered"] / elapsed,
+            f"{camera}_frames_skipped": stats["skipped"], "seconds": elapsed}
+
 def _ready(arms):
     for env in range(arms.num_envs):
         arms.state_command(env, "enable")
@@ -77,27 +102,7 @@ def run(envs: int, dynamics: str, width: int, height: int, camera_rate: float, s
         sensors.render_now()  # pipelines built before timing
         if arms.bodies.device.type == "cpu" and not arms.dynamic:
             sensors.lower_priority(arms.engine_threads)
-        period = 1.0 / arms.publish_rate
-        ticks, tick_s = 0, []
-        start = time.perf_counter()
-        next_t = start
-        while time.perf_counter() - start < seconds:
-            a = time.perf_counter()
-            _drive(arms, ticks)
-            arms.tick()
-            arms.snapshot()
-            sensors.offer(arms.sim_ns, stamp=ticks)
-            tick_s.append(time.perf_counter() - a)
-            ticks += 1
-            next_t += period
-            time.sleep(max(0.0, next_t - time.perf_counter()))
-        elapsed = time.perf_counter() - start
-        sensors.wait_idle(60)
-        stats = sensors.stats()["camera"]
-        sensors.close()
-        row.update(paced_tick_mean_ms=float(np.mean(tick_s)) * 1e3, paced_tick_max_ms=float(np.max(tick_s)) * 1e3,
-                   paced_ticks_per_s=ticks / elapsed, camera_frames_per_s=stats["rendered"] / elapsed,
-                   camera_frames_skipped=stats["skipped"], seconds=elapsed)
+        row.update(paced(arms, sensors, _drive, seconds, "camera"))
     row["unhealthy_envs"] = int((arms.bodies.health_flags() != 0).sum())
     return row
 
