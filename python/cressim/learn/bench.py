@@ -112,10 +112,12 @@ def bench_step(task: str, num_envs: int, device=None, warmup: int = 64, steps: i
 
 
 def engine_policy_fits(task: str) -> bool:
-    """Whether the task's PPO actor can run in the engine (an MLP on flat float32 observations)."""
+    """Whether the task's PPO actor can run in the engine: an MLP on flat float32 observations
+    (engine_policy.py) or TASKS.md's CNN on uint8 or float32 images (engine_cnn.py)."""
     from cressim import envs
 
-    return ppo_config(task).network == "mlp" and str(envs.REGISTRY[task].single_observation_space.dtype) == "float32"
+    network, dtype = ppo_config(task).network, str(envs.REGISTRY[task].single_observation_space.dtype)
+    return (network == "mlp" and dtype == "float32") or (network == "cnn" and dtype in ("uint8", "float32"))
 
 
 def _learner(task, env, rollout, minibatch=None):
@@ -129,7 +131,7 @@ def bench_policy(task: str, num_envs: int, device=None, warmup: int = 128, steps
     """A rollout with the PPO actor (TASKS.md's network for the task) in the loop, no learning:
     torch's policy step between frames (`policy_torch_sps`: the built-in learner's act, a CUDA
     graph, then env.step), and the actor as an engine pass with `rollout` steps per submit
-    (`policy_engine_sps`, where the task's actor is an MLP on float observations)."""
+    (`policy_engine_sps`, where the task's actor fits an engine pass: engine_policy_fits)."""
     torch.manual_seed(seed)
     env = _make(task, num_envs, device, seed)
     venv, alg = _learner(task, env, rollout)

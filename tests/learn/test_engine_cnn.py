@@ -1,0 +1,134 @@
+"""The CNN policy in the engine's frame (cressim.learn.engine_cnn): TASKS.md's image actor as
+engine passes gives the torch module's actions on the same images, TargetCenter's rollout in the
+engine is the one torch in the loop walks, and PPO trains with it."""
+import math
+
+import pytest
+import torch
+from torch import nn
+
+import cressim.envs
+from cressim.learn import engine_cnn, ppo_config, train
+from cressim.learn.engine_cnn import EngineCNNPolicy
+from cressim.learn.engine_rollout import EngineRollout
+from cressim.learn.torch_ppo import ImageCNN, TorchPPO
+
+
+def target_center(num_envs, seed=0, **kwargs):
+    return cressim.envs.make("TargetCenter", num_envs=num_envs, seed=seed, final_observation=False, validation=True,
+                             **kwargs)
+
+
+def random_actor(env, hidden, seed):
+    """TASKS.md's CNN for the env's images, weights large enough that every layer's ReLUs matter."""
+    torch.manual_seed(seed)
+    net = ImageCNN(env.single_observation_space.shape, hidden, 2).to(env.device)
+    with torch.no_grad():
+        for p in net.parameters():
+            p.normal_(0.0, 1.5 / math.sqrt(max(p[0].numel(), 1)) if p.dim() > 1 else 0.1)
+    return net
+
+
+@pytest.mark.parametrize("target_groups, hidden", [(engine_cnn.TARGET_GROUPS, 256), (1, 40)])
+def test_mean_actions_equal_the_torch_forward(monkeypatch, target_groups, hidden):
+    """Random uint8 images in TargetCenter's observations (64x64 RGB, 3 envs): the passes' mean
+    actions are the module's forward within float tolerance, with the hidden linear layer split
+    along k over several groups (its 3 rows are too few for the GPU) and, with one group as the
+    target, unsplit with the largest tiles (40 units: a partial tile)."""
+    monkeypatch.setattr(engine_cnn, "TARGET_GROUPS", target_groups)
+    env = target_center(3)
+    net = random_actor(env, hidden, seed=hidden)
+    log_std = nn.Parameter(torch.full((2,), -0.5, device=env.device))
+    policy = EngineCNNPolicy(env, net, log_std, explore=False)
+    assert (policy.plans[-1]["SPLIT"] > 1) == (target_groups > 1)
+    for _ in range(2):
+        images = torch.randint(0, 256, env.obs.shape, dtype=torch.uint8, device=env.device)
+        env.obs.copy_(images)
+        policy.record()
+        env.engine.end_frame()
+        with torch.no_grad():
+            want = net(images.reshape(3, -1))
+        assert want.abs().max() > 0.1 and (want[0] - want[1]).abs().max() > 1e-3
+        torch.testing.assert_close(env.actions, want, atol=1e-4, rtol=1e-4)
+    assert torch.equal(policy.obs[0], images.reshape(3, -1))  # the images the passes saw, stored
+    assert env.engine.validation_messages == []
+
+
+def test_what_the_passes_cannot_run_is_refused_naming_the_layer():
+    env = target_center(1)
+    log_std = nn.Parameter(torch.zeros(2, device=env.device))
+    net = ImageCNN((64, 64, 3), 16, 2)
+    net.convs[1] = nn.MaxPool2d(2)
+    with pytest.raises(ValueError, match=r"layer convs\.1 \(MaxPool2d.*not supported"):
+        EngineCNNPolicy(env, net, log_std)
+    net = ImageCNN((64, 64, 3), 16, 2)
+    net.convs[2] = nn.Conv2d(32, 64, 3, 2, padding=1)
+    with pytest.raises(ValueError, match=r"layer convs\.2 .*no padding"):
+        EngineCNNPolicy(env, net, log_std)
+    net = ImageCNN((64, 64, 3), 16, 2)
+    net.head[1] = nn.Sigmoid()
+    with pytest.raises(ValueError, match=r"layer head\.1 \(Sigmoid"):
+        EngineCNNPolicy(env, net, log_std)
+    with pytest.raises(ValueError, match="images of shape"):
+        EngineCNNPolicy(env, ImageCNN((32, 32, 3), 16, 2), log_std)
+    with pytest.raises(ValueError, match="ImageCNN"):
+        EngineCNNPolicy(env, nn.Sequential(nn.Linear(12288, 2)), log_std)
+
+
+def engine_rollout(num_envs, steps, seed, explore):
+    torch.manual_seed(0)
+    env = target_center(num_envs, seed)
+    alg = TorchPPO(math.prod(env.single_observation_space.shape), 2, num_envs,
+                   ppo_config("TargetCenter", rollout=steps, hidden=(64,)), env.device,
+                   env.single_observation_space.shape, torch.uint8)
+    r = EngineRollout(env, alg, steps_per_submit=steps, seed=seed)
+    r.policy.set_explore(explore)
+    before = env.engine.submits
+    r.collect()
+    assert env.engine.submits - before == 1  # the whole rollout: render, CNN, action, step, in one submit
+    assert env.engine.validation_messages == []
+    return env, alg, r
+
+
+def test_target_center_rolls_out_in_the_engine_as_torch_in_the_loop():
+    """Mean actions (no noise), 2 envs, 6 steps in one submit: a fresh env stepped by env.step()
+    with the torch actor's actions on its own images sees the same images, takes the same
+    actions and gets the same rewards, within float tolerance."""
+    env, alg, r = engine_rollout(2, 6, seed=3, explore=False)
+    single = target_center(2, seed=3)
+    obs, _ = single.reset()
+    for t in range(6):
+        # the camera turns by float-rounding-different angles: a pixel on an edge may flip
+        assert (obs.reshape(2, -1) != alg.obs[t]).float().mean() < 1e-3, t
+        with torch.no_grad():
+            actions = alg.actor(obs.reshape(2, -1))
+        torch.testing.assert_close(alg.actions[t], actions, atol=1e-4, rtol=1e-4)
+        obs, reward, terminated, truncated, _ = single.step(actions)
+        torch.testing.assert_close(r.rewards[t], reward, atol=1e-5, rtol=1e-4)
+        assert torch.equal(r.dones[t] != 0, terminated | truncated)
+    assert alg.actions.abs().max() > 1e-3 and (alg.obs[0] != alg.obs[-1]).any()  # the camera turned
+
+
+def test_sampled_actions_carry_their_log_prob_and_values_and_returns_follow():
+    env, alg, r = engine_rollout(2, 4, seed=1, explore=True)
+    with torch.no_grad():
+        dist = alg._dist(alg.obs.flatten(0, 1))
+        values = alg.critic(alg.obs.flatten(0, 1)).view(4, 2)
+    torch.testing.assert_close(alg.log_prob.flatten(), dist.log_prob(alg.actions.flatten(0, 1)).sum(-1),
+                               atol=2e-4, rtol=1e-5)
+    z = (alg.actions.flatten(0, 1) - dist.loc) / dist.scale
+    assert z.abs().max() > 0.2  # sampled about the means
+    torch.testing.assert_close(alg.values, values)
+    assert torch.isfinite(alg.returns).all() and torch.isfinite(alg.advantages).all()
+
+
+def test_ppo_trains_target_center_with_the_cnn_in_the_engine(tmp_path):
+    """Two short updates on 4 envs: finite losses, and the checkpoint holds the weights the
+    engine ran (the optimizer's steps reached them in place)."""
+    result = train("TargetCenter", num_envs=4, iterations=2, seed=0, out_dir=tmp_path, rollout=8, save_every=100,
+                   progress=False, engine_rollout=True, hidden=(32,), minibatch=16)
+    assert result["engine_rollout"] and len(result["history"]) == 2
+    for h in result["history"]:
+        assert all(math.isfinite(h[k]) for k in ("value", "surrogate", "entropy")), h
+    first = torch.load(tmp_path / "model_2.pt", weights_only=False)["actor_state_dict"]["convs.0.weight"]
+    assert first.abs().sum() > 0
