@@ -6,7 +6,7 @@
 // `gemm`: a layer as a matrix product (an implicit GEMM): rows m = (env, output pixel), columns
 // n = output channels (or units), sums over k = (input channel, kernel row, kernel column) as
 // torch's weights (out, in, kh, kw) lie. A group computes a TILE_M x TILE_N tile of outputs, each
-// thread RM x RN of them in registers; K_CHUNK columns of inputs and rows of weights at a time are
+// thread 4 x 4 of them in registers; K_CHUNK columns of inputs and rows of weights at a time are
 // staged in groupshared memory (the weights read along k: coalesced), so each value read from
 // memory serves TILE_N (inputs) or TILE_M (weights) products. A layer with few tiles (a linear
 // layer over few envs) splits k over SPLIT groups; the next pass sums the SPLIT partial sums,
@@ -46,26 +46,29 @@ float activate(float x, uint kind) {
   return x;                                                // none
 }
 
-// feature f (channel c) of the previous layer's outputs for `env`: stored final, or SPLIT_IN
-// partial sums to add up with the bias and the activation
-float previous(uint env, uint f, uint c) {
+// feature f of the previous layer's outputs (C, H, W) for `env`: stored final, or SPLIT_IN partial
+// sums to add up with the bias of its channel (IN_PLANE = H W features a channel) and the activation
+float previous(uint env, uint f) {
   if (SPLIT_IN == 1) return layer_in[env * IN_SIZE + f];
-  float x = weights[IN_BIAS + c];
+  float x = weights[IN_BIAS + f / IN_PLANE];
   for (uint s = 0; s < SPLIT_IN; ++s) x += layer_in[(s * pc.envs + env) * IN_SIZE + f];
   return activate(x, IN_ACT);
 }
 
 // ----------------------------------------------------------------------------------------------
 // gemm: defines FIRST (1: reads the observations), OBS_CHANNELS_LAST, IN_C, IN_H, IN_W, KSIZE,
-// STRIDE, OUT_C, OUT_H, OUT_W, W_OFF, B_OFF, ACT, SPLIT, K_PER_SPLIT, TM, TN, RM, RN, K_CHUNK,
-// A_K_FASTEST (1: a linear layer, inputs contiguous along k); IN_SIZE, SPLIT_IN, IN_BIAS, IN_ACT
+// STRIDE, OUT_C, OUT_H, OUT_W, W_OFF, B_OFF, ACT, SPLIT, K_PER_SPLIT, TM, TN, K_CHUNK,
+// A_K_FASTEST (1: a linear layer, inputs contiguous along k); IN_SIZE, SPLIT_IN, IN_BIAS, IN_ACT, IN_PLANE
 #ifdef TM
-static const uint THREADS = TM * TN, TILE_M = TM * RM, TILE_N = TN * RN;
+static const uint THREADS = TM * TN, RM = 4, RN = 4, TILE_M = TM * RM, TILE_N = TN * RN;
 static const uint KK = KSIZE * KSIZE, K = IN_C * KK, IN_HW = IN_H * IN_W, OUT_HW = OUT_H * OUT_W;
 static const uint OUT_SIZE = OUT_C * OUT_HW;
-static const uint A_STRIDE = TILE_M + 1, B_STRIDE = TILE_N + 1;  // +1: a column's writes spread over banks
-groupshared float a_tile[K_CHUNK * A_STRIDE];
-groupshared float b_tile[K_CHUNK * B_STRIDE];
+// a thread's 4 rows and 4 columns lie side by side: one float4 read each a k (a warp's weights
+// read is one broadcast); rows padded by a float4 so that writes along k spread over banks
+static const uint A_ROW = TILE_M / 4 + 1, B_ROW = TILE_N / 4 + 1;
+groupshared float4 a_tile[K_CHUNK * A_ROW];
+groupshared float4 b_tile[K_CHUNK * B_ROW];
+static const uint A_LOADS = (TILE_M * K_CHUNK + THREADS - 1) / THREADS, B_LOADS = (TILE_N * K_CHUNK + THREADS - 1) / THREADS;
 
 // the input at channel c, row y, column x of `env`'s image
 float input_at(uint env, uint c, uint y, uint x) {
@@ -77,8 +80,30 @@ float input_at(uint env, uint c, uint y, uint x) {
   return observations[i];
 #endif
 #else
-  return previous(env, (c * IN_H + y) * IN_W + x, c);
+  return previous(env, (c * IN_H + y) * IN_W + x);
 #endif
+}
+
+// element i of a chunk's A (inputs) tile: (k in the chunk, row in the tile); neighbouring threads
+// take neighbouring pixels of a convolution, neighbouring k of a linear layer (contiguous inputs)
+uint2 a_place(uint i) {
+#if A_K_FASTEST
+  return uint2(i % K_CHUNK, i / K_CHUNK);
+#else
+  return uint2(i / TILE_M, i % TILE_M);
+#endif
+}
+float a_value(uint i, uint m0, uint k0, uint k_end, uint rows) {
+  const uint2 at = a_place(i);
+  const uint m = m0 + at.y, k = k0 + at.x;
+  if (i >= TILE_M * K_CHUNK || m >= rows || k >= k_end) return 0.0;
+  const uint p = m % OUT_HW, c = k / KK, tap = k % KK;
+  return input_at(m / OUT_HW, c, (p / OUT_W) * STRIDE + tap / KSIZE, (p % OUT_W) * STRIDE + tap % KSIZE);
+}
+// element i of a chunk's B (weights) tile: along k, torch's rows (coalesced)
+float b_value(uint i, uint n0, uint k0, uint k_end) {
+  const uint n = n0 + i / K_CHUNK, k = k0 + i % K_CHUNK;
+  return i < TILE_N * K_CHUNK && n < OUT_C && k < k_end ? weights[W_OFF + n * K + k] : 0.0;
 }
 
 [numthreads(THREADS, 1, 1)]
@@ -86,48 +111,45 @@ void gemm(uint3 group_id : SV_GroupID, uint3 thread_id : SV_GroupThreadID) {
   const uint tid = thread_id.x, tm = tid % TM, tn = tid / TM;
   const uint m0 = group_id.x * TILE_M, n0 = group_id.y * TILE_N, rows = pc.envs * OUT_HW;
   const uint k_begin = group_id.z * K_PER_SPLIT, k_end = min(K, k_begin + K_PER_SPLIT);
-  float acc[RM * RN];
-  [unroll] for (uint r = 0; r < RM * RN; ++r) acc[r] = 0.0;
+  float4 acc[RM];  // acc[i][j]: row m0 + 4 tm + i, column n0 + 4 tn + j
+  [unroll] for (uint r = 0; r < RM; ++r) acc[r] = 0.0;
 
+  // the next chunk is read from memory into registers while this one is multiplied
+  float a_next[A_LOADS], b_next[B_LOADS];
+  [unroll] for (uint r = 0; r < A_LOADS; ++r) a_next[r] = a_value(tid + r * THREADS, m0, k_begin, k_end, rows);
+  [unroll] for (uint r = 0; r < B_LOADS; ++r) b_next[r] = b_value(tid + r * THREADS, n0, k_begin, k_end);
   for (uint k0 = k_begin; k0 < k_end; k0 += K_CHUNK) {
-    for (uint i = tid; i < TILE_M * K_CHUNK; i += THREADS) {
-#if A_K_FASTEST
-      const uint kk = i % K_CHUNK, mm = i / K_CHUNK;
-#else
-      const uint mm = i % TILE_M, kk = i / TILE_M;  // neighbouring threads: neighbouring pixels
-#endif
-      const uint m = m0 + mm, k = k0 + kk;
-      float a = 0.0;
-      if (m < rows && k < k_end) {
-        const uint p = m % OUT_HW, c = k / KK, tap = k % KK;
-        a = input_at(m / OUT_HW, c, (p / OUT_W) * STRIDE + tap / KSIZE, (p % OUT_W) * STRIDE + tap % KSIZE);
-      }
-      a_tile[kk * A_STRIDE + mm] = a;
+    [unroll] for (uint r = 0; r < A_LOADS; ++r) {
+      const uint i = tid + r * THREADS;
+      const uint2 at = a_place(i);
+      if (i < TILE_M * K_CHUNK) a_tile[at.x * A_ROW + at.y / 4][at.y % 4] = a_next[r];
     }
-    for (uint i = tid; i < TILE_N * K_CHUNK; i += THREADS) {
-      const uint kk = i % K_CHUNK, nn = i / K_CHUNK, n = n0 + nn, k = k0 + kk;
-      b_tile[kk * B_STRIDE + nn] = n < OUT_C && k < k_end ? weights[W_OFF + n * K + k] : 0.0;
+    [unroll] for (uint r = 0; r < B_LOADS; ++r) {
+      const uint i = tid + r * THREADS, nn = i / K_CHUNK;
+      if (i < TILE_N * K_CHUNK) b_tile[(i % K_CHUNK) * B_ROW + nn / 4][nn % 4] = b_next[r];
     }
     GroupMemoryBarrierWithGroupSync();
+    const uint k1 = k0 + K_CHUNK;
+    if (k1 < k_end) {
+      [unroll] for (uint r = 0; r < A_LOADS; ++r) a_next[r] = a_value(tid + r * THREADS, m0, k1, k_end, rows);
+      [unroll] for (uint r = 0; r < B_LOADS; ++r) b_next[r] = b_value(tid + r * THREADS, n0, k1, k_end);
+    }
     [unroll] for (uint kk = 0; kk < K_CHUNK; ++kk) {
-      float a[RM], b[RN];
-      [unroll] for (uint i = 0; i < RM; ++i) a[i] = a_tile[kk * A_STRIDE + tm + i * TM];
-      [unroll] for (uint j = 0; j < RN; ++j) b[j] = b_tile[kk * B_STRIDE + tn + j * TN];
-      [unroll] for (uint i = 0; i < RM; ++i)
-        [unroll] for (uint j = 0; j < RN; ++j) acc[i * RN + j] += a[i] * b[j];
+      const float4 a = a_tile[kk * A_ROW + tm], b = b_tile[kk * B_ROW + tn];
+      [unroll] for (uint i = 0; i < RM; ++i) acc[i] += a[i] * b;
     }
     GroupMemoryBarrierWithGroupSync();
   }
 
   [unroll] for (uint i = 0; i < RM; ++i) {
-    const uint m = m0 + tm + i * TM;
+    const uint m = m0 + RM * tm + i;
     if (m >= rows) continue;
     const uint env = m / OUT_HW, p = m % OUT_HW;
     [unroll] for (uint j = 0; j < RN; ++j) {
-      const uint n = n0 + tn + j * TN;
+      const uint n = n0 + RN * tn + j;
       if (n >= OUT_C) continue;
-      if (SPLIT == 1) layer_out[env * OUT_SIZE + n * OUT_HW + p] = activate(acc[i * RN + j] + weights[B_OFF + n], ACT);
-      else layer_out[(group_id.z * pc.envs + env) * OUT_SIZE + n * OUT_HW + p] = acc[i * RN + j];
+      if (SPLIT == 1) layer_out[env * OUT_SIZE + n * OUT_HW + p] = activate(acc[i][j] + weights[B_OFF + n], ACT);
+      else layer_out[(group_id.z * pc.envs + env) * OUT_SIZE + n * OUT_HW + p] = acc[i][j];
     }
   }
 }
@@ -135,7 +157,7 @@ void gemm(uint3 group_id : SV_GroupID, uint3 thread_id : SV_GroupThreadID) {
 
 // ----------------------------------------------------------------------------------------------
 // head: a group an env. Defines HEAD_GROUP, OBS_WORDS, ACTIONS, W_OFF, B_OFF, LOG_STD; IN_SIZE
-// (the last layer's inputs), SPLIT_IN, IN_BIAS, IN_ACT
+// (the last layer's inputs), SPLIT_IN, IN_BIAS, IN_ACT, IN_PLANE
 #ifdef HEAD_GROUP
 groupshared float hidden[IN_SIZE];
 groupshared float sums[HEAD_GROUP * ACTIONS];
@@ -146,7 +168,7 @@ void head(uint3 group_id : SV_GroupID, uint3 thread_id : SV_GroupThreadID) {
   const uint step = rollout_step[env], row = (step % pc.rollout) * pc.envs + env;
   // the observation the actor saw, stored as the rollout's (words: uint8 images copy 4 bytes at once)
   for (uint i = tid; i < OBS_WORDS; i += HEAD_GROUP) rollout_obs[row * OBS_WORDS + i] = observations[env * OBS_WORDS + i];
-  for (uint f = tid; f < IN_SIZE; f += HEAD_GROUP) hidden[f] = previous(env, f, f);
+  for (uint f = tid; f < IN_SIZE; f += HEAD_GROUP) hidden[f] = previous(env, f);
   GroupMemoryBarrierWithGroupSync();
   for (uint a = 0; a < ACTIONS; ++a) {
     float acc = 0.0;

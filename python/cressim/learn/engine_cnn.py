@@ -24,13 +24,12 @@ from .torch_ppo import ImageCNN
 
 HLSL = Path(__file__).with_name("engine_cnn.hlsl")
 NO_ACTIVATION = 3
-THREADS = 256      # a gemm group's threads
 HEAD_GROUP = 64    # a head group's threads (one env)
 K_CHUNK = 16       # k values staged in groupshared memory at a time
-# groups a layer should spread over: a few per streaming multiprocessor of a large GPU (an H100
-# has 132), so that one layer's tiles keep it busy; only shapes the tiling, never the result
-TARGET_GROUPS = 512
-
+# A rough model of a large GPU for choosing tiles (an H100: 132 multiprocessors, each issuing 4
+# warp instructions of multiply-adds and one 128-byte groupshared read a clock, ~16 loads from
+# cache a clock, ~600 clocks from memory); it only shapes the tiling, never the result.
+SMS, FMA_ISSUE, SHARED_ISSUE, LOAD_RATE, LATENCY, BARRIER = 132, 4, 1, 16, 600, 40
 
 def cnn_layers(actor: nn.Module) -> list[dict]:
     """The actor's layers in order: {"kind": "conv" | "linear", "module", "act", "name"}, checked
@@ -73,32 +72,36 @@ def cnn_layers(actor: nn.Module) -> list[dict]:
     return layers
 
 
-def gemm_plan(rows: int, cols: int, k: int, linear: bool) -> dict:
-    """Tiling of a (rows x k) by (k x cols) product for the gemm pass: threads TM x TN, each RM x RN
-    outputs, and SPLIT groups along k (linear layers only: their rows are the envs, often too few
-    for the GPU). Picks, in order: enough groups for TARGET_GROUPS, more outputs a thread (fewer
-    groupshared reads a product), less padding."""
+def gemm_plan(rows: int, cols: int, k: int, consumer_reads: int) -> dict:
+    """Tiling of a (rows x k) by (k x cols) product for the gemm pass: TM x TN threads, each 4 x 4
+    outputs, and SPLIT groups along k (partial sums the next pass adds up as it reads them, its
+    `consumer_reads` values: worth it where the tiles are too few to fill the GPU, as a linear
+    layer's over few envs). The plan of least modelled time (the module's constants): per k, a
+    warp's float4 reads of groupshared memory against its 16 multiply-adds a thread, the groups
+    each multiprocessor runs, memory latency hidden by prefetching one chunk ahead."""
     best = None
-    for rm, rn in ((4, 4), (4, 2), (2, 4), (2, 2), (2, 1), (1, 1)):
+    chunks = math.ceil(k / K_CHUNK)
+    for threads in (256, 128, 64):
         for tn in (4, 8, 16, 32, 64):
-            tm = THREADS // tn
-            tile_m, tile_n = tm * rm, tn * rn
-            if (tile_m + tile_n + 2) * K_CHUNK * 4 > SHARED_BYTES:
+            tm = threads // tn
+            tile_m, tile_n = 4 * tm, 4 * tn
+            if tm < 1 or (tile_m + tile_n + 8) * K_CHUNK * 4 > SHARED_BYTES:
                 continue
-            groups = math.ceil(rows / tile_m) * math.ceil(cols / tile_n)
-            padded = math.ceil(rows / tile_m) * tile_m * math.ceil(cols / tile_n) * tile_n / (rows * cols)
-            key = (min(groups, TARGET_GROUPS), rm * rn, -padded)
-            if best is None or key > best[0]:
-                best = (key, dict(TM=tm, TN=tn, RM=rm, RN=rn, groups=(math.ceil(rows / tile_m), math.ceil(cols / tile_n))))
-    plan = best[1]
-    chunks, split = math.ceil(k / K_CHUNK), 1
-    groups = plan["groups"][0] * plan["groups"][1]
-    if linear and groups < TARGET_GROUPS // 2:
-        split = max(1, min(chunks // 4, 32, TARGET_GROUPS // groups))
-    per_split = math.ceil(chunks / split) * K_CHUNK
-    plan.update(SPLIT=math.ceil(k / per_split), K_PER_SPLIT=per_split)
-    return plan
-
+            grid = (math.ceil(rows / tile_m), math.ceil(cols / tile_n))
+            warps = max(1, threads // 32)
+            rows_a_warp = min(tm, 32)  # distinct float4 rows a warp reads a k; the rest share columns
+            shared = warps * (math.ceil(16 * rows_a_warp / 128) + math.ceil(16 * (32 // rows_a_warp) / 128))
+            compute = K_CHUNK * max(warps * 16 / FMA_ISSUE, shared / SHARED_ISSUE) + (tile_m + tile_n) * K_CHUNK / LOAD_RATE
+            for split in (1, 2, 4, 8, 16, 32):
+                per_split = math.ceil(chunks / split)
+                split = math.ceil(chunks / per_split)
+                per_sm = math.ceil(grid[0] * grid[1] * split / SMS)
+                time = (per_split * (max(per_sm * compute, LATENCY) + BARRIER)
+                        + (split - 1) * (consumer_reads + rows * cols) / (SMS * LOAD_RATE))
+                if best is None or time < best[0]:
+                    best = (time, dict(TM=tm, TN=tn, SPLIT=split, K_PER_SPLIT=per_split * K_CHUNK, groups=grid,
+                                       modelled_clocks=round(time)))
+    return best[1]
 
 class EngineCNNPolicy:
     """The Gaussian policy N(actor(obs), exp(log_std)) of a torch ImageCNN `actor` as engine passes
@@ -148,11 +151,10 @@ class EngineCNNPolicy:
         common = {"weights": "policy_weights", "observations": env.buffers.observations, **self.buffers}
         source = HLSL.read_text()
 
-        # the layers but the last as gemm passes; `previous` describes what the next pass reads
-        previous = dict(IN_SIZE=num_obs, SPLIT_IN=1, IN_BIAS=0, IN_ACT=NO_ACTIVATION)
+        # each layer's input and output (channels, height, width) and its product's k; then the
+        # layers but the last as gemm passes (a plan for each knows what its consumer reads)
         shape = (channels, height, width)
-        self.passes, self.plans = [], []
-        for i, layer in enumerate(layers[:-1]):
+        for layer in layers:
             m = layer["module"]
             if layer["kind"] == "conv":
                 k, s = m.kernel_size[0], m.stride[0]
@@ -160,42 +162,49 @@ class EngineCNNPolicy:
                 if m.in_channels != shape[0] or min(out[1:]) < 1:
                     raise ValueError(f"EngineCNNPolicy: layer {layer['name']} ({m}) does not fit its input of "
                                      f"(channels, height, width) {shape}")
-                geometry = dict(IN_C=shape[0], IN_H=shape[1], IN_W=shape[2], KSIZE=k, STRIDE=s,
-                                OUT_C=out[0], OUT_H=out[1], OUT_W=out[2])
             else:
                 if m.in_features != math.prod(shape):
                     raise ValueError(f"EngineCNNPolicy: layer {layer['name']} ({m}) takes {m.in_features} inputs, "
                                      f"its input has {math.prod(shape)}")
                 out = (m.out_features, 1, 1)
-                geometry = dict(IN_C=m.in_features, IN_H=1, IN_W=1, KSIZE=1, STRIDE=1, OUT_C=m.out_features,
-                                OUT_H=1, OUT_W=1)
-            plan = gemm_plan(n * out[1] * out[2], out[0], m.weight[0].numel(), layer["kind"] == "linear")
+            layer.update(shape_in=shape, shape_out=out, k=m.weight[0].numel())
+            shape = out
+        # `previous`: what the next pass reads (the observations, or a layer's outputs as stored)
+        previous = dict(IN_SIZE=num_obs, SPLIT_IN=1, IN_BIAS=0, IN_ACT=NO_ACTIVATION, IN_PLANE=1)
+        self.passes, self.plans = [], []
+        for i, (layer, consumer) in enumerate(zip(layers, layers[1:])):
+            (c, h, w), out = layer["shape_in"], layer["shape_out"]
+            kernel, stride = (layer["module"].kernel_size[0], layer["module"].stride[0]) if layer["kind"] == "conv" else (1, 1)
+            if layer["kind"] == "linear":
+                c, h, w = c * h * w, 1, 1
+            reads = n * consumer["shape_out"][1] * consumer["shape_out"][2] * consumer["k"]
+            plan = gemm_plan(n * out[1] * out[2], out[0], layer["k"], reads)
             self.plans.append(plan)
             defines = dict(FIRST=int(i == 0), OBS_UINT8=int(dtype == torch.uint8),
-                           OBS_CHANNELS_LAST=int(actor.channels_last), **geometry, W_OFF=layer["w_off"],
+                           OBS_CHANNELS_LAST=int(actor.channels_last), IN_C=c, IN_H=h, IN_W=w, KSIZE=kernel,
+                           STRIDE=stride, OUT_C=out[0], OUT_H=out[1], OUT_W=out[2], W_OFF=layer["w_off"],
                            B_OFF=layer["b_off"], ACT=layer["act"], K_CHUNK=K_CHUNK,
                            A_K_FASTEST=int(layer["kind"] == "linear"), **previous,
-                           **{key: plan[key] for key in ("TM", "TN", "RM", "RN", "SPLIT", "K_PER_SPLIT")})
+                           **{key: plan[key] for key in ("TM", "TN", "SPLIT", "K_PER_SPLIT")})
             scratch = e.create_shared_buffer(f"policy_layer{i}", (plan["SPLIT"], n, math.prod(out)), "float32")
             inputs = {"layer_in": f"policy_layer{i - 1}"} if i else {}
             self.passes.append(e.create_compute_pass(
                 _header(defines) + source, name=str(HLSL), entry="gemm", dispatch=(*plan["groups"], plan["SPLIT"]),
                 bindings={**common, **inputs, "layer_out": scratch}, constants=constants))
-            previous = dict(IN_SIZE=math.prod(out), SPLIT_IN=plan["SPLIT"], IN_BIAS=layer["b_off"], IN_ACT=layer["act"])
-            shape = out
+            previous = dict(IN_SIZE=math.prod(out), SPLIT_IN=plan["SPLIT"], IN_BIAS=layer["b_off"], IN_ACT=layer["act"],
+                            IN_PLANE=out[1] * out[2])
 
         last = layers[-1]["module"]
-        if last.in_features != previous["IN_SIZE"] or 4 * (previous["IN_SIZE"] + HEAD_GROUP * num_actions) > SHARED_BYTES:
-            raise ValueError(f"EngineCNNPolicy: layer {layers[-1]['name']} ({last}) takes {last.in_features} inputs, "
-                             f"its input has {previous['IN_SIZE']} (the head pass holds up to "
-                             f"{SHARED_BYTES // 4 - HEAD_GROUP * num_actions})")
+        if 4 * (last.in_features + HEAD_GROUP * num_actions) > SHARED_BYTES:
+            raise ValueError(f"EngineCNNPolicy: layer {layers[-1]['name']} ({last}) takes {last.in_features} inputs; "
+                             f"the head pass holds up to {SHARED_BYTES // 4 - HEAD_GROUP * num_actions}")
         defines = dict(HEAD_GROUP=HEAD_GROUP, OBS_UINT8=int(dtype == torch.uint8),
                        OBS_WORDS=num_obs // 4 if dtype == torch.uint8 else num_obs, ACTIONS=num_actions,
                        W_OFF=layers[-1]["w_off"], B_OFF=layers[-1]["b_off"], LOG_STD=offset, **previous)
-        inputs = {"layer_in": f"policy_layer{len(layers) - 2}"} if len(layers) > 1 else {}
         self.passes.append(e.create_compute_pass(
             _header(defines) + source, name=str(HLSL), entry="head", dispatch=(n, 1, 1),
-            bindings={**common, **inputs, "actions": env.buffers.actions}, constants=constants))
+            bindings={**common, "layer_in": f"policy_layer{len(layers) - 2}", "actions": env.buffers.actions},
+            constants=constants))
 
     def set_explore(self, explore: bool) -> None:
         self.passes[-1].set_constant("explore", int(bool(explore)))
