@@ -111,26 +111,36 @@ def test_target_center_rolls_out_in_the_engine_as_torch_in_the_loop():
     assert alg.actions.abs().max() > 1e-3 and (alg.obs[0] != alg.obs[-1]).any()  # the camera turned
 
 
-def test_sampled_actions_carry_their_log_prob_and_values_and_returns_follow():
+def test_sampled_actions_carry_their_log_prob_and_the_next_rollout_runs_the_updated_weights():
+    """Sampled actions (2 envs, 4 steps): the stored log-probabilities are torch's for the stored
+    actions about the module's means, the values and returns follow; after a PPO update (Adam
+    steps the parameters, views of the engine's weights, in place) the next rollout's are those
+    of the updated module."""
     env, alg, r = engine_rollout(2, 4, seed=1, explore=True)
-    with torch.no_grad():
-        dist = alg._dist(alg.obs.flatten(0, 1))
-        values = alg.critic(alg.obs.flatten(0, 1)).view(4, 2)
-    torch.testing.assert_close(alg.log_prob.flatten(), dist.log_prob(alg.actions.flatten(0, 1)).sum(-1),
-                               atol=2e-4, rtol=1e-5)
-    z = (alg.actions.flatten(0, 1) - dist.loc) / dist.scale
-    assert z.abs().max() > 0.2  # sampled about the means
-    torch.testing.assert_close(alg.values, values)
-    assert torch.isfinite(alg.returns).all() and torch.isfinite(alg.advantages).all()
+    for update in range(2):
+        with torch.no_grad():
+            dist = alg._dist(alg.obs.flatten(0, 1))
+            values = alg.critic(alg.obs.flatten(0, 1)).view(4, 2)
+        torch.testing.assert_close(alg.log_prob.flatten(), dist.log_prob(alg.actions.flatten(0, 1)).sum(-1),
+                                   atol=2e-4, rtol=1e-5)
+        assert ((alg.actions.flatten(0, 1) - dist.loc) / dist.scale).abs().max() > 0.2  # sampled about the means
+        torch.testing.assert_close(alg.values, values)
+        assert torch.isfinite(alg.returns).all() and torch.isfinite(alg.advantages).all()
+        if update == 0:
+            before = alg.actor.head[2].weight.clone()
+            alg.update()
+            assert (alg.actor.head[2].weight - before).abs().max() > 1e-5
+            r.collect()
+    assert env.engine.validation_messages == []
 
 
 def test_ppo_trains_target_center_with_the_cnn_in_the_engine(tmp_path):
-    """Two short updates on 4 envs: finite losses, and the checkpoint holds the weights the
-    engine ran (the optimizer's steps reached them in place)."""
-    result = train("TargetCenter", num_envs=4, iterations=2, seed=0, out_dir=tmp_path, rollout=8, save_every=100,
-                   progress=False, engine_rollout=True, hidden=(32,), minibatch=16)
+    """`cressim train TargetCenter --engine-rollout`, two short updates on 2 envs: finite losses and
+    a checkpoint of the CNN actor."""
+    result = train("TargetCenter", num_envs=2, iterations=2, seed=0, out_dir=tmp_path, rollout=4, save_every=100,
+                   progress=False, engine_rollout=True, hidden=(16,), minibatch=4)
     assert result["engine_rollout"] and len(result["history"]) == 2
     for h in result["history"]:
         assert all(math.isfinite(h[k]) for k in ("value", "surrogate", "entropy")), h
-    first = torch.load(tmp_path / "model_2.pt", weights_only=False)["actor_state_dict"]["convs.0.weight"]
-    assert first.abs().sum() > 0
+    saved = torch.load(tmp_path / "model_2.pt", weights_only=False)["actor_state_dict"]
+    assert saved["convs.0.weight"].shape == (32, 3, 5, 5) and saved["convs.0.weight"].abs().sum() > 0

@@ -149,7 +149,7 @@ class EngineCNNPolicy:
         self.step_count = tensor_view(self.buffers["rollout_step"], dev)  # uint in HLSL, far below 2**31
         constants = {"envs": n, "rollout": rollout, "seed": seed, "env_offset": env.env_offset, "explore": int(explore)}
         common = {"weights": "policy_weights", "observations": env.buffers.observations, **self.buffers}
-        source = HLSL.read_text()
+        source = HLSL.read_text()  # a pass is named by the file and its layer: errors and pass timings say which
 
         # each layer's input and output (channels, height, width) and its product's k; then the
         # layers but the last as gemm passes (a plan for each knows what its consumer reads)
@@ -189,7 +189,7 @@ class EngineCNNPolicy:
             scratch = e.create_shared_buffer(f"policy_layer{i}", (plan["SPLIT"], n, math.prod(out)), "float32")
             inputs = {"layer_in": f"policy_layer{i - 1}"} if i else {}
             self.passes.append(e.create_compute_pass(
-                _header(defines) + source, name=str(HLSL), entry="gemm", dispatch=(*plan["groups"], plan["SPLIT"]),
+                _header(defines) + source, name=f"{HLSL}[{layer['name']}]", entry="gemm", dispatch=(*plan["groups"], plan["SPLIT"]),
                 bindings={**common, **inputs, "layer_out": scratch}, constants=constants))
             previous = dict(IN_SIZE=math.prod(out), SPLIT_IN=plan["SPLIT"], IN_BIAS=layer["b_off"], IN_ACT=layer["act"],
                             IN_PLANE=out[1] * out[2])
@@ -202,7 +202,7 @@ class EngineCNNPolicy:
                        OBS_WORDS=num_obs // 4 if dtype == torch.uint8 else num_obs, ACTIONS=num_actions,
                        W_OFF=layers[-1]["w_off"], B_OFF=layers[-1]["b_off"], LOG_STD=offset, **previous)
         self.passes.append(e.create_compute_pass(
-            _header(defines) + source, name=str(HLSL), entry="head", dispatch=(n, 1, 1),
+            _header(defines) + source, name=f"{HLSL}[{layers[-1]['name']}]", entry="head", dispatch=(n, 1, 1),
             bindings={**common, "layer_in": f"policy_layer{len(layers) - 2}", "actions": env.buffers.actions},
             constants=constants))
 
