@@ -56,6 +56,22 @@ def test_mean_actions_equal_the_torch_forward(monkeypatch, gpu, hidden):
     assert env.engine.validation_messages == []
 
 
+def test_float_channel_first_images_as_ultrasound_scans():
+    """UltrasoundScan's observation, 4 stacked float frames of 160 x 130 (C, H, W), 1 env."""
+    env = cressim.envs.make("UltrasoundScan", num_envs=1, final_observation=False, validation=True)
+    net = random_actor(env, 16, seed=5)
+    policy = EngineCNNPolicy(env, net, nn.Parameter(torch.zeros(2, device=env.device)), explore=False)
+    images = torch.rand(env.obs.shape, device=env.device)
+    env.obs.copy_(images)
+    policy.record()
+    env.engine.end_frame()
+    with torch.no_grad():
+        want = net(images.reshape(1, -1))
+    assert want.abs().max() > 0.1
+    torch.testing.assert_close(env.actions, want, atol=1e-4, rtol=1e-4)
+    assert torch.equal(policy.obs[0], images.reshape(1, -1)) and env.engine.validation_messages == []
+
+
 def test_what_the_passes_cannot_run_is_refused_naming_the_layer():
     env = target_center(1)
     log_std = nn.Parameter(torch.zeros(2, device=env.device))

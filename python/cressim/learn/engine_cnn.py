@@ -72,13 +72,14 @@ def cnn_layers(actor: nn.Module) -> list[dict]:
     return layers
 
 
-def gemm_plan(rows: int, cols: int, k: int, consumer_reads: int) -> dict:
+def gemm_plan(rows: int, cols: int, k: int, consumer_reads: int, max_groups=(65535, 65535, 65535)) -> dict:
     """Tiling of a (rows x k) by (k x cols) product for the gemm pass: TM x TN threads, each 4 x 4
     outputs, and SPLIT groups along k (partial sums the next pass adds up as it reads them, its
     `consumer_reads` values: worth it where the tiles are too few to fill the GPU, as a linear
     layer's over few envs). The plan of least modelled time (the module's constants): per k, a
     warp's float4 reads of groupshared memory against its 16 multiply-adds a thread, the groups
-    each multiprocessor runs, memory latency hidden by prefetching one chunk ahead."""
+    each multiprocessor runs, memory latency hidden by prefetching one chunk ahead. `max_groups`:
+    the device's maxComputeWorkGroupCount."""
     best = None
     chunks = math.ceil(k / K_CHUNK)
     for threads in (256, 128, 64):
@@ -88,6 +89,8 @@ def gemm_plan(rows: int, cols: int, k: int, consumer_reads: int) -> dict:
             if tm < 1 or (tile_m + tile_n + 8) * K_CHUNK * 4 > SHARED_BYTES:
                 continue
             grid = (math.ceil(rows / tile_m), math.ceil(cols / tile_n))
+            if grid[0] > max_groups[0] or grid[1] > max_groups[1]:
+                continue
             warps = max(1, threads // 32)
             rows_a_warp = min(tm, 32)  # distinct float4 rows a warp reads a k; the rest share columns
             shared = warps * (math.ceil(16 * rows_a_warp / 128) + math.ceil(16 * (32 // rows_a_warp) / 128))
@@ -95,12 +98,17 @@ def gemm_plan(rows: int, cols: int, k: int, consumer_reads: int) -> dict:
             for split in (1, 2, 4, 8, 16, 32):
                 per_split = math.ceil(chunks / split)
                 split = math.ceil(chunks / per_split)
+                if split > max_groups[2]:
+                    continue
                 per_sm = math.ceil(grid[0] * grid[1] * split / SMS)
                 time = (per_split * (max(per_sm * compute, LATENCY) + BARRIER)
                         + (split - 1) * (consumer_reads + rows * cols) / (SMS * LOAD_RATE))
                 if best is None or time < best[0]:
                     best = (time, dict(TM=tm, TN=tn, SPLIT=split, K_PER_SPLIT=per_split * K_CHUNK, groups=grid,
                                        modelled_clocks=round(time)))
+    if best is None:
+        raise ValueError(f"EngineCNNPolicy: a layer's {rows} x {cols} outputs need more workgroups than the device "
+                         f"dispatches ({max_groups}); use fewer envs")
     return best[1]
 
 class EngineCNNPolicy:
@@ -178,7 +186,7 @@ class EngineCNNPolicy:
             if layer["kind"] == "linear":
                 c, h, w = c * h * w, 1, 1
             reads = n * consumer["shape_out"][1] * consumer["shape_out"][2] * consumer["k"]
-            plan = gemm_plan(n * out[1] * out[2], out[0], layer["k"], reads)
+            plan = gemm_plan(n * out[1] * out[2], out[0], layer["k"], reads, e.device["max_compute_work_group_count"])
             self.plans.append(plan)
             defines = dict(FIRST=int(i == 0), OBS_UINT8=int(dtype == torch.uint8),
                            OBS_CHANNELS_LAST=int(actor.channels_last), IN_C=c, IN_H=h, IN_W=w, KSIZE=kernel,
