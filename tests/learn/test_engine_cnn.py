@@ -14,6 +14,13 @@ from cressim.learn.engine_rollout import EngineRollout
 from cressim.learn.torch_ppo import ImageCNN, TorchPPO
 
 
+@pytest.fixture(autouse=True)
+def float32_convolutions(monkeypatch):
+    """torch's reference in float32: cuDNN's convolutions default to TF32 on NVIDIA GPUs (about 1e-3
+    relative), the passes compute in float32."""
+    monkeypatch.setattr(torch.backends.cudnn, "allow_tf32", False)
+
+
 def target_center(num_envs, seed=0, **kwargs):
     return cressim.envs.make("TargetCenter", num_envs=num_envs, seed=seed, final_observation=False, validation=True,
                              **kwargs)
