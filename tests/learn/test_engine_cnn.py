@@ -9,6 +9,7 @@ from torch import nn
 
 import cressim.envs
 from cressim.learn import engine_cnn, ppo_config, train
+from cressim.learn.bench import run as run_bench
 from cressim.learn.engine_cnn import EngineCNNPolicy
 from cressim.learn.engine_rollout import EngineRollout
 from cressim.learn.torch_ppo import ImageCNN, TorchPPO
@@ -167,3 +168,10 @@ def test_ppo_trains_target_center_with_the_cnn_in_the_engine(tmp_path):
         assert all(math.isfinite(h[k]) for k in ("value", "surrogate", "entropy")), h
     saved = torch.load(tmp_path / "model_2.pt", weights_only=False)["actor_state_dict"]
     assert saved["convs.0.weight"].shape == (32, 3, 5, 5) and saved["convs.0.weight"].abs().sum() > 0
+
+
+def test_bench_policy_runs_target_centers_cnn_in_the_engine(tmp_path):
+    """`cressim bench TargetCenter --mode policy` measures the CNN in the engine beside torch's."""
+    row = run_bench("TargetCenter", [2], mode="policy", out_dir=tmp_path, protocol={"steps": 4, "rollout": 4})
+    row = row["results"][0]
+    assert row["policy_engine_sps"] > 0 and row["policy_torch_sps"] > 0 and row["policy_steps_per_submit"] == 4
