@@ -189,7 +189,8 @@ def bench_ppo(task: str, num_envs: int, device=None, warmup: int = 5, updates: i
         raise ValueError(f"bench_ppo: policy must be 'auto', 'engine' or 'torch', got {policy!r}")
     torch.manual_seed(seed)
     env = _make(task, num_envs, device, seed)
-    in_engine = policy == "engine" or (policy == "auto" and engine_policy_fits(task, env) and backend in ("auto", "torch"))
+    fits = backend in ("auto", "torch") and engine_policy_fits(task, env)
+    in_engine = policy == "engine" or (policy == "auto" and fits)
     venv = CressimVecEnv(env)
     alg, backend = make_learner(venv, ppo_config(task, rollout=rollout, minibatch=minibatch, compile=compile or None),
                                 "torch" if in_engine or compile else backend)

@@ -68,7 +68,8 @@ static const uint OUT_SIZE = OUT_C * OUT_HW;
 static const uint A_ROW = TILE_M / 4 + 1, B_ROW = TILE_N / 4 + 1;
 groupshared float4 a_tile[K_CHUNK * A_ROW];
 groupshared float4 b_tile[K_CHUNK * B_ROW];
-static const uint A_LOADS = (TILE_M * K_CHUNK + THREADS - 1) / THREADS, B_LOADS = (TILE_N * K_CHUNK + THREADS - 1) / THREADS;
+static const uint A_LOADS = (TILE_M * K_CHUNK + THREADS - 1) / THREADS;  // a thread's share of a chunk
+static const uint B_LOADS = (TILE_N * K_CHUNK + THREADS - 1) / THREADS;
 
 // the input at channel c, row y, column x of `env`'s image
 float input_at(uint env, uint c, uint y, uint x) {
@@ -167,7 +168,8 @@ void head(uint3 group_id : SV_GroupID, uint3 thread_id : SV_GroupThreadID) {
   const uint env = group_id.x, tid = thread_id.x;
   const uint step = rollout_step[env], row = (step % pc.rollout) * pc.envs + env;
   // the observation the actor saw, stored as the rollout's (words: uint8 images copy 4 bytes at once)
-  for (uint i = tid; i < OBS_WORDS; i += HEAD_GROUP) rollout_obs[row * OBS_WORDS + i] = observations[env * OBS_WORDS + i];
+  for (uint i = tid; i < OBS_WORDS; i += HEAD_GROUP)
+    rollout_obs[row * OBS_WORDS + i] = observations[env * OBS_WORDS + i];
   for (uint f = tid; f < IN_SIZE; f += HEAD_GROUP) hidden[f] = previous(env, f);
   GroupMemoryBarrierWithGroupSync();
   for (uint a = 0; a < ACTIONS; ++a) {

@@ -31,13 +31,14 @@ K_CHUNK = 16       # k values staged in groupshared memory at a time
 # cache a clock, ~600 clocks from memory); it only shapes the tiling, never the result.
 SMS, FMA_ISSUE, SHARED_ISSUE, LOAD_RATE, LATENCY, BARRIER = 132, 4, 1, 16, 600, 40
 
+
 def cnn_layers(actor: nn.Module) -> list[dict]:
     """The actor's layers in order: {"kind": "conv" | "linear", "module", "act", "name"}, checked
     against what the passes compute; raises naming the first module they cannot run."""
     if not isinstance(actor, ImageCNN):
         raise ValueError(f"EngineCNNPolicy runs torch_ppo.ImageCNN actors (TASKS.md's CNN), got {type(actor).__name__}")
     layers, flat = [], False
-    modules = [(f"convs.{i}", m) for i, m in enumerate(actor.convs)] + [(f"head.{i}", m) for i, m in enumerate(actor.head)]
+    modules = [(f"{part}.{i}", m) for part in ("convs", "head") for i, m in enumerate(getattr(actor, part))]
     for name, m in modules:
         what = f"EngineCNNPolicy: layer {name} ({m})"
         if isinstance(m, nn.Conv2d):
@@ -86,7 +87,7 @@ def gemm_plan(rows: int, cols: int, k: int, consumer_reads: int, max_groups=(655
         for tn in (4, 8, 16, 32, 64):
             tm = threads // tn
             tile_m, tile_n = 4 * tm, 4 * tn
-            if tm < 1 or (tile_m + tile_n + 8) * K_CHUNK * 4 > SHARED_BYTES:
+            if (tile_m + tile_n + 8) * K_CHUNK * 4 > SHARED_BYTES:
                 continue
             grid = (math.ceil(rows / tile_m), math.ceil(cols / tile_n))
             if grid[0] > max_groups[0] or grid[1] > max_groups[1]:
@@ -94,10 +95,11 @@ def gemm_plan(rows: int, cols: int, k: int, consumer_reads: int, max_groups=(655
             warps = max(1, threads // 32)
             rows_a_warp = min(tm, 32)  # distinct float4 rows a warp reads a k; the rest share columns
             shared = warps * (math.ceil(16 * rows_a_warp / 128) + math.ceil(16 * (32 // rows_a_warp) / 128))
-            compute = K_CHUNK * max(warps * 16 / FMA_ISSUE, shared / SHARED_ISSUE) + (tile_m + tile_n) * K_CHUNK / LOAD_RATE
-            for split in (1, 2, 4, 8, 16, 32):
-                per_split = math.ceil(chunks / split)
-                split = math.ceil(chunks / per_split)
+            compute = (K_CHUNK * max(warps * 16 / FMA_ISSUE, shared / SHARED_ISSUE)
+                       + (tile_m + tile_n) * K_CHUNK / LOAD_RATE)
+            for parts in (1, 2, 4, 8, 16, 32):
+                per_split = math.ceil(chunks / parts)
+                split = math.ceil(chunks / per_split)  # no empty parts
                 if split > max_groups[2]:
                     continue
                 per_sm = math.ceil(grid[0] * grid[1] * split / SMS)
@@ -110,6 +112,7 @@ def gemm_plan(rows: int, cols: int, k: int, consumer_reads: int, max_groups=(655
         raise ValueError(f"EngineCNNPolicy: a layer's {rows} x {cols} outputs need more workgroups than the device "
                          f"dispatches ({max_groups}); use fewer envs")
     return best[1]
+
 
 class EngineCNNPolicy:
     """The Gaussian policy N(actor(obs), exp(log_std)) of a torch ImageCNN `actor` as engine passes
@@ -130,12 +133,34 @@ class EngineCNNPolicy:
                              f"float32) and gives flat actions")
         num_actions, num_obs = act_shape[0], math.prod(obs_shape)
         if layers[-1]["module"].out_features != num_actions or tuple(log_std.shape) != (num_actions,):
-            raise ValueError(f"EngineCNNPolicy: the actor gives {layers[-1]['module'].out_features} actions and log_std "
+            raise ValueError(f"EngineCNNPolicy: the actor gives {layers[-1]['module'].out_features} actions, log_std "
                              f"has shape {tuple(log_std.shape)}; {type(env).__name__} has {num_actions} actions")
         if dtype == torch.uint8 and num_obs % 4:
             raise ValueError(f"EngineCNNPolicy: uint8 images of {num_obs} bytes; the passes read whole 4-byte words")
         channels = obs_shape[-1] if actor.channels_last else obs_shape[0]
         height, width = (obs_shape[0], obs_shape[1]) if actor.channels_last else (obs_shape[1], obs_shape[2])
+        # each layer's input and output (channels, height, width) and its product's k, checked
+        # before the weights move
+        shape = (channels, height, width)
+        for layer in layers:
+            m = layer["module"]
+            if layer["kind"] == "conv":
+                k, s = m.kernel_size[0], m.stride[0]
+                out = (m.out_channels, (shape[1] - k) // s + 1, (shape[2] - k) // s + 1)
+                if m.in_channels != shape[0] or min(out[1:]) < 1:
+                    raise ValueError(f"EngineCNNPolicy: layer {layer['name']} ({m}) does not fit its input of "
+                                     f"(channels, height, width) {shape}")
+            else:
+                if m.in_features != math.prod(shape):
+                    raise ValueError(f"EngineCNNPolicy: layer {layer['name']} ({m}) takes {m.in_features} inputs, "
+                                     f"its input has {math.prod(shape)}")
+                out = (m.out_features, 1, 1)
+            layer.update(shape_in=shape, shape_out=out, k=m.weight[0].numel())
+            shape = out
+        last = layers[-1]["module"]
+        if 4 * (last.in_features + HEAD_GROUP * num_actions) > SHARED_BYTES:
+            raise ValueError(f"EngineCNNPolicy: layer {layers[-1]['name']} ({last}) takes {last.in_features} inputs; "
+                             f"the head pass holds up to {SHARED_BYTES // 4 - HEAD_GROUP * num_actions}")
         self.env, self.actor, self.log_std, self.rollout = env, actor, log_std, rollout
         n, e, dev = env.num_envs, env.engine, env.device
 
@@ -159,30 +184,14 @@ class EngineCNNPolicy:
         common = {"weights": "policy_weights", "observations": env.buffers.observations, **self.buffers}
         source = HLSL.read_text()  # a pass is named by the file and its layer: errors and pass timings say which
 
-        # each layer's input and output (channels, height, width) and its product's k; then the
-        # layers but the last as gemm passes (a plan for each knows what its consumer reads)
-        shape = (channels, height, width)
-        for layer in layers:
-            m = layer["module"]
-            if layer["kind"] == "conv":
-                k, s = m.kernel_size[0], m.stride[0]
-                out = (m.out_channels, (shape[1] - k) // s + 1, (shape[2] - k) // s + 1)
-                if m.in_channels != shape[0] or min(out[1:]) < 1:
-                    raise ValueError(f"EngineCNNPolicy: layer {layer['name']} ({m}) does not fit its input of "
-                                     f"(channels, height, width) {shape}")
-            else:
-                if m.in_features != math.prod(shape):
-                    raise ValueError(f"EngineCNNPolicy: layer {layer['name']} ({m}) takes {m.in_features} inputs, "
-                                     f"its input has {math.prod(shape)}")
-                out = (m.out_features, 1, 1)
-            layer.update(shape_in=shape, shape_out=out, k=m.weight[0].numel())
-            shape = out
+        # the layers but the last as gemm passes (each plan knows what its consumer reads);
         # `previous`: what the next pass reads (the observations, or a layer's outputs as stored)
         previous = dict(IN_SIZE=num_obs, SPLIT_IN=1, IN_BIAS=0, IN_ACT=NO_ACTIVATION, IN_PLANE=1)
         self.passes, self.plans = [], []
         for i, (layer, consumer) in enumerate(zip(layers, layers[1:])):
             (c, h, w), out = layer["shape_in"], layer["shape_out"]
-            kernel, stride = (layer["module"].kernel_size[0], layer["module"].stride[0]) if layer["kind"] == "conv" else (1, 1)
+            m = layer["module"]
+            kernel, stride = (m.kernel_size[0], m.stride[0]) if layer["kind"] == "conv" else (1, 1)
             if layer["kind"] == "linear":
                 c, h, w = c * h * w, 1, 1
             reads = n * consumer["shape_out"][1] * consumer["shape_out"][2] * consumer["k"]
@@ -197,15 +206,12 @@ class EngineCNNPolicy:
             scratch = e.create_shared_buffer(f"policy_layer{i}", (plan["SPLIT"], n, math.prod(out)), "float32")
             inputs = {"layer_in": f"policy_layer{i - 1}"} if i else {}
             self.passes.append(e.create_compute_pass(
-                _header(defines) + source, name=f"{HLSL}[{layer['name']}]", entry="gemm", dispatch=(*plan["groups"], plan["SPLIT"]),
+                _header(defines) + source, name=f"{HLSL}[{layer['name']}]", entry="gemm",
+                dispatch=(*plan["groups"], plan["SPLIT"]),
                 bindings={**common, **inputs, "layer_out": scratch}, constants=constants))
             previous = dict(IN_SIZE=math.prod(out), SPLIT_IN=plan["SPLIT"], IN_BIAS=layer["b_off"], IN_ACT=layer["act"],
                             IN_PLANE=out[1] * out[2])
 
-        last = layers[-1]["module"]
-        if 4 * (last.in_features + HEAD_GROUP * num_actions) > SHARED_BYTES:
-            raise ValueError(f"EngineCNNPolicy: layer {layers[-1]['name']} ({last}) takes {last.in_features} inputs; "
-                             f"the head pass holds up to {SHARED_BYTES // 4 - HEAD_GROUP * num_actions}")
         defines = dict(HEAD_GROUP=HEAD_GROUP, OBS_UINT8=int(dtype == torch.uint8),
                        OBS_WORDS=num_obs // 4 if dtype == torch.uint8 else num_obs, ACTIONS=num_actions,
                        W_OFF=layers[-1]["w_off"], B_OFF=layers[-1]["b_off"], LOG_STD=offset, **previous)
