@@ -6,8 +6,8 @@ pass of a step (the CNN's layers, the task's ops), for some env counts.
 
 Throughput as `cressim bench --mode policy` measures policy_engine_sps (no learning; the frame
 returns once its GPU work is done), for each K in --steps-per-submit. `cnn_ms`: the CNN's passes
-alone, K of them a frame with nothing else (the same images each time). The profiled frame runs
-with pass timestamps, which add a little GPU time.
+alone, K of them a frame with nothing else (the same images each time). The profiled frames put
+GPU timestamps around every op, which adds a little GPU time.
 """
 from __future__ import annotations
 
@@ -24,6 +24,10 @@ from cressim.learn import engine_cnn, ppo_config
 from cressim.learn.engine_rollout import EngineRollout
 from cressim.learn.rollout import sync
 from cressim.learn.torch_ppo import TorchPPO
+
+
+def short(label: str) -> str:
+    return label.split("/")[-1].rstrip("'")
 
 
 def measure(task: str, envs: int, ks: list, frames: int) -> dict:
@@ -52,26 +56,29 @@ def measure(task: str, envs: int, ks: list, frames: int) -> dict:
         print(f"{task} {envs} envs, {k} steps a submit: {out['env_steps_per_s'][k]:,.0f} env-steps/s", flush=True)
 
     k = max(ks)
-    e.profiling, e.profile_passes = True, True
+    e.profiling = True  # GPU timestamps around each recorded op (each pass, the physics, the render)
     r.record_steps(k)
     e.end_frame()
-    per_pass = defaultdict(float)
-    for op, name, ms in e.last_pass_timings:
-        per_pass[f"{op}: {name}"] += ms / k
-    out["gpu_ms_per_step"] = dict(sorted(per_pass.items(), key=lambda kv: -kv[1]))
-    out["gpu_ms_per_step_total"] = sum(ms for label, ms in e.last_timings) / k
+    per_op = defaultdict(float)
+    for label, ms in e.last_timings:
+        per_op[label] += ms / k
+    out["gpu_ms_per_step"] = dict(sorted(per_op.items(), key=lambda kv: -kv[1]))
+    out["gpu_ms_per_step_total"] = sum(per_op.values())
     for _ in range(k):  # the CNN alone
         r.policy.record()
     e.end_frame()
     cnn = defaultdict(float)
-    for op, name, ms in e.last_pass_timings:
-        if name.startswith(str(engine_cnn.HLSL)):
-            cnn[name] += ms / k
+    for label, ms in e.last_timings:
+        if str(engine_cnn.HLSL) in label:
+            cnn[label] += ms / k
     out["cnn_ms"] = dict(cnn)
-    e.profiling = e.profile_passes = False
+    e.profiling = False
     print(f"  GPU per step {out['gpu_ms_per_step_total']:.4f} ms; the CNN's passes alone:")
     for name, ms in out["cnn_ms"].items():
-        print(f"    {name.split('/')[-1]:40s} {ms:8.4f} ms")
+        print(f"    {short(name):40s} {ms:8.4f} ms")
+    print("  a step's ops:")
+    for name, ms in out["gpu_ms_per_step"].items():
+        print(f"    {short(name):40s} {ms:8.4f} ms")
     env.close()
     return out
 

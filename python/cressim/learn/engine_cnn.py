@@ -194,7 +194,8 @@ class EngineCNNPolicy:
             kernel, stride = (m.kernel_size[0], m.stride[0]) if layer["kind"] == "conv" else (1, 1)
             if layer["kind"] == "linear":
                 c, h, w = c * h * w, 1, 1
-            reads = n * consumer["shape_out"][1] * consumer["shape_out"][2] * consumer["k"]
+            # the consumer reads its inputs once a tile of its columns (64 or so wide)
+            reads = math.prod((n, *consumer["shape_out"][1:], consumer["k"], math.ceil(consumer["shape_out"][0] / 64)))
             plan = gemm_plan(n * out[1] * out[2], out[0], layer["k"], reads, e.device["max_compute_work_group_count"])
             self.plans.append(plan)
             defines = dict(FIRST=int(i == 0), OBS_UINT8=int(dtype == torch.uint8),
