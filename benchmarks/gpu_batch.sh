@@ -5,6 +5,7 @@
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-b bench-twin  # ultrasound; the twin
 #   source .gpu/prelude.sh; CRESSIM_TESTS=OFF bash benchmarks/gpu_batch.sh setup bench-policy  # issue 19
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-policy-ppo  # issue 19: PPO, training
+#   source .gpu/prelude.sh; CRESSIM_TESTS=OFF bash benchmarks/gpu_batch.sh setup bench-cnn  # issue 19: the CNN
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-twin-tissue  # the twin over tissue
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-cart  # the patient cart (ECM, 3 PSMs, stereo)
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-heat  # the cautery scene; the twin's tick
@@ -84,6 +85,19 @@ for stage in "$@"; do
       mkdir -p "$OUT/policy"
       run cartpole_policy 270 python3 -m cressim bench CartPole --envs 1024,4096,8192,16384 --mode all --device cuda \
         --out "$OUT/policy"
+      ;;
+    bench-cnn)  # issue 19: TargetCenter's CNN actor in the engine's frame (engine_cnn.py)
+      run pytest_engine_cnn 300 env CRESSIM_VALIDATION=1 python3 -m pytest -q -p no:cacheprovider \
+        tests/learn/test_engine_cnn.py tests/learn/test_engine_policy.py tests/learn/test_engine_rollout.py
+      mkdir -p "$OUT/tc_policy" "$OUT/tc_ppo_engine"
+      run tc_policy 400 python3 -m cressim bench TargetCenter --envs 32,256,1024 --mode policy --device cuda \
+        --out "$OUT/tc_policy"
+      run tc_engine_cnn 300 python3 benchmarks/bench_engine_cnn.py TargetCenter --envs 32,256,1024 \
+        --steps-per-submit 1,8,32,128 --json "$OUT/tc_engine_cnn.json"
+      run tc_ppo_engine 300 python3 -m cressim bench TargetCenter --envs 32,256 --mode ppo --policy engine \
+        --device cuda --out "$OUT/tc_ppo_engine"
+      run tc_train_engine_rollout 300 python3 -m cressim train TargetCenter --envs 256 --iterations 20 \
+        --engine-rollout --device cuda --save-every 20 --out "$OUT/tc_train_engine_rollout"
       ;;
     bench-policy-ppo)  # issue 19: PPO with the actor in torch, in the engine with a compiled learner; training
       mkdir -p "$OUT/policy_torch_ppo" "$OUT/policy_compiled_ppo"

@@ -255,7 +255,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--compile", action="store_true",
                    help="the built-in learner's minibatch step through torch.compile (PPOConfig.compile)")
     p.add_argument("--engine-rollout", action="store_true",
-                   help="the actor (an MLP) runs inside the engine's frame, a whole rollout a submit; torch only learns")
+                   help="the actor (an MLP, or TASKS.md's CNN) runs inside the engine's frame, a whole rollout a submit; "
+                        "torch only learns")
     p.set_defaults(run=_train)
     p = sub.add_parser("generate", help="record batched rollouts to MCAP bags, one a process, with an index")
     p.add_argument("task", nargs="?", default="CartPole")

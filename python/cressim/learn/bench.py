@@ -111,11 +111,12 @@ def bench_step(task: str, num_envs: int, device=None, warmup: int = 64, steps: i
     return out
 
 
-def engine_policy_fits(task: str) -> bool:
-    """Whether the task's PPO actor can run in the engine (an MLP on flat float32 observations)."""
-    from cressim import envs
-
-    return ppo_config(task).network == "mlp" and str(envs.REGISTRY[task].single_observation_space.dtype) == "float32"
+def engine_policy_fits(task: str, env) -> bool:
+    """Whether the task's PPO actor can run in the engine over `env` (the task's): an MLP on flat
+    float32 observations (engine_policy.py) or TASKS.md's CNN on uint8 or float32 images
+    (engine_cnn.py)."""
+    network, dtype = ppo_config(task).network, str(env.single_observation_space.dtype)
+    return (network == "mlp" and dtype == "float32") or (network == "cnn" and dtype in ("uint8", "float32"))
 
 
 def _learner(task, env, rollout, minibatch=None):
@@ -129,7 +130,7 @@ def bench_policy(task: str, num_envs: int, device=None, warmup: int = 128, steps
     """A rollout with the PPO actor (TASKS.md's network for the task) in the loop, no learning:
     torch's policy step between frames (`policy_torch_sps`: the built-in learner's act, a CUDA
     graph, then env.step), and the actor as an engine pass with `rollout` steps per submit
-    (`policy_engine_sps`, where the task's actor is an MLP on float observations)."""
+    (`policy_engine_sps`, where the task's actor fits an engine pass: engine_policy_fits)."""
     torch.manual_seed(seed)
     env = _make(task, num_envs, device, seed)
     venv, alg = _learner(task, env, rollout)
@@ -153,9 +154,10 @@ def bench_policy(task: str, num_envs: int, device=None, warmup: int = 128, steps
         sync(env.device)
     out = {"policy_torch_sps": steps * num_envs / (time.perf_counter() - t0),
            "vulkan_device": env.engine.device["name"], "torch_device": str(env.device)}
+    in_engine = engine_policy_fits(task, env)
     env.close()
     del env, venv, alg
-    if engine_policy_fits(task):
+    if in_engine:
         torch.manual_seed(seed)
         env = _make(task, num_envs, device, seed)
         venv, alg = _learner(task, env, rollout)
@@ -185,9 +187,10 @@ def bench_ppo(task: str, num_envs: int, device=None, warmup: int = 5, updates: i
     policy step between frames, "auto" the engine where the task's actor fits it."""
     if policy not in ("auto", "engine", "torch"):
         raise ValueError(f"bench_ppo: policy must be 'auto', 'engine' or 'torch', got {policy!r}")
-    in_engine = policy == "engine" or (policy == "auto" and engine_policy_fits(task) and backend in ("auto", "torch"))
     torch.manual_seed(seed)
     env = _make(task, num_envs, device, seed)
+    fits = backend in ("auto", "torch") and engine_policy_fits(task, env)
+    in_engine = policy == "engine" or (policy == "auto" and fits)
     venv = CressimVecEnv(env)
     alg, backend = make_learner(venv, ppo_config(task, rollout=rollout, minibatch=minibatch, compile=compile or None),
                                 "torch" if in_engine or compile else backend)

@@ -26,24 +26,11 @@ RWStructuredBuffer<float> rollout_actions;  // (rollout, envs, ACTIONS)
 RWStructuredBuffer<float> rollout_log_prob; // (rollout, envs)
 RWStructuredBuffer<uint> rollout_step;    // (envs) steps taken so far, advanced by the store pass
 
+#include "policy_noise.hlsli"
+
 static const uint GROUP = 128;  // every Vulkan device runs 128 invocations a group
 static const uint TILE_FLOATS = ENV_TILE * MAX_WIDTH;
 groupshared float hidden[2 * TILE_FLOATS];  // ping-pong: layer l reads half l % 2, writes the other
-
-uint pcg_hash(uint v) {
-  const uint state = v * 747796405u + 2891336453u;
-  const uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
-  return (word >> 22u) ^ word;
-}
-
-// N(0, 1) by Box-Muller from two hashed uniforms, one per (env in the whole batch, step, action)
-float gaussian(uint env, uint step, uint action) {
-  const uint key = pcg_hash(pc.seed ^ pcg_hash(env * 7919u + action)) ^ pcg_hash(step * 2654435761u + 97u);
-  const uint h1 = pcg_hash(key), h2 = pcg_hash(key ^ 0x9e3779b9u);
-  const float u1 = (float(h1 >> 8) + 1.0) * (1.0 / 16777216.0);  // (0, 1]: log stays finite
-  const float u2 = float(h2 >> 8) * (1.0 / 16777216.0);
-  return sqrt(-2.0 * log(u1)) * cos(6.28318530718 * u2);
-}
 
 float activate(float x) {
 #if ACTIVATION == 0
@@ -109,11 +96,11 @@ void act(uint3 group_id : SV_GroupID, uint3 thread_id : SV_GroupThreadID) {
     float log_prob = 0.0;
     for (uint a = 0; a < ACTIONS; ++a) {
       const float log_std = weights[w + a];
-      const float z = pc.explore != 0 ? gaussian(env + pc.env_offset, step, a) : 0.0;
+      const float z = pc.explore != 0 ? gaussian(pc.seed, env + pc.env_offset, step, a) : 0.0;
       const float action = hidden[means + tid * MAX_WIDTH + a] + exp(log_std) * z;
       actions[env * ACTIONS + a] = action;
       rollout_actions[row * ACTIONS + a] = action;
-      log_prob += -0.5 * z * z - log_std - 0.91893853320467274;  // log N(action; mean, std)
+      log_prob += gaussian_log_prob(z, log_std);
     }
     rollout_log_prob[row] = log_prob;
   }

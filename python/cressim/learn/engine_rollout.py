@@ -1,6 +1,7 @@
 """PPO rollouts that stay on the engine's queue: torch only learns.
 
-The built-in learner's actor runs as an engine pass (engine_policy.py) and a store pass
+The built-in learner's actor runs as an engine pass (engine_policy.py for MLPs, engine_cnn.py for
+TASKS.md's image CNN) and a store pass
 (engine_rollout.hlsl) writes each step's reward and flags, so an env step is three recorded
 stages (policy, task step, store) with no CUDA work between them, and one submit runs
 `steps_per_submit` steps. The rollout buffers are engine buffers that the learner's tensors view
@@ -19,9 +20,12 @@ import torch
 from cressim.envs.vector_env import tensor_view
 
 from .distributed import all_sum
+from .engine_cnn import EngineCNNPolicy
 from .engine_policy import EnginePolicy
+from .torch_ppo import ImageCNN
 
 HLSL = Path(__file__).with_name("engine_rollout.hlsl")
+VALUE_BATCH = 16384  # observations the critic values at once after a rollout
 
 
 class EngineRollout:
@@ -29,7 +33,8 @@ class EngineRollout:
     into `alg` (a TorchPPO on env.device, before its first update). Its actor's and log_std's
     tensors become views of engine memory, as do alg.obs, alg.actions and alg.log_prob.
     `steps_per_submit` (a divisor of the rollout; the whole rollout by default) steps run per
-    frame; `policy_options` go to EnginePolicy (max_tile). pop_stats() gives the episodes that
+    frame; `policy_options` go to EnginePolicy (max_tile). An ImageCNN actor (TASKS.md's CNN)
+    runs as EngineCNNPolicy's passes, an MLP as EnginePolicy's. pop_stats() gives the episodes that
     ended (EpisodeStats.pop's keys)."""
 
     def __init__(self, env, alg, *, steps_per_submit: int | None = None, seed: int = 0, **policy_options):
@@ -43,7 +48,8 @@ class EngineRollout:
                              f"(got {alg.obs.shape[1]} envs on {alg.device})")
         self.env, self.alg, self.steps_per_submit = env, alg, k
         self.steps_recorded = 0
-        self.policy = EnginePolicy(env, alg.actor, alg.log_std, rollout=T, seed=seed, **policy_options)
+        kind = EngineCNNPolicy if isinstance(alg.actor, ImageCNN) else EnginePolicy
+        self.policy = kind(env, alg.actor, alg.log_std, rollout=T, seed=seed, **policy_options)
         e = env.engine
         buffers = {"rollout_rewards": e.create_shared_buffer("rollout_rewards", (T, n), "float32"),
                    "rollout_dones": e.create_shared_buffer("rollout_dones", (T, n), "int32"),
@@ -82,8 +88,12 @@ class EngineRollout:
             self.record_steps(k)
             self.env.engine.end_frame()
         with torch.inference_mode():
-            values = alg.critic(alg.obs.flatten(0, 1)).view(T, -1)
-            alg.values.copy_(values)
+            # a few rows at a time: a CNN critic's first activations for a whole rollout of images are large
+            # (TargetCenter, 1024 envs: 15 GB)
+            rows = max(1, VALUE_BATCH // self.env.num_envs)
+            for t in range(0, T, rows):
+                alg.values[t:t + rows] = alg.critic(alg.obs[t:t + rows].flatten(0, 1)).view(-1, self.env.num_envs)
+            values = alg.values
             # a truncated episode is not a failure: add the discounted value of where it stopped
             alg.rewards.copy_(self.rewards + alg.cfg.gamma * values * self.time_outs)
             alg.dones.copy_(self.dones != 0)

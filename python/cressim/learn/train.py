@@ -59,8 +59,8 @@ def train(task: str = "CartPole", num_envs: int = 4096, iterations: int = 200, d
     PPOConfig) override TASKS.md's settings, e.g. for a short smoke run. task_options: keywords
     of the task's constructor (TissueRetract's observation="crtk"). video_envs: env indices whose
     rollout in each checkpoint's update is written as `video_<k>_env<i>.mp4` (PyAV; rank 0's envs).
-    engine_rollout: the built-in learner's MLP actor runs inside the engine's frame and whole
-    rollouts run in one submit (engine_rollout.py); torch only learns.
+    engine_rollout: the built-in learner's actor (an MLP, or TASKS.md's CNN) runs inside the
+    engine's frame and whole rollouts run in one submit (engine_rollout.py); torch only learns.
 
     Under torchrun (WORLD_SIZE > 1) each process runs num_envs / WORLD_SIZE of the envs on its
     own GPU (or the cpu) and the learner's gradients are all-reduced; statistics cover every
