@@ -151,7 +151,9 @@ def test_sampled_actions_carry_their_log_prob_and_the_next_rollout_runs_the_upda
         torch.testing.assert_close(alg.values, values)
         assert torch.isfinite(alg.returns).all() and torch.isfinite(alg.advantages).all()
         if update == 0:
-            before = alg.actor.head[2].weight.clone()
+            # detached: a clone that tracks gradients keeps an autograd node of the default stream alive,
+            # which the update's CUDA graph capture cannot depend on
+            before = alg.actor.head[2].weight.detach().clone()
             alg.update()
             assert (alg.actor.head[2].weight - before).abs().max() > 1e-5
             r.collect()
