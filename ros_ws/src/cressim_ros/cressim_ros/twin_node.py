@@ -197,8 +197,7 @@ class TwinNode(Node):
             self.robot_states = [RobotStateTopics(self, arms, arms.psm.urdf_path.read_text())]
         images = self.camera.images  # grabbed right after the frame, converted and published off the engine lock
         sensors = [Sensor("camera", cfg["camera_rate"], render=True, read=lambda: images.grab(self.cfg["sensors"]),
-                          publish=lambda raw, stamp: self.camera.publish(images.convert(raw), stamp,
-                                                                         self._recorder_fn()))]
+                          publish=lambda raw, stamp: self.camera.publish(raw, stamp, self._recorder_fn()))]
         if self.ultrasound is not None:
             sensors.append(Sensor("ultrasound", cfg["ultrasound_rate"], sense=True, read=self.ultrasound.read,
                                   publish=lambda images, stamp: self.ultrasound.publish(images, stamp,
