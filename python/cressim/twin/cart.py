@@ -308,9 +308,14 @@ class Cart:
         is expressed in, as on the dVRK with an ECM."""
         return self.ecm_base @ self.ecm.local_cp("measured")
 
-    def _follow_camera(self):
-        """Every PSM's base frame (batched): its base in the endoscope's frame, unless a client set one."""
-        T = np.linalg.solve(self.camera_frame()[None], self.psm_bases)  # (N, 4, 4)
+    def _follow_camera(self, *, changed: bool = True):
+        """Every PSM's base frame (batched): its base in the endoscope's frame, unless a client set
+        one. Only when the endoscope moved (or `changed`: a restart, a base frame given back)."""
+        camera = self.camera_frame()
+        if not changed and np.array_equal(camera, self._camera_at):
+            return
+        self._camera_at = camera
+        T = np.linalg.solve(camera[None], self.psm_bases)  # (N, 4, 4)
         for arms, rows in self.groups:
             own = np.array([self.own_base_frame[k] for k in rows])
             if not own.all():
@@ -333,7 +338,7 @@ class Cart:
             events += self._rows(rows, arms.tick())
         dt = self.period_ns * 1e-9
         self.ecm_events = self.ecm.tick(dt)
-        self._follow_camera()
+        self._follow_camera(changed=False)
         if self.script is not None:
             self.script.apply(self.sim_ns * 1e-9, self.operator)
         for mtm in self.mtms:
