@@ -15,7 +15,8 @@ way), held by `lock_orientation`; with no hand on it, they set the position too.
 that goal pose is solved for the joints (numerical IK from the last joints, within the limits),
 and what is published follows from the joints: `measured_js` / `setpoint_js` (7 joints; the
 twin's MTM has no lag), `local/measured_cp` (the grip in the DH base, the FK of measured_js) and
-`measured_cp` / `setpoint_cp` (the grip in `MTMx_base`, `base @ local`: the frame the dVRK's
+`measured_cp` / `setpoint_cp` (the grip in `MTMx_base`, `base @ local` within the IK's 1e-10 m
+and 1e-9 rad: the goal itself where it was reached; the frame the dVRK's
 console aligns with the display, here put so that the grip at the dVRK's home joints (zero) is
 at its origin with its axes, so a teleoperation client's motions are the operator's in the
 camera's view); `gripper/measured_js`. A goal out of reach leaves the grip where the IK got.
@@ -129,10 +130,13 @@ class MtmArm:
         self.gripper_v, self.gripper = (grip - self.gripper) / dt, grip
 
 
-    def _set_joints(self, q):
+    def _set_joints(self, q, pose=None):
+        """The arm at joints q: the grip at their FK, or at `pose` (MTMx_base) where the IK reached it
+        (within 1e-10 m and 1e-9 rad of the FK: the commanded orientation itself, as a client that
+        aligns to it compares them exactly)."""
         self.q = np.asarray(q, dtype=np.float64).copy()
         self.local = mtm_forward_kinematics(self.name, self.q)  # the grip in the DH base (local/measured_cp)
-        self.pose = self.base @ self.local  # the grip in MTMx_base (measured_cp), measured = setpoint
+        self.pose = self.base @ self.local if pose is None else pose.copy()  # measured_cp; measured = setpoint
         self._solved = None
 
     def _solve(self):
@@ -141,8 +145,8 @@ class MtmArm:
         if self._solved is not None and np.array_equal(self._solved, self.goal):
             return
         if not np.allclose(self.goal, self.pose, rtol=0.0, atol=1e-12):
-            q, _ = mtm_inverse_kinematics(self.name, np.linalg.solve(self.base, self.goal), self.q)
-            self._set_joints(q)
+            q, reached = mtm_inverse_kinematics(self.name, np.linalg.solve(self.base, self.goal), self.q)
+            self._set_joints(q, self.goal if reached else None)
         self._solved = self.goal.copy()
 
 
