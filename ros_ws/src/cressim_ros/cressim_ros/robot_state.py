@@ -12,7 +12,6 @@ from __future__ import annotations
 
 from array import array
 
-import numpy as np
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 
