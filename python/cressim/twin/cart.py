@@ -437,8 +437,8 @@ class Cart:
 
 
 class PsmRow:
-    """One PSM of the cart as a one-env TwinArms looks (what the node's robot_state and tests read):
-    its row of the batched state (views, so writes go through), its own bodies."""
+    """One PSM of the cart as a one-env TwinArms looks (what tests and the benchmark read): its row
+    of the batched state (views at the time of reading, so writes go through), its own bodies."""
 
     num_envs = 1
 
