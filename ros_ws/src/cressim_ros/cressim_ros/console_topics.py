@@ -56,9 +56,8 @@ class MtmTopics(CrtkArmTopics):
         mtm = self.mtm
         self.joint_state("measured_js", stamp, MTM_JOINT_NAMES, mtm.q, mtm.q_v)
         self.joint_state("setpoint_js", stamp, MTM_JOINT_NAMES, mtm.q, mtm.q_v)
-        self.pose("local/measured_cp", stamp, f"{mtm.name}_dh_base", mtm.local)
-        self.pose("measured_cp", stamp, self.frame, mtm.pose)
-        self.pose("setpoint_cp", stamp, self.frame, mtm.pose)
+        self.poses(stamp, [("local/measured_cp", f"{mtm.name}_dh_base", mtm.local), ("measured_cp", self.frame, mtm.pose),
+                           ("setpoint_cp", self.frame, mtm.pose)])
         self.joint_state("gripper/measured_js", stamp, ["gripper"], [mtm.gripper], [mtm.gripper_v])
 
 

@@ -3,7 +3,7 @@
     topics = CrtkArmTopics(node, arm, "/ECM", specs, published, handlers, frame="ECM_base")
     topics.emit(arm.state_command("enable"))   # (topic, value) events -> messages
     topics.joint_state("measured_js", stamp, names, q, v)
-    topics.pose("measured_cp", stamp, frame, T)
+    topics.poses(stamp, [("measured_cp", frame, T), ...])
 
 `arm` has a `name`, `report()` (a StateReport) and `state_command(text)`. Publishers of the
 `published` topics (operating_state says the state again to each new reader: crtk's readers are
@@ -17,6 +17,7 @@ from __future__ import annotations
 import traceback
 from array import array
 
+import numpy as np
 import torch
 from crtk_msgs.msg import OperatingState
 from crtk_msgs.srv import TriggerOperatingState
@@ -93,11 +94,14 @@ class CrtkArmTopics:
         m.position, m.velocity, m.effort = array("d", position), array("d", velocity), array("d", [0.0] * len(names))
         self._out(name, m)
 
-    def pose(self, name, stamp, frame, T):
-        m = msg_class(self.specs[name])()
-        m.header.stamp, m.header.frame_id = stamp, frame
-        fill_pose(m.pose, matrix_to_pose7(torch.as_tensor(T[None]))[0].numpy())
-        self._out(name, m)
+    def poses(self, stamp, items):
+        """PoseStamped on each (topic, frame_id, 4x4) of `items`, converted together."""
+        p7 = matrix_to_pose7(torch.as_tensor(np.stack([T for _, _, T in items]))).numpy()
+        for (name, frame, _), p in zip(items, p7):
+            m = msg_class(self.specs[name])()
+            m.header.stamp, m.header.frame_id = stamp, frame
+            fill_pose(m.pose, p)
+            self._out(name, m)
 
     def _srv_state(self, request, response):
         response.operating_state = self._state_msg(self.arm.report())

@@ -43,10 +43,11 @@ class EcmTopics(CrtkArmTopics):
         ecm = self.ecm
         self.joint_state("measured_js", stamp, ECM_JOINT_NAMES, ecm.measured, ecm.measured_v)
         self.joint_state("setpoint_js", stamp, ECM_JOINT_NAMES, ecm.setpoint, ecm.setpoint_v)
+        items = []
         for which in ("measured", "setpoint"):
             local = ecm.local_cp(which)
-            self.pose(f"local/{which}_cp", stamp, f"{ecm.name}_base", local)
-            self.pose(f"{which}_cp", stamp, self.frame, ecm.base_frame @ local)
+            items += [(f"local/{which}_cp", f"{ecm.name}_base", local), (f"{which}_cp", self.frame, ecm.base_frame @ local)]
+        self.poses(stamp, items)
         self.emit(self.node.arms.ecm_events)
 
     def tip_pose7(self) -> np.ndarray:
