@@ -55,43 +55,61 @@ def mtm_limits(name: str) -> tuple[np.ndarray, np.ndarray]:
     return np.array([r.lower for r in table]), np.array([r.upper for r in table])
 
 
+def _columns(name: str):
+    """The table as arrays (alpha's cosine and sine, a, d, offset), made once per side."""
+    table = mtm_table(name)
+    if table not in _COLUMNS:
+        alpha = np.array([r.alpha for r in table])
+        _COLUMNS[table] = (np.cos(alpha), np.sin(alpha), np.array([r.a for r in table]), np.array([r.d for r in table]),
+                           np.array([r.offset for r in table]))
+    return _COLUMNS[table]
+
+
+_COLUMNS = {}
+
+
 def mtm_forward_kinematics(name: str, q, *, all_frames: bool = False) -> np.ndarray:
-    """(7,) joint values -> (4, 4) grip (frame 7) in the MTM's DH base, or (7, 4, 4) frames 1..7."""
-    T, frames = np.eye(4), []
-    for r, qi in zip(mtm_table(name), np.asarray(q, dtype=np.float64)):
-        ct, st = math.cos(qi + r.offset), math.sin(qi + r.offset)
-        ca, sa = math.cos(r.alpha), math.sin(r.alpha)
-        T = T @ np.array([[ct, -st * ca, st * sa, r.a * ct],
-                          [st, ct * ca, -ct * sa, r.a * st],
-                          [0.0, sa, ca, r.d],
-                          [0.0, 0.0, 0.0, 1.0]])
-        frames.append(T)
-    return np.stack(frames) if all_frames else T
+    """(7,) joint values -> (4, 4) grip (frame 7) in the MTM's DH base, or (7, 4, 4) frames 1..7.
+    Every link's Rz(theta) Tz(d) Tx(a) Rx(alpha) at once, then the product down the chain (the IK
+    calls this a few times a tick)."""
+    ca, sa, a, d, offset = _columns(name)
+    theta = np.asarray(q, dtype=np.float64) + offset
+    ct, st = np.cos(theta), np.sin(theta)
+    L = np.zeros((7, 4, 4))
+    L[:, 0, 0], L[:, 0, 1], L[:, 0, 2], L[:, 0, 3] = ct, -st * ca, st * sa, a * ct
+    L[:, 1, 0], L[:, 1, 1], L[:, 1, 2], L[:, 1, 3] = st, ct * ca, -ct * sa, a * st
+    L[:, 2, 1], L[:, 2, 2], L[:, 2, 3], L[:, 3, 3] = sa, ca, d, 1.0
+    for i in range(1, 7):
+        L[i] = L[i - 1] @ L[i]
+    return L if all_frames else L[-1]
 
 
 def mtm_jacobian(name: str, q) -> tuple[np.ndarray, np.ndarray]:
     """(6, 7) geometric Jacobian of the grip (linear, angular; base axes) and the grip (4, 4)."""
     F = mtm_forward_kinematics(name, q, all_frames=True)
-    z = np.vstack([[0.0, 0.0, 1.0], F[:-1, :3, 2]])  # joint i turns about frame i-1's z
-    o = np.vstack([[0.0, 0.0, 0.0], F[:-1, :3, 3]])
-    p = F[-1, :3, 3]
-    return np.vstack([np.cross(z, p - o).T, z.T]), F[-1]
+    J = np.empty((6, 7))
+    z, r = J[3:], np.empty((3, 7))  # joint i turns about frame i-1's z, at frame i-1's origin
+    z[:, 0], z[:, 1:] = (0.0, 0.0, 1.0), F[:-1, :3, 2].T
+    r[:, 0], r[:, 1:] = F[-1, :3, 3], F[-1, :3, 3, None] - F[:-1, :3, 3].T  # to the grip
+    J[0], J[1], J[2] = z[1] * r[2] - z[2] * r[1], z[2] * r[0] - z[0] * r[2], z[0] * r[1] - z[1] * r[0]
+    return J, F[-1]
 
 
 def _rotation_error(R_goal, R):
-    """The rotation vector (base axes) that turns R onto R_goal."""
+    """The rotation vector (base axes) that turns R onto R_goal. The angle from atan2 of the
+    antisymmetric part and the trace: acos of the trace alone is blind below about 1e-8 rad."""
     E = R_goal @ R.T
-    angle = math.acos(max(-1.0, min(1.0, (np.trace(E) - 1.0) / 2.0)))
-    axis = np.array([E[2, 1] - E[1, 2], E[0, 2] - E[2, 0], E[1, 0] - E[0, 1]])
-    n = np.linalg.norm(axis)
+    axis = np.array([E[2, 1] - E[1, 2], E[0, 2] - E[2, 0], E[1, 0] - E[0, 1]])  # 2 sin(angle) along the axis
+    n = float(np.linalg.norm(axis))
+    c = (np.trace(E) - 1.0) / 2.0
     if n < 1e-12:
-        if angle < 1e-6:
-            return np.zeros(3)
+        if c > 0.0:
+            return axis / 2.0  # (next to) no turn
         # a half turn: the axis is the column of (E + I) / 2 with the largest norm
         B = (E + np.eye(3)) / 2.0
         axis = B[:, int(np.argmax(np.linalg.norm(B, axis=0)))]
-        return angle * axis / np.linalg.norm(axis)
-    return angle * axis / n
+        return math.pi * axis / np.linalg.norm(axis)
+    return math.atan2(n / 2.0, c) * axis / n
 
 
 def mtm_inverse_kinematics(name: str, T_goal: np.ndarray, seed, *, iterations: int = 50, position_tol: float = 1e-10,
