@@ -117,9 +117,9 @@ class TwinConfig:
 class TwinArms:
     def __init__(self, config: TwinConfig, bodies: ArmBodies | None = None, *, initial_jp=None, home_jp=None,
                  names: list[str] | None = None):
-        """`bodies`: the arms' links already in an engine shared with other arms (a patient cart's
-        PSMs, cressim.twin.arm_rows.ArmRows: one row per arm; the cart steps that engine); default: an
-        engine of its own. `initial_jp`, `home_jp`: (num_envs, 6) per row (a cart's arms each
+        """`bodies`: the arms' links already in an engine shared with other arms (a patient
+        cart's PSMs, cressim.twin.arm_rows.ArmRows: one row per arm; the cart steps that engine);
+        default: an engine of its own. `initial_jp`, `home_jp`: (num_envs, 6) per row (a cart's arms each
         have their own; a NaN row homes where it is); default: the scene's for every row.
         `names`: each row's name in messages (a cart's PSM1, PSM2); default `env{i}/arm`."""
         self.names = names

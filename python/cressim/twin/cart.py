@@ -18,8 +18,8 @@ where their instruments would touch instead (cressim.twin.arm_clearance).
 
 Rows. To the ROS node the cart looks like TwinArms with one row per PSM (row k is `names[k]`,
 published under /PSMk). The PSMs are ticked together: one TwinArms per instrument (all of them
-when they carry the same tool), a row per PSM over their bodies (cressim.twin.arm_rows.ArmRows), so a tick
-is one batched pass over every PSM, whatever their number. Every command `(row, ...)` goes to
+when they carry the same tool), a row per PSM over their bodies (cressim.twin.arm_rows.ArmRows),
+so a tick is one batched pass over every PSM, whatever their number. Every command `(row, ...)` goes to
 that row, and the events come back with the cart's row. The ECM (EcmArm) and the MTMs
 (cressim.twin.mtm, with the operator who holds them) have their own objects and topics. The
 PSMs' measured_cp is expressed in the endoscope's frame (the ECM's tip, following it) until a
