@@ -290,3 +290,35 @@ def test_the_camera_pedal_moves_the_ecm_with_the_hands(make_cart):
         cart.tick()
     assert np.allclose(cart.ecm.measured, q1, atol=1e-9)  # released: the hands no longer move it
     assert cart.servo_jp(0, JointCommand(position=[0.3, 0.0, 0.12, 0.0, 0.0, 0.0])) == []
+
+
+def test_psms_with_different_tools_tick_in_one_cart(make_cart):
+    """PSMs of two instruments: one TwinArms per instrument, each batched over its PSMs; commands,
+    events and the snapshot are by the cart's rows whatever TwinArms holds them."""
+    from cressim.twin import JointCommand
+
+    scene = parse_scene("cart:\n  ECM: {}\n"
+                        "  PSM1: {robot: psm_suction, base: {position: [0.0, -0.06, 0.30]}}\n"
+                        "  PSM2: {base: {position: [0.0, 0.06, 0.30]}}\n"
+                        "  PSM3: {robot: psm_suction, base: {position: [0.06, 0.0, 0.30]}}\n", "cart.yaml")
+    cart = make_cart(scene)
+    assert [rows for _, rows in cart.groups] == [[0, 2], [1]]
+    for row in range(3):
+        cart.state_command(row, "enable")
+        cart.state_command(row, "home")
+    while any(arm.states[0].is_busy for arm in cart.psms):
+        cart.tick()
+    goals = [[0.1, 0.0, 0.11, 0.2, 0.0, 0.0], [0.2, -0.1, 0.12, 0.0, 0.1, 0.0], [-0.1, 0.1, 0.1, -0.3, 0.0, 0.0]]
+    for row, q in enumerate(goals):
+        events = cart.move_jp(row, JointCommand(position=q))
+        assert {e.env for e in events} == {row}
+    done = []
+    while len(done) < 3:
+        done += [e.env for e in cart.tick() if e.topic == "goal_reached" and e.value]
+    assert sorted(done) == [0, 1, 2]
+    snap = cart.snapshot()
+    for row, q in enumerate(goals):
+        assert np.allclose(snap.setpoint[row], q, atol=1e-9), (row, snap.setpoint[row])
+        assert np.allclose(cart.psms[row].setpoint[0], q, atol=1e-9)
+    assert cart.jaw_move_jp(0, JointCommand(position=[0.5]))[0].value.startswith("jaw/move_jp refused")  # no jaw
+    assert cart.jaw_move_jp(1, JointCommand(position=[0.5]))[0].topic == "operating_state"
