@@ -5,6 +5,7 @@
 #include "compute/compute_pass.h"
 #include "compute/cuda_interop.h"
 #include "gpu/context.h"
+#include "gpu/readback_batch.h"
 #include "python/bindings.h"
 #include "python/dlpack.h"
 
@@ -60,9 +61,36 @@ py::tuple dlpack_device(std::shared_ptr<TypedBuffer> b) {
   }
 }
 
+// buffers -> the caller's numpy arrays (C-contiguous, each the size of its buffer), one submit
+// for all: a sensor frame's images come back together; the arrays can be reused frame to frame
+void read_buffers(const std::vector<std::shared_ptr<TypedBuffer>>& buffers, const std::vector<py::array>& outs) {
+  if (buffers.size() != outs.size())
+    throw py::value_error("read_buffers: " + std::to_string(buffers.size()) + " buffers but " +
+                          std::to_string(outs.size()) + " arrays");
+  std::vector<gpu::ReadbackItem> items;
+  std::shared_ptr<gpu::Context> ctx;
+  for (size_t i = 0; i < buffers.size(); ++i) {
+    const auto& b = *buffers[i];
+    py::array a = outs[i];
+    if (!(a.flags() & py::array::c_style) || !a.writeable())
+      throw py::value_error("read_buffers: the array for " + b.describe() + " is not a writeable C-contiguous array");
+    if (uint64_t(a.nbytes()) != b.bytes())
+      throw py::value_error("read_buffers: the array for " + b.describe() + " has " + std::to_string(a.nbytes()) +
+                            " bytes, the buffer " + std::to_string(b.bytes()));
+    if (ctx && b.storage->ctx != ctx) throw py::value_error("read_buffers: the buffers belong to different engines");
+    ctx = b.storage->ctx;
+    items.push_back({&b.storage->buffer, a.mutable_data(), b.bytes()});
+  }
+  if (!ctx) return;
+  py::gil_scoped_release release;  // the copy and the wait run while the control tick runs Python
+  gpu::readback_batch(*ctx, items);
+}
+
 }  // namespace
 
 void bind_compute(py::module_& m) {
+  m.def("read_buffers", &read_buffers, py::arg("buffers"), py::arg("out"),
+        "Copies each buffer into its array (C-contiguous, the buffer's size in bytes) in one submit.");
   py::class_<TypedBuffer, std::shared_ptr<TypedBuffer>>(m, "Buffer",
                                                         "A GPU buffer: a shared buffer or an engine-internal one.")
       .def_property_readonly("key", [](const TypedBuffer& b) { return b.key; })

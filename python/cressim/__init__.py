@@ -46,6 +46,7 @@ from cressim._core import (
     VulkanError,
     World,
     list_devices,
+    read_buffers,
 )
 from cressim.compute import load_compute_pass
 from cressim import sensors  # noqa: F401  (PNG export of sensor images)
@@ -93,5 +94,6 @@ __all__ = [
     "VulkanError",
     "World",
     "list_devices",
+    "read_buffers",
     "load_compute_pass",
 ]

@@ -242,3 +242,83 @@ def test_ecm_inverse_kinematics_and_move_cp():
     off[:3, 3] += 0.01 * off[:3, 0]  # beside the scope's line: no joint values put the tip there so
     (topic, text), = ecm.move_cp(pose(off))
     assert topic == "error" and "not reachable" in text
+
+
+def test_the_camera_pedal_moves_the_ecm_with_the_hands(make_cart):
+    """Camera pedal pressed (operator present, ECM enabled and homed): the endoscope's tip follows
+    the midpoint of the hands in the camera's frame at the press (left/right and up/down turn the
+    ECM about its RCM, in/out inserts it), the PSMs hold and refuse motion; released, the ECM stays
+    and the PSMs take commands again."""
+    from cressim.twin import JointCommand
+
+    cart = make_cart(load_scene("patient_cart.yaml"))
+    for row in range(cart.num_envs):
+        cart.state_command(row, "enable")
+        cart.state_command(row, "home")
+    for arm in [cart.ecm, *cart.mtms]:
+        arm.state_command("enable")
+        arm.state_command("home")
+    while any(arm.states[0].is_busy for arm in cart.psms) or cart.ecm.state.is_busy:
+        cart.tick()
+    op = cart.operator
+    op.present, op.hands = True, {"MTML": np.array([-0.05, 0.0, 0.0]), "MTMR": np.array([0.05, 0.0, 0.0])}
+    cart.tick()
+    psm1 = cart.psms[0].measured.clone()
+    tip0 = cart.ecm.local_cp("measured")
+    q0 = cart.ecm.measured.copy()
+    op.camera = True
+    cart.tick()
+    assert ("status", "ECM: camera control: the endoscope follows the hands") in cart.ecm_events
+    (event,) = cart.servo_jp(0, JointCommand(position=[0.3, 0.0, 0.12, 0.0, 0.0, 0.0]))
+    assert event.topic == "warning" and "camera pedal is pressed" in event.value
+    d = np.array([0.01, -0.006, 0.015])  # right, up, in: both hands
+    for k in range(1, 21):
+        op.hands = {"MTML": np.array([-0.05, 0.0, 0.0]) + d * k / 20, "MTMR": np.array([0.05, 0.0, 0.0]) + d * k / 20}
+        cart.tick()
+    for _ in range(10):  # measured settles (the 5 ms lag)
+        cart.tick()
+    tip = cart.ecm.local_cp("measured")
+    assert np.allclose(tip[:3, 3] - tip0[:3, 3], tip0[:3, :3] @ d, atol=1e-6)
+    assert np.linalg.norm(cart.ecm.measured - q0) > 0.01
+    assert torch.allclose(cart.psms[0].measured, psm1, atol=1e-9)  # the PSM held
+    op.camera = False
+    cart.tick()
+    assert ("status", "ECM: camera control released") in cart.ecm_events
+    q1 = cart.ecm.measured.copy()
+    op.hands = {"MTML": np.array([-0.05, 0.0, 0.0]), "MTMR": np.array([0.05, 0.0, 0.0])}
+    for _ in range(5):
+        cart.tick()
+    assert np.allclose(cart.ecm.measured, q1, atol=1e-9)  # released: the hands no longer move it
+    assert cart.servo_jp(0, JointCommand(position=[0.3, 0.0, 0.12, 0.0, 0.0, 0.0])) == []
+
+
+def test_psms_with_different_tools_tick_in_one_cart(make_cart):
+    """PSMs of two instruments: one TwinArms per instrument, each batched over its PSMs; commands,
+    events and the snapshot are by the cart's rows whatever TwinArms holds them."""
+    from cressim.twin import JointCommand
+
+    scene = parse_scene("cart:\n  ECM: {}\n"
+                        "  PSM1: {robot: psm_suction, base: {position: [0.0, -0.06, 0.30]}}\n"
+                        "  PSM2: {base: {position: [0.0, 0.06, 0.30]}}\n"
+                        "  PSM3: {robot: psm_suction, base: {position: [0.06, 0.0, 0.30]}}\n", "cart.yaml")
+    cart = make_cart(scene)
+    assert [rows for _, rows in cart.groups] == [[0, 2], [1]]
+    for row in range(3):
+        cart.state_command(row, "enable")
+        cart.state_command(row, "home")
+    while any(arm.states[0].is_busy for arm in cart.psms):
+        cart.tick()
+    goals = [[0.1, 0.0, 0.11, 0.2, 0.0, 0.0], [0.2, -0.1, 0.12, 0.0, 0.1, 0.0], [-0.1, 0.1, 0.1, -0.3, 0.0, 0.0]]
+    for row, q in enumerate(goals):
+        events = cart.move_jp(row, JointCommand(position=q))
+        assert {e.env for e in events} == {row}
+    done = []
+    while len(done) < 3:
+        done += [e.env for e in cart.tick() if e.topic == "goal_reached" and e.value]
+    assert sorted(done) == [0, 1, 2]
+    snap = cart.snapshot()
+    for row, q in enumerate(goals):
+        assert np.allclose(snap.setpoint[row], q, atol=1e-9), (row, snap.setpoint[row])
+        assert np.allclose(cart.psms[row].setpoint[0], q, atol=1e-9)
+    assert cart.jaw_move_jp(0, JointCommand(position=[0.5]))[0].value.startswith("jaw/move_jp refused")  # no jaw
+    assert cart.jaw_move_jp(1, JointCommand(position=[0.5]))[0].topic == "operating_state"

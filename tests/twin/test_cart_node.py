@@ -29,7 +29,8 @@ def test_cart_node_namespaces_stereo_and_ecm(make_node):
     # each arm as robot_state_publisher would give it, under its own name
     assert {"/PSM1/robot_description", "/PSM2/robot_description", "/ECM/robot_description", "/PSM1/joint_states",
             "/ECM/joint_states"} <= topics
-    assert "<robot" in node.robot_states[1].description.data and "PSM2_shaft_link" in node.robot_states[1].description.data
+    psm2 = node.robot_states[0].descriptions[1].data  # the PSMs' (one FK for both), row PSM2
+    assert "<robot" in psm2 and "PSM2_shaft_link" in psm2 and "PSM1_" not in psm2
     left, right = node.camera.infos
     fx = left.p[0]
     assert left.p[3] == 0.0 and right.p[3] == pytest.approx(-fx * 0.005)  # ROS: Tx = -fx B (the scene's baseline)

@@ -47,22 +47,19 @@ from __future__ import annotations
 
 import math
 import re
-import subprocess
-import sys
 import threading
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pytest
-from twin_fixtures import script_env
+from twin_fixtures import ScriptRun
 
 pytestmark = pytest.mark.ros
 
 ARM = "PSM1"
 SCRIPT_TIMEOUT = 300.0  # s, a safety limit only: the longest script takes about 40 s here
 WAIT_TIMEOUT = 120.0  # s, safety limit on waiting for the twin's topics
-NEWLINES = "\n" * 200  # stdin: Enter, as often as a script asks
 
 # a report of the script's own failure: '  ! failed to enable', sys.exit('failed to ...'),
 # a traceback, TimeoutError('Timed out waiting for ... connections'), 'Inverse kinematic error'
@@ -73,16 +70,10 @@ FAILURE = re.compile(r"^\s*!|\bfail|\berror|\bexception|\btraceback|\btimed out|
 LATENCY_NOTE = re.compile(r"Inverse kinematic error in position \[\d+\]: [0-9.e-]+ \(might be due to latency\)$")
 
 
-def run_python(args: list[str], env: dict, cwd: Path) -> tuple[int | None, str]:
+def run_python(args: list[str], clients: Path, domain: int, cwd: Path) -> tuple[int | None, str]:
     """(exit status or None after the safety limit, stdout and stderr together)."""
-    try:
-        done = subprocess.run([sys.executable, *args], input=NEWLINES, stdout=subprocess.PIPE,
-                              stderr=subprocess.STDOUT, text=True, env=env, cwd=cwd, timeout=SCRIPT_TIMEOUT)
-        return done.returncode, done.stdout
-    except subprocess.TimeoutExpired as exc:  # run() killed it
-        out = exc.stdout or b""
-        out = out.decode(errors="replace") if isinstance(out, bytes) else out
-        return None, out + f"\n[killed after the {SCRIPT_TIMEOUT:.0f} s safety limit]"
+    with ScriptRun(clients, domain, args, cwd) as run:
+        return run.wait(SCRIPT_TIMEOUT), run.output()
 
 
 # Before a crtk example: the device enabled, homed and at the dVRK scripts' Cartesian start pose,
@@ -267,16 +258,15 @@ def _report(name, rc, output, problems, twin) -> str:
 def test_dvrk_script(name, clients, ros_domain_id, start_twin, tmp_path):
     script = SCRIPTS[name]
     twin = start_twin(ros_domain_id)
-    env = script_env(clients, ros_domain_id)
     watch = TwinWatch(ros_domain_id)
     try:
         assert watch.wait_samples(1), f"no setpoint_js/setpoint_cp from the twin:\n{twin.output()}"
         if script.prepare:
-            rc, output = run_python(["-c", PREPARE], env, tmp_path)
+            rc, output = run_python(["-c", PREPARE], clients, ros_domain_id, tmp_path)
             assert rc == 0 and "prepared at" in output and not FAILURE.search(output), \
                 _report(f"{name} (enable, home, start pose before it)", rc, output, ["preparing failed"], twin)
         mark = watch.mark()
-        rc, output = run_python([str(clients / script.path), *script.args], env, tmp_path)
+        rc, output = run_python([clients / script.path, *script.args], clients, ros_domain_id, tmp_path)
         # the twin's messages about the script's last commands: a few ticks later they are here
         assert watch.wait_samples(20), f"the twin stopped publishing:\n{twin.output()}"
         seen = watch.since(mark)

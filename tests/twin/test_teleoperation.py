@@ -8,21 +8,24 @@ Checked: following, PSM1's tip moves by the hand's motion times the script's sca
 endoscope's frame: in PSM1's measured_cp (which the cart expresses in the `ECM` frame) and, from
 the arm's own local/measured_cp and the scene's base poses, in the world rotated by the ECM's tip
 orientation; clutched, the tip stays where it is while the hand moves; released, it follows again
-from where it stopped (no jump). Waits are on the script's effect (its servo_cp stream to PSM1,
-the tip settling), never on a timing; wall-clock limits only catch a hang.
+from where it stopped (no jump). Then the camera pedal: with the ECM enabled and homed, the
+hands' midpoint moves the endoscope's tip as much in the camera's frame (ECM's local/measured_cp
+and measured_js), while PSM1 holds (its own local/measured_cp) though the script keeps sending;
+and MTMR's measured_js gives its local/measured_cp and measured_cp by the dVRK's MTM kinematics.
+Waits are on the script's effect (its servo_cp stream to PSM1, the tips settling), never on a
+timing; wall-clock limits only catch a hang.
 """
 from __future__ import annotations
 
-import subprocess
-import sys
 import threading
 import time
 
 import numpy as np
 import pytest
-from twin_fixtures import script_env
+from twin_fixtures import ScriptRun
 
 from cressim.robots.ecm import ecm_forward_kinematics
+from cressim.robots.mtm import mtm_forward_kinematics
 from cressim.robots.kinematics import pose7_to_matrix
 from cressim.twin import load_scene
 
@@ -55,19 +58,28 @@ class Surgeon:
         self.node = rclpy.create_node("surgeon", context=self.context)
         self.cv = threading.Condition()
         self.servo_cp = 0
-        self.latest = {}
+        self.latest, self.count = {}, {}
         pub = lambda kind, topic: self.node.create_publisher(kind, topic, 10)  # noqa: E731
         self.present_pub, self.clutch_pub = pub(Bool, "/operator/present"), pub(Bool, "/operator/clutch")
+        self.camera_pub = pub(Bool, "/operator/camera")
         self.hand_pub = pub(PoseStamped, "/operator/MTMR/servo_cp")
+        self.left_hand_pub = pub(PoseStamped, "/operator/MTML/servo_cp")
+        from crtk_msgs.msg import StringStamped
+        self.StringStamped = StringStamped
+        self.ecm_command_pub = pub(StringStamped, "/ECM/state_command")
+        self.joints = {}
+        for topic in ("/ECM/measured_js", "/MTMR/measured_js"):
+            self.node.create_subscription(JointState, topic, lambda m, t=topic: self._keep_joints(t, m), 10)
         self.grip_pub = pub(JointState, "/operator/MTMR/gripper/servo_jp")
         self.node.create_subscription(PoseStamped, "/PSM1/servo_cp", self._on_servo, 10)
         from crtk_msgs.msg import OperatingState
         self.seen = []
-        for arm in ("PSM1", "MTMR"):
+        for arm in ("PSM1", "MTMR", "ECM"):
             self.node.create_subscription(  # what the arms said, for failure messages
                 OperatingState, f"/{arm}/operating_state",
                 lambda m, a=arm: self.seen.append((a, m.state, m.is_homed, m.is_busy)), 10)
-        for topic in ("/PSM1/measured_cp", "/PSM1/local/measured_cp", "/ECM/local/measured_cp"):
+        for topic in ("/PSM1/measured_cp", "/PSM1/local/measured_cp", "/ECM/local/measured_cp", "/MTMR/measured_cp",
+                      "/MTMR/local/measured_cp"):
             self.node.create_subscription(PoseStamped, topic, lambda m, t=topic: self._keep(t, m), 10)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
@@ -87,13 +99,25 @@ class Surgeon:
     def _keep(self, topic, msg):
         with self.cv:
             self.latest[topic] = (_pose(msg), msg.header.frame_id)
+            self.count[topic] = self.count.get(topic, 0) + 1
             self.cv.notify_all()
 
-    def hand(self, position):
+    def _keep_joints(self, topic, msg):
+        with self.cv:
+            self.joints[topic] = np.array(msg.position)
+            self.cv.notify_all()
+
+    def hand(self, position, pub=None):
         m = self.PoseStamped()
         m.pose.position.x, m.pose.position.y, m.pose.position.z = map(float, position)
         m.pose.orientation.w = 1.0
-        self.hand_pub.publish(m)
+        (pub or self.hand_pub).publish(m)
+
+    def ecm_command(self, command):
+        self.ecm_command_pub.publish(self.StringStamped(string=command))
+
+    def ecm_ready(self) -> bool:
+        return any(a == "ECM" and state == "ENABLED" and homed and not busy for a, state, homed, busy in self.seen)
 
     def grip(self, angle):
         self.grip_pub.publish(self.JointState(position=[float(angle)]))
@@ -116,21 +140,25 @@ class Surgeon:
         with self.cv:
             return self.latest[topic]
 
-    def settled(self, output, topic="/PSM1/measured_cp", still=2e-5):
-        """The tip (camera frame) once it has stopped: 10 consecutive readings within `still`."""
-        deadline, last, calm = time.monotonic() + HANG, None, 0
+    def settled(self, output, topic="/PSM1/measured_cp", still=2e-5, commands=2):
+        """The poses once `topic`'s has stopped: 10 consecutive readings of it within `still`,
+        spanning `commands` of the script's servo_cp (it sends a few a second: a tip is also still
+        between two of them; 0 while it sends none, clutched)."""
+        deadline, last, calm, since = time.monotonic() + HANG, None, 0, 0
         while time.monotonic() < deadline:
             with self.cv:
-                self.cv.wait(1.0)
+                seen = self.count.get(topic, 0)
+                self.cv.wait_for(lambda: self.count.get(topic, 0) > seen, 1.0)
                 T = self.latest.get(topic, (None,))[0]
+                servo = self.servo_cp
             if T is not None and last is not None and np.linalg.norm(T[:3, 3] - last) < still:
                 calm += 1
-                if calm >= 10:
+                if calm >= 10 and servo - since >= commands:
                     return {t: v[0] for t, v in self.latest.items()}
             else:
-                calm = 0
+                calm, since = 0, servo
             last = None if T is None else T[:3, 3].copy()
-        raise AssertionError(f"PSM1 never settled\n{output()}")
+        raise AssertionError(f"{topic} never settled\n{output()}")
 
     def close(self):
         self.running = False
@@ -142,16 +170,12 @@ class Surgeon:
 
 def test_dvrk_teleoperation_follows_in_the_camera_frame_and_clutches(start_twin, ros_domain_id, clients, tmp_path):
     start_twin(ros_domain_id, "scene:=patient_cart.yaml")
-    log = tmp_path / "teleop.log"
     script = clients / "dvrk_python" / "scripts" / "dvrk_teleoperation.py"
     # -i 0.25: its period, and 4 x it is how old the MTM's data may be before it gives up (1 s
     # here: a loaded 2-core machine may hold a tick for a few hundred ms)
-    with open(log, "w") as out:
-        proc = subprocess.Popen([sys.executable, str(script), "-m", "MTMR", "-p", "PSM1",
-                                 "-o", "/console/operator_present", "-i", "0.25"],
-                                env=script_env(clients, ros_domain_id), cwd=tmp_path, stdout=out,
-                                stderr=subprocess.STDOUT, text=True)
-    output = lambda: log.read_text()  # noqa: E731
+    run = ScriptRun(clients, ros_domain_id, [script, "-m", "MTMR", "-p", "PSM1", "-o", "/console/operator_present",
+                                             "-i", "0.25"], tmp_path)
+    output = run.output
     surgeon = Surgeon(ros_domain_id)
     try:
         hand = np.array([0.0, 0.0, 0.0])
@@ -161,7 +185,7 @@ def test_dvrk_teleoperation_follows_in_the_camera_frame_and_clutches(start_twin,
         deadline = time.monotonic() + HANG
         k = 0
         while surgeon.servo_cp == 0:
-            assert proc.poll() is None, f"dvrk_teleoperation.py exited\n{output()}\n{surgeon.seen}"
+            assert run.running(), f"dvrk_teleoperation.py exited\n{output()}\n{surgeon.seen}"
             assert time.monotonic() < deadline, f"teleoperation never followed\n{output()}"
             surgeon.button(surgeon.present_pub, True)
             surgeon.hand(hand)
@@ -196,7 +220,7 @@ def test_dvrk_teleoperation_follows_in_the_camera_frame_and_clutches(start_twin,
         hand = surgeon.move_hand(hand, hand + np.array([-0.04, 0.03, 0.0]))
         time.sleep(2.0)
         assert surgeon.servo_cp == stopped_at and stopped_at >= count, "no servo_cp while clutched"
-        held = surgeon.settled(output)
+        held = surgeon.settled(output, commands=0)
         assert np.linalg.norm(held["/PSM1/measured_cp"][:3, 3] - after["/PSM1/measured_cp"][:3, 3]) < 2e-4
 
         # released: following again from where the tip stopped
@@ -210,12 +234,37 @@ def test_dvrk_teleoperation_follows_in_the_camera_frame_and_clutches(start_twin,
         last = surgeon.settled(output)
         moved = last["/PSM1/measured_cp"][:3, 3] - resumed["/PSM1/measured_cp"][:3, 3]
         assert np.linalg.norm(moved - SCALE * d3) < TOLERANCE, (moved, SCALE * d3, output())
-        assert proc.poll() is None, f"dvrk_teleoperation.py exited\n{output()}"
+
+        # the camera pedal: the hands' midpoint moves the endoscope, PSM1 holds
+        surgeon.ecm_command("enable")
+        surgeon.ecm_command("home")
+        deadline = time.monotonic() + HANG
+        while not surgeon.ecm_ready():
+            assert time.monotonic() < deadline, f"the ECM never got ready: {surgeon.seen}"
+            time.sleep(0.1)
+        surgeon.hand(np.zeros(3), surgeon.left_hand_pub)  # MTML held where it is (its home)
+        start = surgeon.settled(output, "/ECM/local/measured_cp")
+        q_start = surgeon.joints["/ECM/measured_js"].copy()
+        surgeon.button(surgeon.camera_pub, True)
+        time.sleep(1.0)  # the press reaches the twin (the script goes on sending; PSM1 holds)
+        d4 = np.array([0.04, -0.02, 0.03])
+        hand = surgeon.move_hand(hand, hand + d4)  # MTMR only: the midpoint moves by half of it
+        moved_ecm = surgeon.settled(output, "/ECM/local/measured_cp")
+        steered = moved_ecm["/ECM/local/measured_cp"][:3, 3] - start["/ECM/local/measured_cp"][:3, 3]
+        assert np.linalg.norm(steered - start["/ECM/local/measured_cp"][:3, :3] @ (d4 / 2)) < TOLERANCE, \
+            (steered, output())
+        assert np.linalg.norm(surgeon.joints["/ECM/measured_js"] - q_start) > 0.01
+        assert np.linalg.norm(moved_ecm["/PSM1/local/measured_cp"][:3, 3]
+                              - start["/PSM1/local/measured_cp"][:3, 3]) < 2e-4
+        # MTMR's joints, by the dVRK's MTM kinematics, are its Cartesian pose
+        with surgeon.cv:
+            q_mtm = surgeon.joints["/MTMR/measured_js"].copy()
+            local, cp = surgeon.latest["/MTMR/local/measured_cp"][0], surgeon.latest["/MTMR/measured_cp"][0]
+        assert q_mtm.shape == (7,)
+        assert np.allclose(mtm_forward_kinematics("MTMR", q_mtm), local, atol=1e-6)
+        assert np.allclose(cp[:3, 3], hand, atol=1e-6)  # measured_cp: where the hand holds the grip
+        surgeon.button(surgeon.camera_pub, False)
+        assert run.running(), f"dvrk_teleoperation.py exited\n{output()}"
     finally:
         surgeon.close()
-        proc.terminate()
-        try:
-            proc.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
+        run.stop()

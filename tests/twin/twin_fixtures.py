@@ -1,8 +1,10 @@
 """A twin shared by a test module (teardown registered with pytest's request); an in-process twin
-node spun beside a client node; where the dVRK's own Python clients are and the environment a
-script of theirs runs in."""
+node spun beside a client node; where the dVRK's own Python clients are, the environment a script
+of theirs runs in, and the runner that starts one."""
 import contextlib
 import os
+import subprocess
+import sys
 import threading
 from pathlib import Path
 
@@ -70,3 +72,56 @@ def script_env(clients: Path, domain: int) -> dict:
     env.pop("ROS_LOCALHOST_ONLY", None)
     env.pop("ROS_STATIC_PEERS", None)
     return env
+
+
+NEWLINES = "\n" * 200  # a script's stdin: Enter, as often as it asks (dvrk_psm_test.py waits for it)
+
+
+class ScriptRun:
+    """One of the dVRK's Python clients (or `-c code`) running as a subprocess against the twin of
+    `domain`, as a dVRK user runs it: script_env's environment, stdin a stream of newlines,
+    stdout and stderr together into `cwd`/script.log. `wait` for a script that ends by itself;
+    `stop` (or the `with` block's end) for one that runs until stopped."""
+
+    def __init__(self, clients: Path, domain: int, args: list[str], cwd: Path):
+        self.log = Path(cwd) / "script.log"
+        with open(self.log, "w") as out:
+            self.proc = subprocess.Popen([sys.executable, *map(str, args)], stdin=subprocess.PIPE, stdout=out,
+                                         stderr=subprocess.STDOUT, text=True, env=script_env(clients, domain), cwd=cwd)
+        try:
+            self.proc.stdin.write(NEWLINES)
+            self.proc.stdin.close()
+        except BrokenPipeError:
+            pass  # it exited already: its output says why
+
+    def output(self) -> str:
+        return self.log.read_text()
+
+    def running(self) -> bool:
+        return self.proc.poll() is None
+
+    def wait(self, limit: float) -> int | None:
+        """Its exit status, or None when it was still running after `limit` s (a safety limit
+        that only catches a hang: it is killed and the output says so)."""
+        try:
+            return self.proc.wait(timeout=limit)
+        except subprocess.TimeoutExpired:
+            self.stop()
+            with open(self.log, "a") as out:
+                out.write(f"\n[killed after the {limit:.0f} s safety limit]")
+            return None
+
+    def stop(self):
+        if self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.stop()

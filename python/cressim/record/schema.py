@@ -196,6 +196,10 @@ TOPICS_BY_NAME = {t.name: t for t in PSM_TOPICS}
 _JOY, _QUAT = "sensor_msgs/msg/Joy", "geometry_msgs/msg/Quaternion"
 BUTTON_UNITS = "buttons[0]: 1 pressed, 0 released"
 MTM_TOPICS: tuple[TopicSpec, ...] = (
+    TopicSpec("measured_js", _JS, "state", "100 Hz", "", "rad",
+              "the 7 joints (outer_yaw .. wrist_roll; dVRK DH, cressim.robots.mtm)"),
+    TopicSpec("setpoint_js", _JS, "state", "100 Hz", "", "rad", "as measured_js (no lag)"),
+    TopicSpec("local/measured_cp", _PS, "state", "100 Hz", "", POSE_UNITS, "the grip in the DH base: FK of measured_js"),
     TopicSpec("measured_cp", _PS, "state", "100 Hz", BASE_FRAME, POSE_UNITS, "the grip in the MTM's base frame"),
     TopicSpec("setpoint_cp", _PS, "state", "100 Hz", BASE_FRAME, POSE_UNITS, "as measured_cp"),
     TopicSpec("gripper/measured_js", _JS, "state", "100 Hz", "", JAW_UNITS, 'name ["gripper"]'),

@@ -758,6 +758,10 @@ class ArmBodies:
             self._rates[envs] = 0
             self._last_coords[envs] = self._coords[envs]
 
+    def reset(self, envs: list[int]):
+        """The engine resets `envs` at the start of the next frame (what prepare_reset set up)."""
+        self.engine.reset_envs(list(envs))
+
     def step(self, render: bool = False, sense: bool = False):
         """One publish period of physics (the engine runs its substeps), then the cameras when
         `render` and the ultrasound when `sense`, in one submit, waited for."""

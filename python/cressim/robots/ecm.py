@@ -31,6 +31,8 @@ ECM_VELOCITY = np.array([1.0, 1.0, 0.2, 1.0])
 def ecm_forward_kinematics(q, *, all_frames: bool = False):
     """(..., 4) joint values (numpy or torch) -> (..., 4, 4) tip (DH frame 4) in ECM_base, or
     with all_frames (..., 4, 4, 4) for frames 1..4; numpy in gives numpy out (float64)."""
+    if not torch.is_tensor(q) and np.ndim(q) == 1:
+        return _one_ecm(np.asarray(q, dtype=np.float64), all_frames)  # the twin's tick: one ECM, no tensors
     is_numpy = not torch.is_tensor(q)
     qt = torch.as_tensor(np.asarray(q, dtype=np.float64)) if is_numpy else q
     T = torch.eye(4, dtype=qt.dtype, device=qt.device).expand(*qt.shape[:-1], 4, 4)
@@ -45,6 +47,21 @@ def ecm_forward_kinematics(q, *, all_frames: bool = False):
         frames.append(T)
     out = torch.stack(frames, dim=-3) if all_frames else T
     return out.numpy() if is_numpy else out
+
+
+def _one_ecm(q: np.ndarray, all_frames: bool) -> np.ndarray:
+    """ecm_forward_kinematics of one joint vector in numpy (a few microseconds, where the batched
+    torch path costs a tick's worth of small tensor ops)."""
+    T, frames = np.eye(4), []
+    for qi, r in zip(q, ECM_DH):
+        theta, d = (0.0, qi + r.offset + r.d) if r.type == "prismatic" else (qi + r.offset, r.d)
+        ca, sa, ct, st = math.cos(r.alpha), math.sin(r.alpha), math.cos(theta), math.sin(theta)
+        T = T @ np.array([[ct, -st, 0.0, r.a],  # Rx(alpha) Tx(a) Rz(theta) Tz(d)
+                          [st * ca, ct * ca, -sa, -sa * d],
+                          [st * sa, ct * sa, ca, ca * d],
+                          [0.0, 0.0, 0.0, 1.0]])
+        frames.append(T)
+    return np.stack(frames) if all_frames else T
 
 
 def ecm_inverse_kinematics(T, *, position_tol: float = 1e-5, rotation_tol: float = 1e-4):

@@ -115,9 +115,14 @@ class TwinConfig:
 
 
 class TwinArms:
-    def __init__(self, config: TwinConfig, bodies: ArmBodies | None = None):
-        """`bodies`: the arm's links already in an engine shared with other arms (a patient cart,
-        cressim.twin.cart, which steps that engine); default: an engine of its own."""
+    def __init__(self, config: TwinConfig, bodies: ArmBodies | None = None, *, initial_jp=None, home_jp=None,
+                 names: list[str] | None = None):
+        """`bodies`: the arms' links already in an engine shared with other arms (a patient
+        cart's PSMs, cressim.twin.arm_rows.ArmRows: one row per arm; the cart steps that engine);
+        default: an engine of its own. `initial_jp`, `home_jp`: (num_envs, 6) per row (a cart's arms each
+        have their own; a NaN row homes where it is); default: the scene's for every row.
+        `names`: each row's name in messages (a cart's PSM1, PSM2); default `env{i}/arm`."""
+        self.names = names
         scene = config.scene
         self.scene = scene
         self.num_envs, self.arm, self.robot = config.value("num_envs"), config.value("arm"), config.value("robot")
@@ -128,15 +133,19 @@ class TwinArms:
             raise ConfigError(f"{problem[0]}: {problem[1]}")
         urdf = robot_dir() / f"{self.robot}.urdf"
         self.psm = PSM(urdf, dtype=torch.float64)
-        initial = np.zeros(INTERFACE_DOF)
-        initial[: self.psm.dof] = scene.initial_jp[: self.psm.dof]
+        N, dof = self.num_envs, self.psm.dof
+        initial = np.zeros((N, INTERFACE_DOF))
+        initial[:, :dof] = np.asarray(scene.initial_jp if initial_jp is None else initial_jp, dtype=np.float64)[..., :dof]
+        home = scene.home_jp if home_jp is None else home_jp
+        self.home_q = None if home is None else np.broadcast_to(np.asarray(home, dtype=np.float64),
+                                                                (N, INTERFACE_DOF)).copy()
         lower, upper = np.zeros(INTERFACE_DOF), np.zeros(INTERFACE_DOF)
-        lower[: self.psm.dof], upper[: self.psm.dof] = self.psm.lower.numpy(), self.psm.upper.numpy()
-        for what, values in (("initial_jp", initial), ("home_jp", scene.home_jp)):
-            problem = None if values is None else limit_refusal(np.asarray(values, dtype=np.float64), PSM_JOINT_NAMES,
-                                                                lower, upper, what=what)
-            if problem:
-                raise ConfigError(f"{scene.path}: arm.{what}: {problem}")
+        lower[:dof], upper[:dof] = self.psm.lower.numpy(), self.psm.upper.numpy()
+        for what, rows in (("initial_jp", initial), ("home_jp", self.home_q)):
+            for values in () if rows is None else rows[~np.isnan(rows).any(1)]:
+                problem = limit_refusal(values, PSM_JOINT_NAMES, lower, upper, what=what)
+                if problem:
+                    raise ConfigError(f"{scene.path}: arm.{what}: {problem}")
         camera = CameraSpec(width=config.value("camera_width"), height=config.value("camera_height"),
                             fov_y=scene.camera_fov_y, position=scene.camera_position, look_at=scene.camera_look_at)
         plan = SceneryPlan(camera, UltrasoundSpec() if config.ultrasound else None, scene.world) if config.cameras else None
@@ -146,7 +155,7 @@ class TwinArms:
             bodies = ArmBodies(urdf, self.num_envs, base_position=scene.base_position,
                                base_rotation=scene.base_rotation, publish_rate=self.publish_rate,
                                physics_rate=self.physics_rate, particle_rate=self.particle_rate,
-                               initial_q=initial, initial_jaw=jaw0,
+                               initial_q=initial[0], initial_jaw=jaw0,
                                dof=self.psm.dof, dynamics=config.value("dynamics"), scenery=plan,
                                device=config.device, needle=scene.needle if self.psm.has_jaw and plan else None)
         self.bodies = bodies
@@ -186,9 +195,9 @@ class TwinArms:
         self.kin = ArmKinematics(self.psm, self.device)
         self.jaw_lower, self.jaw_upper = self.psm.jaw_limits or (0.0, 0.0)
 
-        N, kw = self.num_envs, dict(device=self.device, dtype=torch.float64)
+        kw = dict(device=self.device, dtype=torch.float64)
         self._initial_q, self._initial_jaw = torch.as_tensor(initial, **kw), jaw0  # restart() returns to them
-        self.setpoint = self._initial_q.repeat(N, 1)
+        self.setpoint = self._initial_q.clone()
         self.measured = self.setpoint.clone()
         self.setpoint_v = torch.zeros(N, INTERFACE_DOF, **kw)
         self.measured_v = torch.zeros(N, INTERFACE_DOF, **kw)
@@ -247,6 +256,8 @@ class TwinArms:
         self.bodies.set_rate(1.0 / publish_rate, substeps, int(round(self.particle_rate / publish_rate)))
 
     def label(self, env: int) -> str:
+        if self.names is not None:
+            return self.names[env]
         return self.arm if self.num_envs == 1 else f"env{env}/{self.arm}"
 
     def report(self, env: int) -> StateReport:
@@ -322,8 +333,8 @@ class TwinArms:
         if transition.desired:
             events.append(Event(env, "desired_state", transition.desired))
         if transition.start_homing:
-            home = self.scene.home_jp
-            goal = np.array(home, dtype=np.float64) if home is not None else self.setpoint[env].cpu().numpy()
+            home = None if self.home_q is None or np.isnan(self.home_q[env]).any() else self.home_q[env]
+            goal = home.copy() if home is not None else self.setpoint[env].cpu().numpy()
             goal[self.psm.dof:] = 0.0
             s.homing = True
             self._start_arm_trajectory(env, goal, "home", events)
@@ -789,7 +800,7 @@ class TwinArms:
         with self.engine_lock:
             self.bodies.prepare_reset(envs, q, jaw)
             self._regrip_needle(envs)
-            self.bodies.engine.reset_envs(envs.tolist())
+            self.bodies.reset(envs.tolist())
 
     # ------------------------------------------------------------------ simulation control
     def restart(self, *, clock: bool = True):
@@ -798,7 +809,7 @@ class TwinArms:
         base frames, ratios, pedals and valves as at start, pending commands dropped; with `clock`,
         the simulated time back at 0."""
         N, kw = self.num_envs, dict(device=self.device, dtype=torch.float64)
-        self.reset_envs(torch.arange(N), q=self._initial_q.repeat(N, 1), jaw=torch.full((N, 1), self._initial_jaw, **kw))
+        self.reset_envs(torch.arange(N), q=self._initial_q, jaw=torch.full((N, 1), self._initial_jaw, **kw))
         self.states = [ArmState() for _ in range(N)]
         self.base_frame[:] = torch.eye(4, **kw)
         self.base_frame_np[:] = np.eye(4)
@@ -849,8 +860,8 @@ class TwinArms:
                 names += ["spatial_jacobian", "body_jacobian"]
                 widths += [36, 36]
             # the tool's contact wrench: world axes -> the RCM frame -> measured_cp's frame, and the tip's
-            R_world = self.bodies.base[:3, :3].to(self.tool_wrench)
-            local = (R_world.T @ self.tool_wrench.reshape(N, 2, 3).transpose(1, 2)).transpose(1, 2)  # (N, 2, 3)
+            R_world = self.bodies.base[..., :3, :3].to(self.tool_wrench)  # one base, or one per row (ArmRows)
+            local = (R_world.mT @ self.tool_wrench.reshape(N, 2, 3).transpose(1, 2)).transpose(1, 2)  # (N, 2, 3)
             spatial = (base[:, None, :3, :3] @ local[..., None]).squeeze(-1)
             body = (T_meas[:, None, :3, :3].transpose(-1, -2) @ local[..., None]).squeeze(-1)
             parts += [spatial.reshape(N, 6), body.reshape(N, 6)]

@@ -1,7 +1,8 @@
 """A dVRK patient cart in one engine, without ROS: the ECM with a stereo endoscope and several PSMs.
 
     cart = Cart(TwinConfig(scene=load_scene("patient_cart.yaml")))
-    cart.psms[0]                               # PSM1: a TwinArms (one env) whose links sit in the cart's engine
+    cart.groups[0][0]                          # the PSMs: one TwinArms, a row per PSM (per instrument)
+    cart.psms[0]                               # PSM1's row of it (views of its state, its own bodies)
     cart.ecm                                   # the ECM's joints and state (EcmArm)
     events = cart.tick()                       # every arm one control period; (row, topic, value) events
     cart.step_engine(render=True)              # every arm's links and both cameras posed, physics, render
@@ -16,10 +17,13 @@ measured joints, so the engine lets them pass through each other, and each tick 
 where their instruments would touch instead (cressim.twin.arm_clearance).
 
 Rows. To the ROS node the cart looks like TwinArms with one row per PSM (row k is `names[k]`,
-published under /PSMk): every command `(row, ...)` goes to that PSM's TwinArms (env 0), and the
-events come back with the row. The ECM (EcmArm) and the MTMs (cressim.twin.mtm, with the
-operator who holds them) have their own objects and topics. The PSMs' measured_cp is expressed
-in the endoscope's frame (the ECM's tip, following it) until a client sets a base frame.
+published under /PSMk). The PSMs are ticked together: one TwinArms per instrument (all of them
+when they carry the same tool), a row per PSM over their bodies (cressim.twin.arm_rows.ArmRows),
+so a tick is one batched pass over every PSM, whatever their number. Every command `(row, ...)` goes to
+that row, and the events come back with the cart's row. The ECM (EcmArm) and the MTMs
+(cressim.twin.mtm, with the operator who holds them) have their own objects and topics. The
+PSMs' measured_cp is expressed in the endoscope's frame (the ECM's tip, following it) until a
+client sets a base frame.
 
 The stereo endoscope. Two pinhole cameras of the scene's `camera:` size and field of view sit on
 the ECM's tip (DH frame 4, z out of the scope), `endoscope.baseline` apart along the tip's x,
@@ -40,12 +44,13 @@ import cressim
 from cressim.robots import robot_dir
 from cressim.robots.arm_bodies import ArmBodies, _link_shapes
 from cressim.robots.dh import dh_forward_kinematics
-from cressim.robots.ecm import ecm_forward_kinematics
+from cressim.robots.ecm import ecm_forward_kinematics, ecm_inverse_kinematics
 from cressim.robots.kinematics import matrix_to_pose7, pose7_to_matrix, rotation_xyzw
 from cressim.scene_file import add_scene
 
+from .arm_rows import ArmRows
 from .arm_clearance import INSTRUMENT_RADIUS, SCOPE_RADIUS, ArmClearance
-from .arms import ConfigError, Event, Snapshot, TwinArms, TwinConfig
+from .arms import ConfigError, Event, JointCommand, Snapshot, TwinArms, TwinConfig
 from .camera_images import CameraImages
 from .ecm_arm import EcmArm
 from .mtm import MtmArm, Operator, ScriptedOperator
@@ -171,18 +176,26 @@ class Cart:
         self.device = arm_bodies[0].device
         self.engine_lock = threading.Lock()
 
-        # one TwinArms per PSM (env 0 of it), over the bodies above
-        self.psms = []
-        for spec, bodies in zip(psm_specs, arm_bodies):
-            arm_scene = dataclasses.replace(scene, arm=spec.name, robot=spec.robot, base_position=spec.base_position,
-                                            base_rotation=spec.base_rotation,
-                                            initial_jp=spec.initial_jp or scene.initial_jp,
-                                            home_jp=spec.home_jp or scene.home_jp, cart=())
-            self.psms.append(TwinArms(TwinConfig(scene=arm_scene, num_envs=1, cameras=False,
-                                                 publish_rate=self.publish_rate, physics_rate=self.physics_rate,
-                                                 particle_rate=self.physics_rate, device=config.device),
-                                      bodies=bodies))
-        self.psm_bases = [pose7_to_matrix(np.array([*s.base_position, *s.base_rotation])) for s in psm_specs]
+        # the PSMs ticked together: one TwinArms per instrument (usually one), a row per PSM, over
+        # the bodies above (ArmRows); the cart's row k is PSM k, wherever its TwinArms keeps it
+        self.psm_bases = np.stack([pose7_to_matrix(np.array([*s.base_position, *s.base_rotation])) for s in psm_specs])
+        self.groups, self._where = [], [None] * len(psm_specs)
+        for robot in dict.fromkeys(s.robot for s in psm_specs):
+            rows = [k for k, s in enumerate(psm_specs) if s.robot == robot]
+            specs = [psm_specs[k] for k in rows]
+            home = [s.home_jp or scene.home_jp or [np.nan] * 6 for s in specs]
+            arm_scene = dataclasses.replace(scene, arm=specs[0].name, robot=robot, cart=())
+            arms = TwinArms(TwinConfig(scene=arm_scene, num_envs=len(rows), cameras=False,
+                                       publish_rate=self.publish_rate, physics_rate=self.physics_rate,
+                                       particle_rate=self.physics_rate, device=config.device),
+                            bodies=ArmRows([arm_bodies[k] for k in rows]),
+                            initial_jp=[s.initial_jp or scene.initial_jp for s in specs], home_jp=home,
+                            names=[s.name for s in specs])
+            self.groups.append((arms, rows))
+            for r, k in enumerate(rows):
+                self._where[k] = (arms, r)
+        self.psms = [PsmRow(name, *self._where[k], arm_bodies[k]) for k, name in enumerate(self.names)]
+        self._order = np.argsort(np.concatenate([rows for _, rows in self.groups]))  # snapshot rows -> cart rows
         self.num_envs = len(self.psms)  # the node's rows
         self.arm = self.names[0]
         self.psm = self.psms[0].psm
@@ -197,6 +210,7 @@ class Cart:
         self.mtms = [MtmArm(a.name) for a in self.mtm_specs]
         self.operator = Operator([m.name for m in self.mtms])
         self.script = ScriptedOperator(list(scene.operator)) if scene.operator else None
+        self._camera_start = None  # while the camera pedal moves the ECM: (hands' midpoint, tip) at the press
 
     # ------------------------------------------------------------------ the endoscope
     def eye_poses(self) -> list[np.ndarray]:
@@ -232,45 +246,54 @@ class Cart:
     def label(self, row: int) -> str:
         return self.names[row]
 
-    def _rows(self, row, events):
-        return [type(e)(row, e.topic, e.value) for e in events]
+    def _rows(self, rows, events):
+        """A TwinArms' events with the cart's row numbers (`rows`: its rows' cart rows)."""
+        return [Event(rows[e.env], e.topic, e.value) for e in events]
 
     def __getattr__(self, name):
         if name in ROW_COMMANDS:
             def command(row, *args, **kwargs):
-                return self._rows(row, getattr(self.psms[row], name)(0, *args, **kwargs))
+                if name in MOTION_COMMANDS and self._camera_start is not None:
+                    kind = name.replace("jaw_", "jaw/")
+                    return [Event(row, "warning", f"{kind} refused: the camera pedal is pressed (the ECM follows "
+                                                  "the operator's hands, the PSMs hold)")]
+                arms, r = self._where[row]
+                return [Event(row, e.topic, e.value) for e in getattr(arms, name)(r, *args, **kwargs)]
             return command
         raise AttributeError(name)
 
     def report(self, row: int):
-        return self.psms[row].report(0)
+        arms, r = self._where[row]
+        return arms.report(r)
 
     def forward(self, row, cmd, *, local):
-        return self.psms[row].forward(0, cmd, local=local)
+        arms, r = self._where[row]
+        return arms.forward(r, cmd, local=local)
 
     def inverse(self, row, pose, seed=None):
-        return self.psms[row].inverse(0, pose, seed)
+        arms, r = self._where[row]
+        return arms.inverse(r, pose, seed)
 
     @property
     def sim_ns(self) -> int:
-        return self.psms[0].sim_ns
+        return self.groups[0][0].sim_ns
 
     @property
     def ticks(self) -> int:
-        return self.psms[0].ticks
+        return self.groups[0][0].ticks
 
     @property
     def period_ns(self) -> int:
-        return self.psms[0].period_ns
+        return self.groups[0][0].period_ns
 
     def set_rate(self, publish_rate: float):
-        for arm in self.psms:
-            arm.set_rate(publish_rate)
+        for arms, _ in self.groups:
+            arms.set_rate(publish_rate)
         self.publish_rate = publish_rate
 
     def restart(self, *, clock: bool = True):
-        for arm in self.psms:
-            arm.restart(clock=clock)
+        for arms, _ in self.groups:
+            arms.restart(clock=clock)
         self.ecm.restart()
         for mtm in self.mtms:
             mtm.restart()
@@ -278,23 +301,32 @@ class Cart:
         self.own_base_frame = [False] * self.num_envs
         self._follow_camera()
         self.clearance = ArmClearance()
+        self._camera_start = None
 
     def camera_frame(self) -> np.ndarray:
         """The endoscope's frame (the ECM's tip, `ECM`) in the world: what the PSMs' measured_cp
         is expressed in, as on the dVRK with an ECM."""
         return self.ecm_base @ self.ecm.local_cp("measured")
 
-    def _follow_camera(self):
+    def _follow_camera(self, *, changed: bool = True):
+        """Every PSM's base frame (batched): its base in the endoscope's frame, unless a client set
+        one. Only when the endoscope moved (or `changed`: a restart, a base frame given back)."""
         camera = self.camera_frame()
-        for row, arm in enumerate(self.psms):
-            if not self.own_base_frame[row]:
-                T = np.linalg.solve(camera, self.psm_bases[row])
-                arm.base_frame_np[0] = T
-                arm.base_frame[0] = torch.as_tensor(T)
+        if not changed and np.array_equal(camera, self._camera_at):
+            return
+        self._camera_at = camera
+        T = np.linalg.solve(camera[None], self.psm_bases)  # (N, 4, 4)
+        for arms, rows in self.groups:
+            own = np.array([self.own_base_frame[k] for k in rows])
+            if not own.all():
+                mine = np.flatnonzero(~own)
+                arms.base_frame_np[mine] = T[np.asarray(rows)[mine]]
+                arms.base_frame[mine] = torch.as_tensor(arms.base_frame_np[mine])
 
     def set_base_frame(self, row: int, pose):
         """A client's base frame replaces the camera's for that PSM."""
-        events = self._rows(row, self.psms[row].set_base_frame(0, pose))
+        arms, r = self._where[row]
+        events = [Event(row, e.topic, e.value) for e in arms.set_base_frame(r, pose)]
         if not events:
             self.own_base_frame[row] = True
         return events
@@ -302,15 +334,16 @@ class Cart:
     def tick(self) -> list:
         """Every arm one control period; the PSMs' events by row (the ECM's in `ecm_events`)."""
         events = []
-        for row, arm in enumerate(self.psms):
-            events += self._rows(row, arm.tick())
+        for arms, rows in self.groups:  # all PSMs of an instrument in one batched tick
+            events += self._rows(rows, arms.tick())
         dt = self.period_ns * 1e-9
         self.ecm_events = self.ecm.tick(dt)
-        self._follow_camera()
+        self._follow_camera(changed=False)
         if self.script is not None:
             self.script.apply(self.sim_ns * 1e-9, self.operator)
         for mtm in self.mtms:
             mtm.tick(dt, self.operator)
+        events += self._camera_control()
         events += self._clearance()
         if self.simulated:  # the world's particles move by themselves: physics every tick
             with self.engine_lock:
@@ -320,16 +353,51 @@ class Cart:
         return events
 
     def snapshot(self, **kwargs) -> Snapshot:
-        snaps = [arm.snapshot(**kwargs) for arm in self.psms]
-        return Snapshot(snaps[0].sim_ns, {k: np.concatenate([s.fields[k] for s in snaps]) for k in snaps[0].fields})
+        """Every PSM's published state, by cart row (one snapshot per instrument's TwinArms)."""
+        snaps = [arms.snapshot(**kwargs) for arms, _ in self.groups]
+        if len(snaps) == 1:
+            return snaps[0]
+        return Snapshot(snaps[0].sim_ns, {k: np.concatenate([s.fields[k] for s in snaps])[self._order]
+                                          for k in snaps[0].fields})
+
+    def _camera_control(self) -> list:
+        """The camera pedal, as the dVRK console's ECM teleoperation: pressed with the operator
+        present and the ECM enabled and homed, the endoscope follows the operator's hands, the
+        PSMs hold. The midpoint of the MTMs' grips (their base frames are aligned with the
+        display, so with the camera) moves the scope's tip as much in the camera's frame at the
+        press (left/right and up/down turn the ECM about its RCM, in/out inserts it; the roll
+        keeps the image level as at the press); the ECM gets it as a servo_jp each tick, within
+        its limits. PSM events: the holds at the press."""
+        op, ecm = self.operator, self.ecm
+        on = bool(self.mtms) and op.camera and op.present and ecm.state.state == "ENABLED" and ecm.state.is_homed
+        if not on:
+            if self._camera_start is not None:
+                self._camera_start = None
+                self.ecm_events.append(("status", f"{ecm.name}: camera control released"))
+            return []
+        hands = np.mean([m.pose[:3, 3] for m in self.mtms], axis=0)
+        events = []
+        if self._camera_start is None:  # the press: the PSMs stop where they are
+            self._camera_start = (hands, ecm.local_cp("setpoint"))
+            self.ecm_events.append(("status", f"{ecm.name}: camera control: the endoscope follows the hands"))
+            for row in range(self.num_envs):
+                arms, r = self._where[row]
+                events += [Event(row, e.topic, e.value) for e in arms.hold(r)]
+        start, tip = self._camera_start
+        goal = tip.copy()
+        goal[:3, 3] = tip[:3, 3] + tip[:3, :3] @ (hands - start)
+        q, _ = ecm_inverse_kinematics(goal)  # the nearest the scope reaches (its z stays as at the press)
+        self.ecm_events += ecm.servo_jp(JointCommand(position=q.tolist()))
+        return events
 
     def _clearance(self) -> list:
         """The PSMs' instruments and the ECM's scope that start or stop touching (arm_clearance):
         a warning, then a status, on each arm of the pair."""
         capsules = {}
-        for row, arm in enumerate(self.psms):
-            F = self.psm_bases[row] @ dh_forward_kinematics(arm.measured[0].numpy(), all_frames=True)
-            capsules[self.names[row]] = (F[2, :3, 3], F[5, :3, 3], INSTRUMENT_RADIUS)  # tool base to jaw pivot
+        for arms, rows in self.groups:  # every PSM's DH frames in one batched call
+            F = self.psm_bases[rows][:, None] @ dh_forward_kinematics(arms.measured, all_frames=True).numpy()
+            for r, k in enumerate(rows):
+                capsules[self.names[k]] = (F[r, 2, :3, 3], F[r, 5, :3, 3], INSTRUMENT_RADIUS)  # tool base to jaw pivot
         F = self.ecm_base @ ecm_forward_kinematics(self.ecm.measured, all_frames=True)
         capsules[self.ecm.name] = (F[2, :3, 3], F[3, :3, 3], SCOPE_RADIUS)
         onsets, partings = self.clearance.update(capsules)
@@ -357,8 +425,8 @@ class Cart:
 
     def _pose(self):
         """Every arm's links at its measured joints and the eyes on the ECM's tip (GPU targets)."""
-        for arm in self.psms:
-            arm.bodies.write(arm.measured, arm.jaw_meas)
+        for arms, _ in self.groups:
+            arms.bodies.write(arms.measured, arms.jaw_meas)
         self.ecm_bodies.write(*self.ecm_joints())
         p7 = matrix_to_pose7(torch.as_tensor(np.stack(self.eye_poses())))
         targets = torch.from_dlpack(self.engine.buffer("control.body_target_positions"))
@@ -368,6 +436,25 @@ class Cart:
         rotations[rows] = p7[:, 3:].to(rotations)
 
 
+class PsmRow:
+    """One PSM of the cart as a one-env TwinArms looks (what tests and the benchmark read): its row
+    of the batched state (views at the time of reading, so writes go through), its own bodies."""
+
+    num_envs = 1
+
+    def __init__(self, name, arms, row, bodies):
+        self.arm, self.arms, self.row, self.bodies = name, arms, row, bodies
+        self.psm, self.kin = arms.psm, arms.kin
+
+    def __getattr__(self, name):
+        if name in ("measured", "setpoint", "jaw_meas", "jaw_sp", "measured_v", "setpoint_v"):
+            return getattr(self.arms, name)[self.row: self.row + 1]
+        if name == "states":
+            return [self.arms.states[self.row]]
+        raise AttributeError(name)
+
+
+MOTION_COMMANDS = ("servo_jp", "move_jp", "servo_cp", "move_cp", "servo_cv", "jaw_servo_jp", "jaw_move_jp")
 ROW_COMMANDS = ("state_command", "servo_jp", "move_jp", "servo_cp", "move_cp", "servo_cv", "jaw_servo_jp",
                 "jaw_move_jp", "suction_servo_jp", "hold", "set_ratio", "ratio_events", "set_flag",
                 "press_coag")

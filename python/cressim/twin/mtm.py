@@ -8,15 +8,21 @@
     operator.clutch = True                                      # the pedals and the head sensor
     mtm.tick(dt, operator)                                      # the MTM follows the hand
 
-An MTM here is its grip's pose and gripper angle in the MTM's base frame (the frame the dVRK's
-console aligns with the display, so a teleoperation client's motions are the operator's in the
-camera's view), not its 7-joint arm: `measured_cp` / `setpoint_cp`, `gripper/measured_js`. The
-operator's hand sets the grip's position and the gripper angle. The arm's wrist motors set the
-grip's orientation: `move_cp` / `servo_cp` (a teleoperation client aligns the MTM to its PSM
-that way), held by `lock_orientation`; with no hand on it, they set the position too. `body/
-servo_cf` (the clients send a zero wrench: let the hand move it) and `use_gravity_compensation`
-are kept. Who drives the operator: a script from the scene file (`ScriptedOperator`) or an input
-device over ROS (cressim_ros.console_topics).
+An MTM here is its 7-joint arm (the dVRK's DH tables, cressim.robots.mtm) and its gripper. The
+operator's hand sets the grip's position and the gripper angle; the arm's wrist motors set the
+grip's orientation (`move_cp` / `servo_cp`: a teleoperation client aligns the MTM to its PSM that
+way), held by `lock_orientation`; with no hand on it, they set the position too. Each change of
+that goal pose is solved for the joints (numerical IK from the last joints, within the limits),
+and what is published follows from the joints: `measured_js` / `setpoint_js` (7 joints; the
+twin's MTM has no lag), `local/measured_cp` (the grip in the DH base, the FK of measured_js) and
+`measured_cp` / `setpoint_cp` (the grip in `MTMx_base`, `base @ local` within the IK's 1e-10 m
+and 1e-9 rad: the goal itself where it was reached; the frame the dVRK's
+console aligns with the display, here put so that the grip at the dVRK's home joints (zero) is
+at its origin with its axes, so a teleoperation client's motions are the operator's in the
+camera's view); `gripper/measured_js`. A goal out of reach leaves the grip where the IK got.
+`body/servo_cf` (the clients send a zero wrench: let the hand move it) and
+`use_gravity_compensation` are kept. Who drives the operator: a script from the scene file
+(`ScriptedOperator`) or an input device over ROS (cressim_ros.console_topics).
 """
 from __future__ import annotations
 
@@ -24,20 +30,25 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from cressim.robots.mtm import MTM_HOME, mtm_forward_kinematics, mtm_inverse_kinematics
+
 from .arm_state import ArmState
 from .command_checks import pose_matrix
 
 GRIPPER_LIMITS = (-0.35, 1.2)  # rad: the MTM gripper's range (about -20 to 70 degrees)
-HOME = np.eye(4)  # the grip at the base frame's origin, axes aligned with it
+HOME = np.eye(4)  # the grip at home: at the base frame's origin, axes aligned with it
 
 
 class MtmArm:
     def __init__(self, name: str):
         self.name = name
+        self.base = np.linalg.inv(mtm_forward_kinematics(name, MTM_HOME))  # MTMx_base in the DH base: HOME at home
         self.restart()
 
     def restart(self):
-        self.pose = HOME.copy()  # the grip in the MTM's base frame (measured = setpoint)
+        self._set_joints(MTM_HOME)
+        self.q_v = np.zeros(7)
+        self.goal = self.pose.copy()  # where the hand and the wrist want the grip (the IK's target)
         self.gripper = 0.0
         self.gripper_v = 0.0
         self.state = ArmState()
@@ -58,7 +69,8 @@ class MtmArm:
             return [("error", t.error)]
         events = [("desired_state", t.desired)] if t.desired else []
         if t.start_homing:
-            self.pose = HOME.copy()
+            self._set_joints(MTM_HOME)
+            self.goal = self.pose.copy()
             self.state.homing_done()
         if t.status:
             events.append(("status", f"{self.name}: {t.status}"))
@@ -73,7 +85,8 @@ class MtmArm:
         if problem:
             return [("error", problem)]
         if self.locked is None:
-            self.pose[:3, :3] = T[:3, :3]
+            self.goal[:3, :3] = T[:3, :3]
+            self._solve()
         self.commanded_position = T[:3, 3].copy()
         events = [("goal_reached", True)] if kind == "move_cp" else []
         return events
@@ -87,7 +100,8 @@ class MtmArm:
         self.locked = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
                                 [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
                                 [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
-        self.pose[:3, :3] = self.locked
+        self.goal[:3, :3] = self.locked
+        self._solve()
         return []
 
     def unlock_orientation(self):
@@ -106,11 +120,34 @@ class MtmArm:
         """The grip where the operator's hand holds it; with no hand, where move_cp put it."""
         hand = operator.hands.get(self.name)
         if hand is not None:
-            self.pose[:3, 3] = hand
+            self.goal[:3, 3] = hand
         elif self.commanded_position is not None:
-            self.pose[:3, 3] = self.commanded_position
+            self.goal[:3, 3] = self.commanded_position
+        before = self.q
+        self._solve()
+        self.q_v = (self.q - before) / dt
         grip = float(np.clip(operator.grips.get(self.name, self.gripper), *GRIPPER_LIMITS))
         self.gripper_v, self.gripper = (grip - self.gripper) / dt, grip
+
+
+    def _set_joints(self, q, pose=None):
+        """The arm at joints q: the grip at their FK, or at `pose` (MTMx_base) where the IK reached it
+        (within 1e-10 m and 1e-9 rad of the FK: the commanded orientation itself, as a client that
+        aligns to it compares them exactly)."""
+        self.q = np.asarray(q, dtype=np.float64).copy()
+        self.local = mtm_forward_kinematics(self.name, self.q)  # the grip in the DH base (local/measured_cp)
+        self.pose = self.base @ self.local if pose is None else pose.copy()  # measured_cp; measured = setpoint
+        self._solved = None
+
+    def _solve(self):
+        """The joints that put the grip at the goal (from the last joints); unchanged goals are not
+        solved again (one out of reach would cost the IK's every iteration each tick)."""
+        if self._solved is not None and np.array_equal(self._solved, self.goal):
+            return
+        if not np.allclose(self.goal, self.pose, rtol=0.0, atol=1e-12):
+            q, reached = mtm_inverse_kinematics(self.name, np.linalg.solve(self.base, self.goal), self.q)
+            self._set_joints(q, self.goal if reached else None)
+        self._solved = self.goal.copy()
 
 
 @dataclass

@@ -23,6 +23,7 @@ class BatchedTrajectory:
         self.a = torch.ones(num_envs, **kw)  # profile's acceleration limit (1/s^2)
         self.duration = torch.zeros(num_envs, **kw)
         self.active = torch.zeros(num_envs, dtype=torch.bool, device=device)
+        self._idle = None  # evaluate's answer while nothing moves
 
     def start(self, env: int, q_from, q_to, v_limit, a_limit, now: float) -> float:
         """Starts env's trajectory from q_from to q_to (dof,) at time `now`; returns its duration."""
@@ -49,8 +50,17 @@ class BatchedTrajectory:
 
         q and qdot are (N, dof), meaningful where moving (N,) bool: the trajectory was active at
         this call. finished (N,) marks the ones that reached their goal now (q is exactly the
-        goal there); they are made inactive.
+        goal there); they are made inactive. With none active (the usual tick: servo commands, or
+        at rest) the answer is short: nothing moving, q the last goals (the flags and qdot are
+        shared tensors: read them, do not write).
         """
+        if not bool(self.active.any()):
+            if self._idle is None:
+                n, dof = self.start_q.shape
+                none = torch.zeros(n, dtype=torch.bool, device=self.active.device)
+                self._idle = (self.start_q.new_zeros(n, dof), none, none.clone())
+            qd, moving, finished = self._idle
+            return self.start_q + self.delta, qd, moving, finished
         t = (now - self.t0).clamp_min(0.0)
         T, V, A = self.duration, self.v, self.a
         t_acc = torch.minimum(V / A, (1.0 / A).sqrt())  # accel phase (the triangle's half)

@@ -11,8 +11,9 @@ In batched mode env i's are under /env{i}/camera. Frame: `camera_color_optical_f
 env prefix in batched mode), z forward, x right, y down. CameraInfo follows ROS's pixel
 convention (the centre of pixel (0, 0) is at (0, 0)), so its cx, cy are the engine's minus 0.5.
 
-All envs' images come to the host in one copy per product per rendered frame; building and
-publishing the messages loops over envs (ROS needs a message per env and topic).
+All envs' images come to the host in one readback per rendered frame (every product), and each
+is converted straight into its message's data (reused from frame to frame: rclpy copies it when
+publishing); publishing loops over envs (ROS needs a message per env and topic).
 """
 from __future__ import annotations
 
@@ -24,7 +25,7 @@ import numpy as np
 from sensor_msgs.msg import CameraInfo, CompressedImage, Image
 from std_msgs.msg import String
 
-from cressim.twin.camera_images import PRODUCTS, CameraImages
+from cressim.twin.camera_images import DTYPES, PRODUCTS, CameraImages
 
 from .image_compression import compress_depth, compress_image, depth_quantization_for
 from .topics import IMAGE_QOS, LATCHED_QOS
@@ -64,6 +65,7 @@ class CameraTopics:
         self.views = views or env_views(num_envs)
         self.num_envs = len(self.views)  # cameras published (one per env unless `views`)
         self.images = CameraImages(engine)
+        self._messages = {}  # (view, product) -> (Image, numpy view of its data)
         self.pubs = [{} for _ in self.views]  # view -> {product: (image pub, info pub)}
         self.infos = [self._camera_info(k) for k in range(len(self.views))]
         self.labels = String(data=json.dumps({str(k): v for k, v in sorted(labels.items())}))
@@ -119,27 +121,41 @@ class CameraTopics:
         """product -> [per env (H, W, ...) numpy image], after the frame that rendered them."""
         return self.images.read(products)
 
-    def publish(self, images: dict, stamp, record=None):
-        """Publishes host_images' products of all envs; record(topic, msg) sees each message."""
-        products = [p for p in PRODUCTS if p in images]
-        s = self.spec
+    def _message(self, view: int, product: str):
+        """The view's Image of that product, made once: its data an array('B') the frame's
+        images are converted into (rclpy copies it when publishing, so it is reused)."""
+        key = (view, product)
+        if key not in self._messages:
+            s = self.spec
+            encoding, size = ENCODINGS[product]
+            img = Image()
+            img.header.frame_id = self.views[view].frame
+            img.height, img.width, img.encoding = s.height, s.width, encoding
+            img.is_bigendian = 0
+            img.step = s.width * size
+            img.data = array("B", bytes(s.height * s.width * size))
+            shape = (s.height, s.width, 3) if product == "color" else (s.height, s.width)
+            self._messages[key] = (img, np.frombuffer(img.data, dtype=DTYPES[product]).reshape(shape))
+        return self._messages[key]
+
+    def publish(self, raw: dict, stamp, record=None):
+        """Publishes a frame's images of every view from CameraImages.grab's `raw`: each converted
+        straight into its message's data (no other copy); record(topic, msg) sees each message."""
+        products = [p for p in PRODUCTS if p in raw]
+        out = {p: [self._message(k, p)[1] for k in range(self.num_envs)] for p in products}
+        images = self.images.convert(raw, out)
         for env in range(self.num_envs):
             info = self.infos[env]
             info.header.stamp = stamp
             for product in products:
-                encoding, size = ENCODINGS[product]
-                img = Image()
-                img.header.stamp, img.header.frame_id = stamp, info.header.frame_id
-                img.height, img.width, img.encoding = s.height, s.width, encoding
-                img.is_bigendian = 0
-                img.step = s.width * size
-                img.data = array("B", np.ascontiguousarray(images[product][env]).tobytes())
+                img = self._message(env, product)[0]
+                img.header.stamp = stamp
                 image_pub, info_pub, compressed_pub = self.pubs[env][product]
                 image_pub.publish(img)
                 info_pub.publish(info)
                 if compressed_pub.get_subscription_count():
                     compressed_pub.publish(self._compress(product, images[product][env], img.header))
-                if record is not None:
+                if record is not None:  # the recorder serialises now: the reused data is safe
                     image_topic, info_topic = self.topics(product, env)
                     record(image_topic, img)
                     record(info_topic, info)

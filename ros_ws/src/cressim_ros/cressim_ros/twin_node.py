@@ -188,17 +188,17 @@ class TwinNode(Node):
         # the URDF's links on /tf, /joint_states and /robot_description (a cart's under each arm's name)
         if self.cart:
             cart = self.cart
-            self.robot_states = [RobotStateTopics(self, psm, psm.psm.urdf_path.read_text(), namespace=f"/{name}")
-                                 for name, psm in zip(self.arm_names, cart.psms)]
+            self.robot_states = [RobotStateTopics(self, arms, arms.psm.urdf_path.read_text(),
+                                                  names=[self.arm_names[k] for k in rows])
+                                 for arms, rows in cart.groups]  # one FK per instrument for all its PSMs
             self.robot_states.append(RobotStateTopics(
                 self, SimpleNamespace(num_envs=1, arm=cart.ecm.name), ecm_urdf().read_text(),
-                namespace=f"/{cart.ecm.name}", bodies=cart.ecm_bodies, state=cart.ecm_joints))
+                names=[cart.ecm.name], bodies=cart.ecm_bodies, state=cart.ecm_joints))
         else:
             self.robot_states = [RobotStateTopics(self, arms, arms.psm.urdf_path.read_text())]
         images = self.camera.images  # grabbed right after the frame, converted and published off the engine lock
         sensors = [Sensor("camera", cfg["camera_rate"], render=True, read=lambda: images.grab(self.cfg["sensors"]),
-                          publish=lambda raw, stamp: self.camera.publish(images.convert(raw), stamp,
-                                                                         self._recorder_fn()))]
+                          publish=lambda raw, stamp: self.camera.publish(raw, stamp, self._recorder_fn()))]
         if self.ultrasound is not None:
             sensors.append(Sensor("ultrasound", cfg["ultrasound_rate"], sense=True, read=self.ultrasound.read,
                                   publish=lambda images, stamp: self.ultrasound.publish(images, stamp,

@@ -1,0 +1,115 @@
+"""One CRTK arm of the cart on ROS (the ECM, an MTM): what every such arm's topics share.
+
+    topics = CrtkArmTopics(node, arm, "/ECM", specs, published, handlers, frame="ECM_base")
+    topics.emit(arm.state_command("enable"))   # (topic, value) events -> messages
+    topics.joint_state("measured_js", stamp, names, q, v)
+    topics.poses(stamp, [("measured_cp", frame, T), ...])
+
+`arm` has a `name`, `report()` (a StateReport) and `state_command(text)`. Publishers of the
+`published` topics (operating_state says the state again to each new reader: crtk's readers are
+volatile), a subscription per `handlers` entry (name -> fn(msg) -> events; an exception becomes
+an `error` event, the node goes on), `state_command` also through a transient-local reader (crtk
+latches it; each command once), the `operating_state` and `crtk_version` services. Every message
+is recorded when the node records. QoS and types are cressim.record.schema's (`specs`).
+"""
+from __future__ import annotations
+
+import traceback
+from array import array
+
+import numpy as np
+import torch
+from crtk_msgs.msg import OperatingState
+from crtk_msgs.srv import TriggerOperatingState
+from std_msgs.msg import Bool, String
+from std_srvs.srv import Trigger
+
+from cressim.robots.kinematics import matrix_to_pose7
+
+from .topics import CRTK_VERSION, FirstDelivery, fill_pose, latched_reader_qos, msg_class, on_new_reader, qos
+
+
+class CrtkArmTopics:
+    def __init__(self, node, arm, namespace: str, specs: dict, published, handlers: dict, *, frame: str):
+        self.node, self.arm, self.ns, self.specs = node, arm, namespace, specs
+        self.frame = frame  # operating_state's frame_id
+        again = on_new_reader(lambda: self.emit([("operating_state", arm.report())]))
+        self.pubs = {name: node.create_publisher(msg_class(specs[name]), f"{namespace}/{name}", qos(specs[name]),
+                                                 **({"event_callbacks": again} if name == "operating_state" else {}))
+                     for name in published}
+        self.subs = [node.create_subscription(msg_class(specs[name]), f"{namespace}/{name}",
+                                              lambda m, h=handler, n=name: self._on(n, h, m), qos(specs[name]))
+                     for name, handler in handlers.items()]
+        self._latched = FirstDelivery()
+        self.subs.append(node.create_subscription(
+            msg_class(specs["state_command"]), f"{namespace}/state_command",
+            lambda m: self._on("state_command", handlers["state_command"], m),
+            latched_reader_qos(specs["state_command"])))
+        self.services = [node.create_service(TriggerOperatingState, f"{namespace}/operating_state", self._srv_state),
+                         node.create_service(Trigger, f"{namespace}/crtk_version", self._srv_version)]
+        self.emit([("operating_state", arm.report())])
+
+    def _out(self, name, msg):
+        """Publishes on the arm's topic `name` and records it when the node records."""
+        self.pubs[name].publish(msg)
+        if self.node.recorder is not None:
+            self.node._record(f"{self.ns}/{name}", msg)
+
+    def latched(self) -> list:
+        """(topic, message) a new recording opens with: the arm's state."""
+        return [(f"{self.ns}/operating_state", self._state_msg(self.arm.report()))]
+
+    def _on(self, name, handler, msg):
+        if name == "state_command" and not self._latched.first(name, msg):
+            return  # the same command through the other reader
+        try:
+            self.emit(handler(msg))
+        except Exception as exc:  # noqa: BLE001 - the node must survive any message
+            self.emit([("error", f"{name}: internal error, command ignored ({type(exc).__name__}: {exc})")])
+            self.node.get_logger().error(traceback.format_exc(), throttle_duration_sec=1.0)
+
+    def _state_msg(self, report):
+        msg = OperatingState(state=report.state, is_homed=report.is_homed, is_busy=report.is_busy)
+        msg.header.stamp, msg.header.frame_id = self.node.stamp(), self.frame
+        return msg
+
+    def emit(self, events):
+        """The arm's (topic, value) events as messages: operating_state, bools (goal_reached),
+        text (errors and warnings prefixed with the arm's name, and logged)."""
+        for topic, value in events:
+            if topic == "operating_state":
+                msg = self._state_msg(value)
+            elif isinstance(value, bool):
+                msg = Bool(data=value)
+            else:
+                msg = String(data=f"{self.arm.name}: {value}" if topic in ("error", "warning") else str(value))
+                if topic in ("error", "warning"):
+                    self.node.get_logger().warning(msg.data, throttle_duration_sec=1.0)
+            self._out(topic, msg)
+
+    def joint_state(self, name, stamp, names, position, velocity):
+        m = msg_class(self.specs[name])()
+        m.header.stamp = stamp
+        m.name = list(names)
+        m.position, m.velocity, m.effort = array("d", position), array("d", velocity), array("d", [0.0] * len(names))
+        self._out(name, m)
+
+    def poses(self, stamp, items):
+        """PoseStamped on each (topic, frame_id, 4x4) of `items`, converted together."""
+        p7 = matrix_to_pose7(torch.as_tensor(np.stack([T for _, _, T in items]))).numpy()
+        for (name, frame, _), p in zip(items, p7):
+            m = msg_class(self.specs[name])()
+            m.header.stamp, m.header.frame_id = stamp, frame
+            fill_pose(m.pose, p)
+            self._out(name, m)
+
+    def _srv_state(self, request, response):
+        response.operating_state = self._state_msg(self.arm.report())
+        return response
+
+    def _srv_version(self, request, response):
+        response.success, response.message = True, CRTK_VERSION
+        return response
+
+
+__all__ = ["CrtkArmTopics"]
