@@ -1,4 +1,5 @@
-// FluidPour task logic, one thread per env (apply_action, evaluate, observe). The source
+// FluidPour task logic: apply_action a thread an env, evaluate and observe a thread group an env
+// (env_group.hlsli). The source
 // container is body `env` (one rigid body per env); the fluid is the env's particle range.
 #include "cressim/layout.h"
 #include "cressim/quat.h"
@@ -32,6 +33,7 @@ RWStructuredBuffer<uint> episode_length;
 RWStructuredBuffer<float> finished_length;
 
 #include "episode.hlsli"
+#include "env_group.hlsli"
 
 // tilt about +y (pouring toward +x) of a rotation that has only that
 float tilt_of(float4 q) { return 2 * atan2(q.y, q.w); }
@@ -42,23 +44,24 @@ struct FluidState {
   float spilled;
 };
 
-FluidState fluid_state(uint env) {
+// summed by the env's group
+FluidState fluid_state(uint env, uint lane) {
   const uint4 r = particle_env_ranges[env];
-  FluidState s;
-  s.mean_xz = float2(0, 0);
-  uint caught = 0, spilled = 0;
-  for (uint i = r.x; i < r.x + r.y; ++i) {
+  float4 sum = float4(0, 0, 0, 0);  // x, height, caught, spilled
+  for (uint i = r.x + lane; i < r.x + r.y; i += ENV_GROUP) {
     const float3 x = particle_positions[i].xyz;
-    s.mean_xz += x.xz;
+    sum.xy += x.xz;
     const bool in_target = abs(x.x - pc.target_x) <= pc.inner_x && abs(x.y - pc.target_y) <= pc.inner_y &&
                            x.z >= pc.target_floor && x.z <= pc.target_floor + pc.inner_height;
-    if (in_target) caught += 1;
-    else if (x.z < pc.target_floor) spilled += 1;  // on the ground outside the target
+    if (in_target) sum.z += 1;
+    else if (x.z < pc.target_floor) sum.w += 1;  // on the ground outside the target
   }
+  sum = env_group_sum(sum, lane);
   const float n = max(float(r.y), 1.0);
-  s.mean_xz /= n;
-  s.caught = float(caught) / n;
-  s.spilled = float(spilled) / n;
+  FluidState s;
+  s.mean_xz = sum.xy / n;
+  s.caught = sum.z / n;
+  s.spilled = sum.w / n;
   return s;
 }
 
@@ -74,21 +77,23 @@ void apply_action(uint3 id : SV_DispatchThreadID) {
   target_rotations[env] = quat_axis_angle(float3(0, 1, 0), tilt);
 }
 
-[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
-void evaluate(uint3 id : SV_DispatchThreadID) {
-  const uint env = id.x;
+[numthreads(ENV_GROUP, 1, 1)]
+void evaluate(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
+  const uint env = group.x;
   if (env >= pc.envs) return;
-  const FluidState s = fluid_state(env);
+  const FluidState s = fluid_state(env, thread.x);
+  if (thread.x != 0) return;
   const bool success = s.caught >= pc.success, failed = reset_mask[env] != 0;
   rewards[env] = pc.reset_all != 0 ? 0.0 : s.caught - pc.spill_penalty * s.spilled;
   if (end_step(env, success || failed)) reset_mask[env] = 1;
 }
 
-[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
-void observe(uint3 id : SV_DispatchThreadID) {
-  const uint env = id.x;
+[numthreads(ENV_GROUP, 1, 1)]
+void observe(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
+  const uint env = group.x;
   if (env >= pc.envs) return;
-  const FluidState s = fluid_state(env);
+  const FluidState s = fluid_state(env, thread.x);
+  if (thread.x != 0) return;
   observations[6 * env + 0] = body_positions[env].x;
   observations[6 * env + 1] = tilt_of(body_rotations[env]);
   observations[6 * env + 2] = s.mean_xz.x;

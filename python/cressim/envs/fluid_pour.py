@@ -67,6 +67,7 @@ def open_box_mesh() -> cressim.Mesh:
 
 class FluidPour(ParticleTask):
     hlsl = Path(__file__).with_name("fluid_pour.hlsl")
+    group_entries = ("evaluate", "observe")  # a thread group an env sums its particles
     single_observation_space = box((6,))
     single_action_space = box((2,), -1.0, 1.0)
     max_episode_steps = 240

@@ -1,4 +1,5 @@
-// SoftBodyPush task logic, one thread per env (apply_action, evaluate, observe). The pusher is
+// SoftBodyPush task logic: apply_action a thread an env, evaluate and observe a thread group an
+// env (env_group.hlsli). The pusher is
 // body `env` (one rigid body per env); the cube is the env's particle range.
 #include "cressim/layout.h"
 
@@ -27,20 +28,21 @@ RWStructuredBuffer<uint> episode_length;
 RWStructuredBuffer<float> finished_length;
 
 #include "episode.hlsli"
+#include "env_group.hlsli"
 
-// centroid (xy) and the fraction of particles inside the target box
-float3 cube_state(uint env) {
+// centroid (xy) and the fraction of particles inside the target box, summed by the env's group
+float3 cube_state(uint env, uint lane) {
   const uint4 r = particle_env_ranges[env];
-  float2 sum = float2(0, 0);
-  uint inside = 0;
-  for (uint i = r.x; i < r.x + r.y; ++i) {
+  float4 sum = float4(0, 0, 0, 0);  // x, y, inside
+  for (uint i = r.x + lane; i < r.x + r.y; i += ENV_GROUP) {
     const float3 x = particle_positions[i].xyz;
-    sum += x.xy;
+    sum.xy += x.xy;
     if (abs(x.x - pc.target_x) <= pc.target_half_x && abs(x.y - pc.target_y) <= pc.target_half_y && x.z <= pc.target_height)
-      inside += 1;
+      sum.z += 1;
   }
+  sum = env_group_sum(sum, lane);
   const float n = max(float(r.y), 1.0);
-  return float3(sum / n, float(inside) / n);
+  return float3(sum.xy / n, sum.z / n);
 }
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
@@ -53,22 +55,24 @@ void apply_action(uint3 id : SV_DispatchThreadID) {
   target_positions[env] = t;
 }
 
-[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
-void evaluate(uint3 id : SV_DispatchThreadID) {
-  const uint env = id.x;
+[numthreads(ENV_GROUP, 1, 1)]
+void evaluate(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
+  const uint env = group.x;
   if (env >= pc.envs) return;
-  const float3 s = cube_state(env);
+  const float3 s = cube_state(env, thread.x);
+  if (thread.x != 0) return;
   const float distance = length(s.xy - float2(pc.target_x, pc.target_y));
   const bool success = s.z >= pc.success, failed = reset_mask[env] != 0;  // flagged unhealthy this frame
   rewards[env] = pc.reset_all != 0 ? 0.0 : s.z + 0.25 * max(0.0, 1.0 - 2.0 * distance);
   if (end_step(env, success || failed)) reset_mask[env] = 1;  // the engine puts the cube and the pusher back
 }
 
-[numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
-void observe(uint3 id : SV_DispatchThreadID) {
-  const uint env = id.x;
+[numthreads(ENV_GROUP, 1, 1)]
+void observe(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
+  const uint env = group.x;
   if (env >= pc.envs) return;
-  const float3 s = cube_state(env);
+  const float3 s = cube_state(env, thread.x);
+  if (thread.x != 0) return;
   const float3 p = body_positions[env].xyz;
   observations[5 * env + 0] = p.x;
   observations[5 * env + 1] = p.y - pc.target_y;

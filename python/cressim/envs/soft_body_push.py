@@ -34,6 +34,7 @@ TARGET = (0.45, 0.0, 0.18, 0.18, 0.3)  # centre x, y; half extents x, y, z
 
 class SoftBodyPush(ParticleTask):
     hlsl = Path(__file__).with_name("soft_body_push.hlsl")
+    group_entries = ("evaluate", "observe")  # a thread group an env sums its particles
     single_observation_space = box((5,))
     single_action_space = box((2,), -1.0, 1.0)
     max_episode_steps = 180

@@ -56,6 +56,9 @@ def tensor_view(buffer: cressim.Buffer, device: torch.device) -> torch.Tensor:
     return t
 
 
+ENV_GROUP = 64  # threads of a group-per-env task entry (env_group.hlsli)
+
+
 class VectorEnv(gymnasium.vector.VectorEnv):
     """Base of the batched tasks. Subclasses build the scene (`build_world`), name their HLSL
     file and its three entry points, give their per-env spaces and fill the task constants."""
@@ -64,6 +67,8 @@ class VectorEnv(gymnasium.vector.VectorEnv):
     metadata = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": ["rgb_array"], "render_fps": 60}
     hlsl: Path  # task passes: `entries` (evaluate also as evaluate_reset_all)
     entries = ("apply_action", "evaluate", "observe")
+    # entries that run a thread group an env (env_group.hlsli's ENV_GROUP threads) rather than a thread
+    group_entries: tuple = ()
     single_observation_space: Box
     single_action_space: Box
     max_episode_steps: int
@@ -311,17 +316,20 @@ class VectorEnv(gymnasium.vector.VectorEnv):
         shard = {"env_offset": self.env_offset} if "env_offset" in declared else {}
         passes = {}
         # named by the file: compiler errors give its path and line, and "episode.hlsli" beside it resolves
+        def threads(entry: str) -> int:
+            return self.num_envs * (ENV_GROUP if entry in self.group_entries else 1)
+
         for entry in self.entries:
             if entry == "observe":
                 passes["observe"], passes["observe_final"] = self.observe_passes(
-                    source, entry, self.num_envs, common, {**self.task_constants(reset_all=False), **shard})
+                    source, entry, threads(entry), common, {**self.task_constants(reset_all=False), **shard})
                 continue
             passes[entry] = self.engine.create_compute_pass(
-                source, name=str(self.hlsl), entry=entry, threads=self.num_envs,
+                source, name=str(self.hlsl), entry=entry, threads=threads(entry),
                 bindings={k: v for k, v in common.items() if k in declared},
                 constants={**self.task_constants(reset_all=False), **shard})
         passes["evaluate_reset_all"] = self.engine.create_compute_pass(
-            source, name=str(self.hlsl), entry="evaluate", threads=self.num_envs,
+            source, name=str(self.hlsl), entry="evaluate", threads=threads("evaluate"),
             bindings={k: v for k, v in common.items() if k in declared},
             constants={**self.task_constants(reset_all=True), **shard})
         return passes
