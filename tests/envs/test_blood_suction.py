@@ -73,7 +73,7 @@ def test_suction_in_the_pool_removes_blood_and_a_far_one_does_not():
     env = cressim.envs.make("BloodSuction", num_envs=2, validation=True)
     obs, _ = on_host(env.reset())
     total = torch.zeros(2)
-    for step in range(80):  # env 0 goes for the blood, valve open; env 1 rises 15 mm, out of reach (20 mm), valve open
+    for step in range(30):  # env 0 goes for the blood, valve open; env 1 rises 15 mm, out of reach (20 mm), valve open
         a = toward_blood(obs[:, :13], 1.0)
         a[1] = 0.0
         a[1, 2] = -1.0 if step < 15 else 0.0
@@ -86,7 +86,7 @@ def test_suction_in_the_pool_removes_blood_and_a_far_one_does_not():
     assert total[0] > 0.03 * float(removed[0]), total  # progress on top of removal
     assert abs(float(total[1]) + 0.75) < 0.02, total  # env 1 rose 15 mm from the blood below: - 15 / 20
     assert math.isclose(float(numbers[0, REMOVED]), float(removed[0]) / 605, rel_tol=1e-6)
-    assert torch.all(numbers[:, VALVE] == 1) and torch.allclose(numbers[:, ELAPSED], torch.tensor(80 / 240))
+    assert torch.all(numbers[:, VALVE] == 1) and torch.allclose(numbers[:, ELAPSED], torch.tensor(30 / 240))
     assert (~blood_state(env, 0)[2]).sum() == removed[0] and blood_state(env, 1)[2].all()
     assert blood_pixels(image)[0] < blood_pixels(image)[1]  # the picture shows the blood gone
     assert env.engine.validation_messages == []

@@ -53,7 +53,7 @@ def test_two_processes_train_as_one(tmp_path):
 def test_engine_rollouts_on_two_processes_train_as_one(tmp_path):
     """The actor inside each process's engine frame (--engine-rollout): the shards draw the whole
     batch's exploration noise by env index, so two processes of 16 envs train as one of 32."""
-    common = ["train", "CartPole", "--envs", "32", "--iterations", "3", "--rollout", "16", "--minibatch", "512",
+    common = ["train", "CartPole", "--envs", "32", "--iterations", "2", "--rollout", "16", "--minibatch", "512",
               "--backend", "torch", "--engine-rollout", "--seed", "5"]
     run_cli(*common, "--out", "one", cwd=tmp_path)
     out = run_cli(*common, "--out", "two", "--nproc", "2", cwd=tmp_path)
@@ -64,7 +64,7 @@ def test_engine_rollouts_on_two_processes_train_as_one(tmp_path):
         assert (a["episodes"], a["mean_length"], a["mean_return"]) == (b["episodes"], b["mean_length"], b["mean_return"])
         for key in ("value", "surrogate", "entropy"):
             assert b[key] == pytest.approx(a[key], rel=1e-3, abs=1e-6), key
-    w1, w2 = (torch.load(tmp_path / d / "model_3.pt", weights_only=False) for d in ("one", "two"))
+    w1, w2 = (torch.load(tmp_path / d / "model_2.pt", weights_only=False) for d in ("one", "two"))
     for name, value in w1["actor_state_dict"].items():
         assert torch.allclose(value, w2["actor_state_dict"][name], rtol=1e-4, atol=1e-6), name
 
