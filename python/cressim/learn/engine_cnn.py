@@ -17,9 +17,7 @@ from pathlib import Path
 import torch
 from torch import nn
 
-from cressim.envs.vector_env import tensor_view
-
-from .engine_policy import ACTIVATIONS, SHARED_BYTES, share_into
+from .engine_policy import ACTIVATIONS, SHARED_BYTES, rollout_buffers, share_into
 from .torch_ppo import ImageCNN
 
 HLSL = Path(__file__).with_name("engine_cnn.hlsl")
@@ -171,15 +169,7 @@ class EngineCNNPolicy:
             offset += m.weight.numel() + m.bias.numel()
             shared += [m.weight, m.bias]
         self.weights = share_into(e, "policy_weights", shared + [log_std], dev)
-        obs_type = "uint8" if dtype == torch.uint8 else "float32"
-        self.buffers = {
-            "rollout_obs": e.create_shared_buffer("rollout_obs", (rollout, n, num_obs), obs_type),
-            "rollout_actions": e.create_shared_buffer("rollout_actions", (rollout, n, num_actions), "float32"),
-            "rollout_log_prob": e.create_shared_buffer("rollout_log_prob", (rollout, n), "float32"),
-            "rollout_step": e.create_shared_buffer("rollout_step", n, "int32")}
-        self.obs, self.actions, self.log_prob = (tensor_view(self.buffers[k], dev) for k in
-                                                 ("rollout_obs", "rollout_actions", "rollout_log_prob"))
-        self.step_count = tensor_view(self.buffers["rollout_step"], dev)  # uint in HLSL, far below 2**31
+        rollout_buffers(self, e, rollout, n, num_obs, num_actions, "uint8" if dtype == torch.uint8 else "float32", dev)
         constants = {"envs": n, "rollout": rollout, "seed": seed, "env_offset": env.env_offset, "explore": int(explore)}
         common = {"weights": "policy_weights", "observations": env.buffers.observations, **self.buffers}
         source = HLSL.read_text()  # a pass is named by the file and its layer: errors and pass timings say which

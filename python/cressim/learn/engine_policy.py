@@ -61,6 +61,21 @@ def share_into(engine, name: str, tensors: list, device: torch.device) -> torch.
     return flat
 
 
+def rollout_buffers(policy, engine, rollout: int, n: int, num_obs: int, num_actions: int, obs_type: str,
+                    device) -> None:
+    """The rollout storage a policy pass writes (engine buffers: observations, actions, log-probs,
+    each env's step), as `policy.buffers` and the learner's views `policy.obs`, `.actions`,
+    `.log_prob` and `.step_count`."""
+    policy.buffers = {
+        "rollout_obs": engine.create_shared_buffer("rollout_obs", (rollout, n, num_obs), obs_type),
+        "rollout_actions": engine.create_shared_buffer("rollout_actions", (rollout, n, num_actions), "float32"),
+        "rollout_log_prob": engine.create_shared_buffer("rollout_log_prob", (rollout, n), "float32"),
+        "rollout_step": engine.create_shared_buffer("rollout_step", n, "int32")}
+    policy.obs, policy.actions, policy.log_prob = (tensor_view(policy.buffers[k], device) for k in
+                                                   ("rollout_obs", "rollout_actions", "rollout_log_prob"))
+    policy.step_count = tensor_view(policy.buffers["rollout_step"], device)  # uint in HLSL, far below 2**31
+
+
 class EnginePolicy:
     """The Gaussian policy N(actor(obs), exp(log_std)) of a torch `actor` (an MLP) as an engine
     pass over `env`'s envs. `record()` adds one policy step to the frame being recorded (before
@@ -102,14 +117,7 @@ class EnginePolicy:
         for m in linears:
             shared += [m.weight, m.bias]
         self.weights = share_into(e, "policy_weights", shared + [log_std], dev)
-        self.buffers = {
-            "rollout_obs": e.create_shared_buffer("rollout_obs", (rollout, n, num_obs), "float32"),
-            "rollout_actions": e.create_shared_buffer("rollout_actions", (rollout, n, num_actions), "float32"),
-            "rollout_log_prob": e.create_shared_buffer("rollout_log_prob", (rollout, n), "float32"),
-            "rollout_step": e.create_shared_buffer("rollout_step", n, "int32")}
-        self.obs, self.actions, self.log_prob = (tensor_view(self.buffers[k], dev) for k in
-                                                 ("rollout_obs", "rollout_actions", "rollout_log_prob"))
-        self.step_count = tensor_view(self.buffers["rollout_step"], dev)  # uint in HLSL, far below 2**31
+        rollout_buffers(self, e, rollout, n, num_obs, num_actions, "float32", dev)
         header = "\n".join([
             f"#define ACTIVATION {activation}", f"#define NORMALIZED {int(normalizer is not None)}",
             f"static const uint OBS = {num_obs};", f"static const uint ACTIONS = {num_actions};",
