@@ -33,8 +33,6 @@
 
 RWStructuredBuffer<float4> tet_pins;  // per particle: sum K T, sum K (cleared each substep)
 
-static const float PUNCTURE_GRIP = 1e4;  // N/m: 0.1 mm of give under 1 N
-
 static const float TURN_SPAN = 0.003;     // m along the path either side of a puncture: a turn's extent
 static const float REACH = 0.002;         // m: the most a punctured point slides along the path an iteration
 

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 import torch
 
+from cressim.robots.arm_bodies import NEEDLE_WIRE
 from cressim.twin import JointCommand
 
 from cressim.suture import punctures
@@ -14,6 +15,8 @@ from cressim.twin.scene import load_scene
 from arm_moves import jaws_at, run_ticks, settle
 
 TOP = np.array([0.0, 0.0, 0.1615])  # the pad's top at its centre
+TABLE_BESIDE = np.array([0.06, 0.0, 0.15])  # the table's top beside the pad
+G = 9.81
 
 
 def _tip(arms, env):
@@ -65,15 +68,18 @@ def _jaws(arms, env, angle):
 
 def test_the_jaws_let_the_needle_go_and_pick_it_up_again(make_arms):
     arms = _homed(make_arms)
+    # both envs' jaws beside the pad, their middle (the needle's arc) 1.5 mm over the table
+    jaws_at(arms, np.array([0.0015, 0.0015]), point=TABLE_BESIDE)
     tip = lambda: (arms.bodies.base @ arms.kin.forward(arms.measured))[:, :3, 3].clone()  # noqa: E731
     start, tips = arms.bodies.needle_poses(), tip()
     assert arms.needle_held.tolist() == [True, True]
-    _jaws(arms, 0, 0.8)  # env 0 opens: the needle stays where it was let go
+    _jaws(arms, 0, 0.8)  # env 0 opens: the needle drops onto the table and lies there
     assert arms.needle_held.tolist() == [False, True]
     _moved(arms, [0, 1], 0.01)
     now, moved = arms.bodies.needle_poses(), tip() - tips
     assert float(moved[:, 2].min()) > 0.009  # both tools rose 10 mm
-    torch.testing.assert_close(now[0], start[0], atol=1e-6, rtol=0)  # left behind
+    assert abs(float(now[0, 2, 3]) - (TABLE_BESIDE[2] + NEEDLE_WIRE)) < 1e-4  # left behind, on the table
+    torch.testing.assert_close(now[0, :2, 3], start[0, :2, 3], atol=1e-3, rtol=0)
     torch.testing.assert_close(now[1, :3, 3] - start[1, :3, 3], moved[1], atol=1e-5, rtol=0)  # carried
     torch.testing.assert_close(now[1, :3, :3], start[1, :3, :3], atol=1e-5, rtol=0)
     _jaws(arms, 0, -0.2)  # closed 10 mm above it: nothing to take
@@ -88,6 +94,35 @@ def test_the_jaws_let_the_needle_go_and_pick_it_up_again(make_arms):
     arms.reset_envs([0])  # a reset: the needle back in the jaws as authored
     run_ticks(arms, 2)
     assert arms.needle_held[0]
+
+
+def _body(arms, key, env):
+    return torch.from_dlpack(arms.bodies.engine.buffer(key))[arms.bodies.needle_rows[env], :3].cpu().double()
+
+
+def test_a_needle_let_go_of_falls_and_comes_to_rest_on_the_table(make_arms):
+    """Put 30 mm over the table beside the pad, at rest and out of the jaws, env 0's needle falls
+    freely (g t^2 / 2, and semi-implicit Euler's g t h / 2 with h the substep; speed g t) and lies
+    flat on the table (its wire's radius over the top); env 1's stays in its jaws, untouched."""
+    arms = _homed(make_arms)
+    held = arms.bodies.needle_poses()[1].clone()
+    pose = np.eye(4)  # the arc level
+    pose[:3, 3] = TABLE_BESIDE + np.array([0.0, 0.0, 0.03])
+    arms.set_needle_pose(0, pose)
+    z0 = float(_body(arms, "rigid.positions", 0)[2])
+    ticks = 6  # 60 ms, the fall takes 78
+    run_ticks(arms, ticks)
+    t, h = ticks * arms.bodies.dt, arms.bodies.dt / arms.bodies.engine.physics.substeps
+    drop = z0 - float(_body(arms, "rigid.positions", 0)[2])
+    assert drop == pytest.approx(G * t * t / 2 + G * t * h / 2, rel=0.01)
+    assert float(_body(arms, "rigid.linear_velocities", 0)[2]) == pytest.approx(-G * t, rel=0.01)
+    run_ticks(arms, 100)
+    lying = arms.bodies.needle_poses()[0]
+    assert abs(float(lying[2, 3]) - (TABLE_BESIDE[2] + NEEDLE_WIRE)) < 1e-4  # the arc's centre, flat
+    assert float(lying[2, 2]) > 0.999  # its plane level
+    assert float(_body(arms, "rigid.linear_velocities", 0).norm()) < 1e-3  # at rest
+    torch.testing.assert_close(arms.bodies.needle_poses()[1], held, atol=1e-6, rtol=0)
+    assert arms.needle_held.tolist() == [False, True]
 
 
 @pytest.mark.ros
