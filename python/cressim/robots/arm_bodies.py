@@ -389,8 +389,9 @@ class ArmBodies:
             needle_bodies = np.asarray(engine.buffer("particles.needles").read())[:, 0].astype(np.int64)
             index = {int(b): k for k, b in enumerate(needle_bodies)}
             self._needle_index = torch.as_tensor([index[int(r)] for r in self.needle_rows.cpu()], device=self.device)
-            self._needle_kinematic = torch.from_dlpack(engine.buffer("control.body_kinematic"))
-            self._needle_holders = torch.from_dlpack(engine.buffer("control.needle_holders"))
+            # uint32 buffers, written as int32 (torch fills no uint32)
+            self._needle_kinematic = torch.from_dlpack(engine.buffer("control.body_kinematic")).view(torch.int32)
+            self._needle_holders = torch.from_dlpack(engine.buffer("control.needle_holders")).view(torch.int32)
             self.hold_needle(torch.arange(num_envs), True)
         self.health = torch.from_dlpack(self.engine.buffer("env.health"))
         self.reset_velocities = torch.from_dlpack(self.engine.buffer("control.body_reset_velocities"))
