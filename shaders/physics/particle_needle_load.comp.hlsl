@@ -6,13 +6,9 @@
 //   holder bears its weight and those forces: they are added to the holder's contact force and
 //   torque (what a tool reports) and, where the holder is dynamic, act on it over the next frame
 //   as a held particle's load does (particle_rigid_hold: a change of its velocity).
-// - Free and dynamic (let go of), its punctures hold it: each pulls the needle toward its surface
-//   point by the needle's share of their inverse masses (the tissue's share is the pins' in the
-//   elastic solve), position and velocity together (as XPBD derives velocities), a few sweeps
-//   over the records. Explicit forces would not do: the grip over a needle of a gram
-//   (dt^2 K / m = 250 at 200 Hz) diverges.
+// A needle let go of (dynamic) is held by its punctures in the solve instead (particle_needle_solve).
 // Not carried: the thread's pull on the tail (the thread's first particle is put at the tail).
-#define NEEDLE_MOVES_BODY
+#define NEEDLE_MOVES_BODY  // the holder's velocity
 #include "particle_needle.hlsli"
 
 StructuredBuffer<BodyModel> bodies;
@@ -20,8 +16,6 @@ StructuredBuffer<float4> body_dynamic_inertia;  // the needle's mass while it is
 StructuredBuffer<uint> needle_holders;
 RWStructuredBuffer<float4> body_contact_forces;
 RWStructuredBuffer<float4> body_contact_torques;
-
-static const uint SWEEPS = 4;
 
 // Where the tissue holds the needle at record p: the surface point x and the point of the needle
 // it is pinned to; false where it holds none (free, on the thread, behind the tip)
@@ -50,7 +44,7 @@ void main(uint3 id : SV_DispatchThreadID) {
   thread_count = 0;  // the needle's own arc alone (path_at)
   const float dt = pc.gravity.w * pc.grid.w;
   const uint holder = needle_holders[id.x];
-  if (holder != 0) {
+  if (holder != 0) {  // a needle let go of is held by its punctures instead (particle_needle_solve)
     const uint h = holder - 1;
     const Arc a = arc_of(n);
     const float3 origin = body_positions[h].xyz;
@@ -71,30 +65,5 @@ void main(uint3 id : SV_DispatchThreadID) {
       body_linear_velocities[h].xyz += m.inv_inertia.w * dt * f;
       body_angular_velocities[h].xyz += dt * quat_rotate(q, m.inv_inertia.xyz * quat_unrotate(q, t));
     }
-    return;
   }
-  const BodyModel m = bodies[b];
-  if (m.inv_inertia.w <= 0) return;  // kinematic and free: it stays where it was put
-  for (uint sweep = 0; sweep < SWEEPS; ++sweep)
-    for (uint r = n.records.x; r < n.records.x + n.records.y; ++r) {
-      const Puncture p = punctures[r];
-      float3 x, on_needle;
-      if (!grip(n, arc_of(n), p, x, on_needle)) continue;
-      const float gap = distance(x, on_needle);
-      if (gap < 1e-9) continue;
-      const float3 dir = (x - on_needle) / gap;
-      const float4 q = body_rotations[b];
-      const float3 rn = quat_unrotate(q, cross(on_needle - body_positions[b].xyz, dir));
-      const float wn = m.inv_inertia.w + dot(rn, m.inv_inertia.xyz * rn);
-      const uint3 c = corners(p.ids.y);
-      const float3 bw = weights(p);
-      const float3 wc = max(float3(positions[c.x].w, positions[c.y].w, positions[c.z].w), 0.0);
-      const float lambda = gap / (wn + dot(bw * bw, wc));
-      const float3 dx = m.inv_inertia.w * lambda * dir;
-      const float3 turn = lambda * quat_rotate(q, m.inv_inertia.xyz * rn);
-      body_positions[b].xyz += dx;
-      body_rotations[b] = quat_add_rotation(q, turn);
-      body_linear_velocities[b].xyz += dx / dt;
-      body_angular_velocities[b].xyz += turn / dt;
-    }
 }

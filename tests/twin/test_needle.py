@@ -47,6 +47,12 @@ def test_the_needle_in_the_jaws_punctures_the_pad_where_the_arm_pushes_it(make_a
     assert len(first) == 1 and first[0]["state"] == 2  # the tip went through the top
     assert abs(first[0]["contact"][2] - TOP[2]) < 0.001  # where it met the surface
     assert second == []
+    # the tool feels the pad holding the needle back (up, against the push) in env 0, and in env 1
+    # the needle's weight alone
+    weight = G * arms.bodies._needle_mass[0]
+    assert float(arms.tool_wrench[0, 2]) > 10 * weight, arms.tool_wrench[0]
+    torch.testing.assert_close(arms.tool_wrench[1, :3], torch.tensor([0, 0, -weight], dtype=torch.float64),
+                               atol=1e-3 * weight, rtol=0)
     arms.bodies.engine.reset_envs([0])  # the pad as authored: the puncture is gone
     run_ticks(arms, 1)
     assert all(r["state"] != 2 for r in punctures(arms.bodies.engine)[0])
@@ -96,6 +102,36 @@ def test_the_jaws_let_the_needle_go_and_pick_it_up_again(make_arms):
     assert arms.needle_held[0]
 
 
+def _on_arc(arms, env, s):
+    """The point of env's needle s m from its tip along the arc (world)."""
+    A, R = arms.scene.needle["arc_angle"], arms.scene.needle["arc_radius"]
+    T = arms.bodies.needle_poses()[env].numpy()
+    phi = A - s / R
+    return T[:3, :3] @ np.array([R * np.cos(phi), R * np.sin(phi), 0.0]) + T[:3, 3]
+
+
+def test_a_needle_let_go_of_in_the_pad_hangs_from_its_puncture(make_arms):
+    """Env 0's jaws push the needle's tip through the pad's top and let go: the needle, now free,
+    hangs from the punctures (the pad's surface points stay on its arc, within 0.5 mm; a puncture
+    is a point, so it swings about them) rather than fall through: over a second it stays threaded,
+    its centre within its diameter of where it was let go; env 1's jaws hold theirs."""
+    arms = _homed(make_arms)
+    jaws_at(arms, np.array([-0.004, 0.010]), point=TOP)
+    let_go, R = arms.bodies.needle_poses()[0], arms.scene.needle["arc_radius"]
+    _jaws(arms, 0, 0.8)
+    for _ in range(10):
+        run_ticks(arms, 10)
+        assert arms.bodies.health_flags().tolist() == [0, 0]
+        # it turns about a point of its own: its centre stays within its diameter of where it was
+        assert float((arms.bodies.needle_poses()[0, :3, 3] - let_go[:3, 3]).norm()) < 2 * R + 0.002
+        assert any(r["state"] == 2 for r in punctures(arms.bodies.engine)[0])
+    assert arms.needle_held.tolist() == [False, True]
+    through = [r for r in punctures(arms.bodies.engine)[0] if r["state"] == 2]
+    assert through
+    for r in through:
+        assert np.linalg.norm(r["point"] - _on_arc(arms, 0, r["s"])) < 5e-4
+
+
 def _body(arms, key, env):
     return torch.from_dlpack(arms.bodies.engine.buffer(key))[arms.bodies.needle_rows[env], :3].cpu().double()
 
@@ -123,6 +159,40 @@ def test_a_needle_let_go_of_falls_and_comes_to_rest_on_the_table(make_arms):
     assert float(_body(arms, "rigid.linear_velocities", 0).norm()) < 1e-3  # at rest
     torch.testing.assert_close(arms.bodies.needle_poses()[1], held, atol=1e-6, rtol=0)
     assert arms.needle_held.tolist() == [False, True]
+
+
+def test_a_dynamic_arm_bears_the_needle_it_holds(make_arms):
+    """The dynamic arm (jointed bodies): the jaws' body bears the needle's weight, which the tool
+    reports (its force m g down, its torque about the tool tip that of m g at the needle's centre of
+    mass); pushed 4 mm into the pad, the tool feels the pad hold the needle back and the insertion
+    drive bears that load along the shaft (J^T w): its proportional and integral terms over those of
+    env 1, whose tool holds its needle 10 mm above the pad."""
+    scene = load_scene("psm_suture.yaml")
+    scene.dynamics = "dynamic"
+    arms = make_arms(scene=scene, num_envs=2)
+    for env in range(2):
+        arms.state_command(env, "enable")
+        arms.state_command(env, "home")
+    settle(arms)
+    run_ticks(arms, 10)
+    weight = torch.tensor([0.0, 0.0, -G * arms.bodies._needle_mass[0]], dtype=torch.float64)
+    tip = (arms.bodies.base @ arms.kin.forward(arms.measured))[:, :3, 3]
+    for env in range(2):
+        force, torque = arms.tool_wrench[env, :3], arms.tool_wrench[env, 3:]
+        torch.testing.assert_close(force, weight, atol=0.02 * float(weight.norm()), rtol=0)
+        arm = _body(arms, "rigid.positions", env) - tip[env]
+        torch.testing.assert_close(torque, torch.linalg.cross(arm, weight),
+                                   atol=0.02 * float(arm.norm() * weight.norm()), rtol=0)
+    jaws_at(arms, np.array([-0.004, 0.010]), point=TOP)
+    run_ticks(arms, 50)
+    assert any(r["state"] == 2 for r in punctures(arms.bodies.engine)[0])
+    snap, load = arms.snapshot(), []
+    for env in range(2):
+        J, _ = arms.kin.jacobian(arms.measured[env:env + 1])
+        load.append(-(J[0].T @ torch.as_tensor(snap.spatial_cf[env]))[2].item())  # N, in along the shaft
+    b = arms.bodies
+    drive = b.stiffness[2] * (b._bias[:, 2] + arms.setpoint[:, 2] - arms.measured[:, 2])
+    assert load[0] > 0.5 and abs(float(drive[0] - drive[1]) - (load[0] - load[1])) < 0.1 * load[0], (load, drive)
 
 
 @pytest.mark.ros

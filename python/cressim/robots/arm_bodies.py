@@ -219,7 +219,8 @@ class ArmBodies:
             visuals = ArmVisuals(urdf, Path(urdf_path).parent, bodies, poses)
             scenery = plan.build(world, visuals)
         self.scenery = scenery
-        self.needle_pose0 = None  # the held needle's arc frame in the world at the authored joints
+        self.needle_pose0 = None  # the held needle's arc frame in the world at the authored joints:
+        self.authored_q = q_author  # the initial ones (kinematic), zeros (dynamic: posed by the engine's reset)
         if needle:
             k, centre, frame, in_body = self._needle_frame(needle, bodies, poses)
             local = np.eye(4)

@@ -223,7 +223,9 @@ class TwinArms:
         self.jaw_v_limit = np.array([jaw_v * scene.velocity_ratio])
         self.needle_offset = None  # (N, 4, 4): a held needle's arc frame in the tool-tip frame
         if self.bodies.needle_rows is not None:  # held as authored, at the initial joints
-            tip0 = self.bodies.base.to(torch.float64) @ self.kin.forward(self.setpoint[:1])[0]
+            authored = torch.zeros_like(self.setpoint[:1])
+            authored[0, :len(self.bodies.authored_q)] = torch.as_tensor(self.bodies.authored_q)
+            tip0 = self.bodies.base.to(torch.float64) @ self.kin.forward(authored)[0]
             self._needle_offset0 = torch.linalg.solve(tip0, torch.as_tensor(self.bodies.needle_pose0))
             A, R = scene.needle["arc_angle"], scene.needle["arc_radius"]
             self._needle_grip = self._needle_offset0 @ torch.tensor([R * math.cos(A / 3), R * math.sin(A / 3), 0.0, 1.0],
