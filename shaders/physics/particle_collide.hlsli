@@ -40,8 +40,8 @@ ColliderPose collider_pose(ColliderModel c) {
   return s;
 }
 
-// particles meet the collider (its mask has COLLIDER_PARTICLES)
-bool meets_particles(ColliderModel c) { return (c.ids.w & COLLIDER_PARTICLES) != 0; }
+// particles meet the collider (its group lacks COLLIDER_NO_PARTICLES)
+bool meets_particles(ColliderModel c) { return (c.ids.z & COLLIDER_NO_PARTICLES) == 0; }
 
 float3 closest_on_segment(float3 p, float3 s0, float3 s1) {
   const float3 d = s1 - s0;

@@ -60,7 +60,7 @@ from .psm import JAW_GRASP_POINT, JAW_LINK
 from ..suture import needle_arrays, needle_body
 
 ARM_GROUP = 2  # collision group of arm links; they do not collide with each other (mask below)
-COLLIDER_PARTICLES = 0x80000000  # the mask bit particles collide through (shaders/common/rigid.h)
+COLLIDER_NO_PARTICLES = 0x80000000  # in a collider's group: particles pass through it (shaders/common/rigid.h)
 NEEDLE_WIRE = 0.00035  # m: a 2-0 needle's wire radius (drawn, collided and weighed)
 NEEDLE_SEGMENTS = 6  # capsules along a needle's arc
 DYNAMICS = ("kinematic", "dynamic")
@@ -347,7 +347,7 @@ class ArmBodies:
             shapes.append(cressim.Shape.capsule(NEEDLE_WIRE, float(np.linalg.norm(b - a) / 2),
                                                 position=tuple(float(v) for v in (a + b) / 2),
                                                 rotation=rotation_xyzw(np.stack([x, np.cross(z, x), z], 1))))
-        body.add(cressim.Collider(shapes, group=1, mask=0xFFFFFFFF & ~arm_group & ~COLLIDER_PARTICLES))
+        body.add(cressim.Collider(shapes, group=1 | COLLIDER_NO_PARTICLES, mask=0xFFFFFFFF & ~arm_group))
         body.add(cressim.Needle(thread=thread, arc_radius=R, arc_angle=A, puncture_force=spec["puncture_force"],
                                 puncture_depth=spec["puncture_depth"], friction=spec["friction"],
                                 squeeze=spec.get("squeeze", 0.0), center=tuple(float(v) for v in arc_in_body[:3, 3]),
