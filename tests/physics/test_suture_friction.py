@@ -85,7 +85,8 @@ MASS = 3e-6  # kg a particle (1.5 g/m): its own weight is the load
 # a thread with no bending or twisting stiffness to speak of (a rope: the friction alone holds it)
 ROPE = {"mass": MASS, "bend_compliance": 1e9, "twist_compliance": 1e9, "damping": 10.0, "soft_body_contacts": False}
 # the scenes' thread (a 2-0 braid: 0.15 mm radius, 50 MPa, a rod that bends stiffly), as heavy as the rope
-BRAID = {"mass": MASS, "youngs_modulus": 5e7, "poisson_ratio": 0.4, "damping": 2.0, "soft_body_contacts": False}
+BRAID = {"youngs_modulus": 5e7, "poisson_ratio": 0.4, "density": MASS / (0.002 * math.pi * 0.00015 ** 2), "damping": 2.0,
+         "soft_body_contacts": False}
 THREADS = pytest.mark.parametrize("strand", [ROPE, BRAID], ids=["rope", "braid"])
 
 
@@ -113,7 +114,8 @@ def test_a_straight_pass_holds_the_thread_up_to_coulombs_limit(make_engine, stra
         engine.step_physics()
         engine.end_frame()
     for family in ("stretch", "stretch_shear", "bend", "bend_twist"):
-        engine.cut_constraints(family, [0])
+        if engine.buffer(f"particles.{family}_constraints").shape[0]:  # the families the thread has
+            engine.cut_constraints(family, [0])
     step(engine, 6)
     exit_, entry = sorted(punctures(engine)[0], key=lambda r: r["s"])
     assert exit_["s"] - R * A > 0.002  # past the cut segment
@@ -196,5 +198,5 @@ def test_a_turn_at_a_puncture_holds_by_the_capstan_law(make_engine, strand):
     print({("exit", "entry")[k]: tuple(round(v, 3) for v in o) for k, o in onsets.items()})
     assert len(onsets) == 2, "a puncture never slipped"
     for ratio, capstan, turned in onsets.values():
-        assert 0.8 < turned < 2.0  # a clear turn (exp(mu theta) 1.27-1.82)
+        assert 0.4 < turned < 2.0  # a clear turn (exp(mu theta) 1.13-1.82; the stiff braid turns less)
         assert ratio == pytest.approx(capstan, rel=0.1)
