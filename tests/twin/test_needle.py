@@ -49,7 +49,7 @@ def test_the_needle_in_the_jaws_punctures_the_pad_where_the_arm_pushes_it(make_a
     assert second == []
     # the tool feels the pad holding the needle back (up, against the push) in env 0, and in env 1
     # the needle's weight alone
-    weight = G * arms.bodies._needle_mass[0]
+    weight = G * arms.bodies.needle_mass[0]
     assert float(arms.tool_wrench[0, 2]) > 10 * weight, arms.tool_wrench[0]
     torch.testing.assert_close(arms.tool_wrench[1, :3], torch.tensor([0, 0, -weight], dtype=torch.float64),
                                atol=1e-3 * weight, rtol=0)
@@ -175,7 +175,7 @@ def test_a_dynamic_arm_bears_the_needle_it_holds(make_arms):
         arms.state_command(env, "home")
     settle(arms)
     run_ticks(arms, 10)
-    weight = torch.tensor([0.0, 0.0, -G * arms.bodies._needle_mass[0]], dtype=torch.float64)
+    weight = torch.tensor([0.0, 0.0, -G * arms.bodies.needle_mass[0]], dtype=torch.float64)
     tip = (arms.bodies.base @ arms.kin.forward(arms.measured))[:, :3, 3]
     for env in range(2):
         force, torque = arms.tool_wrench[env, :3], arms.tool_wrench[env, 3:]

@@ -230,7 +230,7 @@ class ArmBodies:
             thread_way = bodies[k].pose[:3, :3] @ -in_body[:3, 1]  # back along the jaws
             # its own body (origin at its centre of mass: the engine's), drawn with the jaws' segmentation id
             mass, inertia, self._needle_frame_in_arc = needle_body(needle["arc_radius"], needle["arc_angle"], NEEDLE_WIRE)
-            self._needle_mass = (mass, inertia)
+            self.needle_mass = (mass, inertia)  # kg, kg m^2 (principal, about its centre of mass)
             arc_in_body = np.linalg.inv(self._needle_frame_in_arc)
             pts, tris, normals = needle_arrays(needle["arc_radius"], needle["arc_angle"], NEEDLE_WIRE)
             pts = pts @ arc_in_body[:3, :3].T.astype(np.float32) + arc_in_body[:3, 3].astype(np.float32)
@@ -262,7 +262,7 @@ class ArmBodies:
             if needle:
                 needle_ids[env] = self._add_needle(world, env, needle, self.needle_pose0, thread_way,
                                                    needle_drawn if scenery else None, self._needle_frame_in_arc,
-                                                   self._needle_mass, collision_group)
+                                                   self.needle_mass, collision_group)
             for k, spec in enumerate(joint_specs):
                 parent = None if spec["parent"] is None else entities[spec["parent"]]
                 e = world.create_entity(env=env, name=spec["name"])
