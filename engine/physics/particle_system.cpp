@@ -169,6 +169,10 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
        {nr, int64_t(sizeof(shader::Puncture) / 4)}, DType::UINT32);
     in("needle_states", "particles.needle_states", std::vector<float4>(size_t(nn), float4{0, 0, 0, -1}), {nn, 4},
        DType::FLOAT32);
+    // per needle: the body that holds it (its row + 1; 0: none), which bears its load (particle_needle_load)
+    const std::vector<uint32_t> free_(size_t(nn), 0u);
+    bindings_["needle_holders"] = make(control, "control.needle_holders", free_.data(), free_.size() * 4, {nn},
+                                       DType::UINT32, false, exportable);
   }
 
   // env flags, shared with the rigid solver; made here when there is none
@@ -192,6 +196,7 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
       {"env_rigid_ranges", "rigid.env_ranges", sizeof(shader::EnvRigidRange) / 4, DType::UINT32},
       {"colliders", "rigid.colliders", sizeof(shader::ColliderModel) / 4, DType::UINT32},
       {"bodies", "rigid.bodies", sizeof(shader::BodyModel) / 4, DType::UINT32},
+      {"body_dynamic_inertia", "rigid.dynamic_inertia", 4, DType::FLOAT32},
       {"body_positions", "rigid.positions", 4, DType::FLOAT32},
       {"body_rotations", "rigid.rotations", 4, DType::FLOAT32},
       {"body_linear_velocities", "rigid.linear_velocities", 4, DType::FLOAT32},
@@ -347,6 +352,7 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
     needle_detect_->groups = {uint32_t(model_.needles.size()), 1, 1};  // a workgroup per needle
     needle_solve_ = pass("physics/particle_needle_solve", model_.needles.size());
     needle_reset_ = pass("physics/particle_needle_reset", model_.needles.size());
+    if (has_rigid_) needle_load_ = pass("physics/particle_needle_load", model_.needles.size());
     moving_.push_back(needle_detect_.get());
     moving_.push_back(needle_solve_.get());
   }
@@ -482,7 +488,7 @@ void ParticleSystem::set_constants(const PhysicsSettings& s) {
     if (p == heat_apply_) c.item_count = heat_cycles(s);
     if (p == tendon_ || p == tendon_force_) c.item_count = uint32_t(model_.tendon_robots.size());
     if (p == tendon_force_) c.item_offset = 1;
-    if (p == needle_detect_ || p == needle_solve_ || p == needle_reset_) c.item_count = uint32_t(model_.needles.size());
+    if (p == needle_detect_ || p == needle_solve_ || p == needle_reset_ || p == needle_load_) c.item_count = uint32_t(model_.needles.size());
     if (p->constants.size() != sizeof(c)) throw std::logic_error("ParticleConstants does not match " + p->name);
     std::memcpy(p->constants.data(), &c, sizeof(c));
   }
@@ -538,6 +544,7 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
     run(fluid_velocity_);
   }
   run(rigid_hold_);
+  run(needle_load_);
   run(rigid_forces_);
   run(heat_cover_);
   for (uint32_t c = 0; heat_apply_ && c < heat_cycles(settings_); ++c) {

@@ -139,7 +139,12 @@ RigidModel build_rigid_model(const scene::World& world, const scene::LayoutMappi
       for (int i = 0; i < 3; ++i)
         if (!rb.kinematic && !(inertia[i] > 0)) fail(world, e, "RigidBody.inertia must be positive on every axis");
       shader::BodyModel b{};
-      if (!rb.kinematic) b.inv_inertia = {1 / inertia[0], 1 / inertia[1], 1 / inertia[2], 1 / mass};
+      const bool has_mass = mass > 0 && inertia[0] > 0 && inertia[1] > 0 && inertia[2] > 0;
+      const shader::float4 inv = has_mass ? shader::float4{1 / inertia[0], 1 / inertia[1], 1 / inertia[2], 1 / mass}
+                                          : shader::float4{0, 0, 0, 0};
+      if (!rb.kinematic) b.inv_inertia = inv;
+      m.dynamic_inertia.push_back(inv);
+      m.kinematic.push_back(rb.kinematic ? 1u : 0u);
       b.damping = {rb.linear_damping, rb.angular_damping, 0, 0};
       b.ids = {row, env, rb.kinematic ? shader::BODY_KINEMATIC : 0u, 0};
       const Pose pose = pose_of(world, e);

@@ -14,6 +14,10 @@ namespace cressim::physics {
 
 struct RigidModel {
   std::vector<shader::BodyModel> bodies;
+  // per body: inverse inertia and mass as authored, kinematic bodies included where they have a
+  // mass and inertia (control.body_kinematic can then make them dynamic); 0 where they have none
+  std::vector<shader::float4> dynamic_inertia;
+  std::vector<uint32_t> kinematic;  // 1: authored kinematic (control.body_kinematic's start)
   std::vector<shader::float4> initial_positions, initial_rotations;
   std::vector<uint32_t> body_entity, body_env;
   std::vector<int64_t> entity_body;  // entity id -> body index, -1 when none

@@ -44,6 +44,7 @@ RigidSystem::RigidSystem(std::shared_ptr<gpu::Context> ctx, RigidModel model, co
   in("rigid.body_entity", model_.body_entity, {nb}, DType::UINT32);
   in("rigid.body_env", model_.body_env, {nb}, DType::UINT32);
   in("rigid.bodies", model_.bodies, {nb, int64_t(sizeof(shader::BodyModel) / 4)}, DType::UINT32);
+  in("rigid.dynamic_inertia", model_.dynamic_inertia, {nb, 4}, DType::FLOAT32);
   in("rigid.colliders", model_.colliders, {nc, int64_t(sizeof(shader::ColliderModel) / 4)}, DType::UINT32);
   in("rigid.env_ranges", model_.env_ranges, {ne, int64_t(sizeof(shader::EnvRigidRange) / 4)}, DType::UINT32);
   in("joint.model", model_.joints, {nj, int64_t(sizeof(shader::JointModel) / 4)}, DType::UINT32);
@@ -79,6 +80,8 @@ RigidSystem::RigidSystem(std::shared_ptr<gpu::Context> ctx, RigidModel model, co
   ctl("control.joint_reset", zeros_j, {nj, 4}, DType::FLOAT32);
   ctl("control.body_reset_velocities", zeros_b, {nb, 4}, DType::FLOAT32);
   ctl("control.body_reset_angular_velocities", zeros_b, {nb, 4}, DType::FLOAT32);
+  // 1 kinematic, 0 dynamic, per body, taken at the frame's start (a body without a mass stays kinematic)
+  ctl("control.body_kinematic", model_.kinematic, {nb}, DType::UINT32);
   ctl("control.body_target_positions", model_.initial_positions, {nb, 4}, DType::FLOAT32);
   ctl("control.body_target_rotations", model_.initial_rotations, {nb, 4}, DType::FLOAT32);
 
@@ -91,6 +94,7 @@ RigidSystem::RigidSystem(std::shared_ptr<gpu::Context> ctx, RigidModel model, co
       ctx, "physics/xpbd_rigid",
       {{"env_ranges", get("rigid.env_ranges")}, {"bodies", get("rigid.bodies")}, {"colliders", get("rigid.colliders")},
        {"joints", get("joint.model")}, {"filtered_pairs", get("rigid.filtered_pairs")},
+       {"dynamic_inertia", get("rigid.dynamic_inertia")}, {"body_kinematic", get("control.body_kinematic")},
        {"joint_targets", get("control.joint_targets")}, {"target_positions", get("control.body_target_positions")},
        {"target_rotations", get("control.body_target_rotations")}, {"positions", get("rigid.positions")},
        {"rotations", get("rigid.rotations")}, {"linear_velocities", get("rigid.linear_velocities")},

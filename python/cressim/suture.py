@@ -39,6 +39,28 @@ def punctures(engine) -> list[list[dict]]:
     return out
 
 
+STEEL = 7900.0  # kg/m^3: a needle's wire
+
+
+def needle_body(radius: float, angle: float, wire: float, density: float = STEEL):
+    """A needle's mass properties for its rigid body: (mass kg, principal inertia (3,) kg m^2 about
+    its centre of mass, the body frame in the arc frame (4x4)). The wire (radius `wire`) is bent on
+    the arc (radius `radius`, from angle 0 to `angle`); its centre of mass lies on the bisector at
+    radius sin(angle/2) / (angle/2), the body's x along the bisector, z the arc's normal."""
+    mass = density * np.pi * wire ** 2 * radius * angle
+    half = angle / 2
+    phi = np.linspace(-half, half, 2001)  # about the bisector
+    d = radius * np.sin(half) / half
+    along, across = radius * np.cos(phi) - d, radius * np.sin(phi)
+    tube = mass * wire ** 2 / 4  # the wire's own section about a diameter (about z: twice that)
+    ixx, iyy = mass * np.mean(across ** 2) + tube, mass * np.mean(along ** 2) + tube
+    frame = np.eye(4)
+    c, s = np.cos(half), np.sin(half)
+    frame[:3, :3] = [[c, -s, 0], [s, c, 0], [0, 0, 1]]
+    frame[:3, 3] = [d * c, d * s, 0]
+    return mass, np.array([ixx, iyy, ixx + iyy]), frame
+
+
 def needle_mesh(radius: float, angle: float, wire: float, segments: int = 48, sides: int = 12) -> cressim.Mesh:
     """A needle's arc as a tube of radius `wire` (m) in the xy plane about z, from the tail at angle 0
     to the tip at `angle`, tapering to a point over its last tenth (cressim.Needle's arc frame)."""

@@ -26,6 +26,9 @@ static const uint DRIVE_POSITION = 1;  // spring (stiffness) to the target, damp
 static const uint DRIVE_VELOCITY = 2;  // damping (damping) toward the target velocity
 
 static const uint BODY_KINEMATIC = 1;
+// in a collider's group: particles pass through it (a suture needle's shapes: only its tip acts
+// on tissue); bodies meet it by group and mask as ever
+static const uint COLLIDER_NO_PARTICLES = 0x80000000u;
 static const uint JOINT_LIMITED = 1;
 
 // per-env health flags (env.health), written by the solver; a flagged env is reset next frame

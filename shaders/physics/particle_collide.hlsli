@@ -40,6 +40,9 @@ ColliderPose collider_pose(ColliderModel c) {
   return s;
 }
 
+// particles meet the collider (its group lacks COLLIDER_NO_PARTICLES)
+bool meets_particles(ColliderModel c) { return (c.ids.z & COLLIDER_NO_PARTICLES) == 0; }
+
 float3 closest_on_segment(float3 p, float3 s0, float3 s1) {
   const float3 d = s1 - s0;
   const float t = saturate(dot(p - s0, d) / max(dot(d, d), 1e-12));

@@ -34,6 +34,7 @@ void fluid_boundary(float3 x, uint env, float r, float m, Kernel K, out float de
   const EnvRigidRange er = env_rigid_ranges[env];
   for (uint c = er.bodies.z; c < er.bodies.z + er.bodies.w; ++c) {
     const ColliderModel cm = colliders[c];
+    if (!meets_particles(cm)) continue;
     float3 n;
     float depth, rho, slope;
     if (!sphere_penetration(x, reach, cm, collider_pose(cm), n, depth)) continue;

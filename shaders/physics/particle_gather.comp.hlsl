@@ -41,6 +41,7 @@ void main(uint3 id : SV_DispatchThreadID) {
     rigid_pushes[i] = float4(0, 0, 0, 0);
     for (uint c = er.bodies.z; c < er.bodies.z + er.bodies.w; ++c) {
       const ColliderModel cm = colliders[c];
+      if (!meets_particles(cm)) continue;
       const ColliderPose s = collider_pose(cm);
       float3 n;
       float depth;

@@ -12,10 +12,19 @@ RWStructuredBuffer<Puncture> punctures;
 RWStructuredBuffer<float4> positions;
 StructuredBuffer<float4> initial_positions;  // as authored: the thread's rest lengths
 StructuredBuffer<uint> surface;  // particles.surface: three particles a triangle
+#ifdef NEEDLE_MOVES_BODY  // particle_needle_load: a free needle is moved by its punctures
+RWStructuredBuffer<float4> body_positions;
+RWStructuredBuffer<float4> body_rotations;
+RWStructuredBuffer<float4> body_linear_velocities;
+RWStructuredBuffer<float4> body_angular_velocities;
+#else
 StructuredBuffer<float4> body_positions;
 StructuredBuffer<float4> body_rotations;
 StructuredBuffer<float4> body_linear_velocities;
 StructuredBuffer<float4> body_angular_velocities;
+#endif
+
+static const float PUNCTURE_GRIP = 1e4;  // N/m: the tissue's grip on the needle, 0.1 mm of give under 1 N
 
 // the arc's frame in the world at the end of this substep (the rigid step ran the whole frame)
 struct Arc {

@@ -29,11 +29,11 @@
 // by inverse mass, a thread 100 times lighter than the tissue still dragged it toward the straight
 // line its own length solve pulled it to every iteration; with the tissue following a taut thread,
 // pulled by a kinematic needle, the flaps were lifted away.
+#define NEEDLE_MOVES_BODY  // a needle let go of (dynamic) and the tissue it is in share each correction
 #include "particle_needle.hlsli"
 
+StructuredBuffer<BodyModel> bodies;
 RWStructuredBuffer<float4> tet_pins;  // per particle: sum K T, sum K (cleared each substep)
-
-static const float PUNCTURE_GRIP = 1e4;  // N/m: 0.1 mm of give under 1 N
 
 static const float TURN_SPAN = 0.003;     // m along the path either side of a puncture: a turn's extent
 static const float REACH = 0.002;         // m: the most a punctured point slides along the path an iteration
@@ -137,12 +137,38 @@ void slide_through(NeedleModel n, Arc a, inout Puncture p, float3 x) {
   if (positions[i1].w > 0) p.impulse.xyz += moved1 / positions[i1].w;
 }
 
+// A dynamic needle (let go of) and the tissue it is in: the surface point x and the needle's point
+// `on_needle` meet by inverse mass, the needle's at that point and the surface point's (its corners
+// by their weights), so that the tissue holds the needle up as much as the needle holds it: a
+// stiff pin would drag the tissue along with a falling needle, and a force from it on a needle of
+// a few tens of milligrams (dt^2 k / m far above 1) would diverge. The body moves as the particles'
+// pushes move it (particle_rigid_push): by dx now, and by the velocity dx / h for the rest of the frame.
+void share(NeedleModel n, uint3 c, float3 b, float3 x, float3 on_needle) {
+  const uint body = n.ids.x;
+  const BodyModel m = bodies[body];
+  const float gap = distance(x, on_needle);
+  if (gap < 1e-9) return;
+  const float3 dir = (x - on_needle) / gap;
+  const float4 q = body_rotations[body];
+  const float3 rn = quat_unrotate(q, cross(on_needle - body_positions[body].xyz, dir));
+  const float3 wc = max(float3(positions[c.x].w, positions[c.y].w, positions[c.z].w), 0.0);
+  const float lambda = gap / (m.inv_inertia.w + dot(rn, m.inv_inertia.xyz * rn) + dot(b * b, wc));
+  [unroll] for (uint k = 0; k < 3; ++k) positions[c[k]].xyz -= wc[k] * b[k] * lambda * dir;
+  const float h = pc.gravity.w, frame_left = h * pc.grid.w * (1 - pc.grid.y);
+  const float3 dx = m.inv_inertia.w * lambda * dir, turn = lambda * quat_rotate(q, m.inv_inertia.xyz * rn);
+  body_positions[body].xyz += dx * (1 + frame_left / h);
+  body_rotations[body] = quat_add_rotation(q, turn * (1 + frame_left / h));
+  body_linear_velocities[body].xyz += dx / h;
+  body_angular_velocities[body].xyz += turn / h;
+}
+
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
 void main(uint3 id : SV_DispatchThreadID) {
   if (id.x >= pc.item_count) return;
   const NeedleModel n = needles[id.x];
-  const Arc a = arc_of(n);
-  const float3 tip = tip_of(a);
+  const bool free_ = bodies[n.ids.x].inv_inertia.w > 0;  // dynamic: let go of
+  Arc a = arc_of(n);
+  float3 tip = tip_of(a);
   if (n.ids.y != CRESSIM_NONE) positions[n.ids.y].xyz = tail_of(a);
   const float mu = n.arc.w;
   load_thread(n, a);
@@ -169,7 +195,13 @@ void main(uint3 id : SV_DispatchThreadID) {
       const float depth = dot(x - tip, normal);
       // the last iteration's: the first of a substep also holds the tip's move over it
       p.place.w = PUNCTURE_GRIP * max(depth, 0.0);
-      if (depth > 0) pin(c, b, x, tip);  // behind the surface point the tip does not pull it
+      if (depth > 0 && free_) {
+        share(n, c, b, x, tip);
+        a = arc_of(n);
+        tip = tip_of(a);
+      } else if (depth > 0) {
+        pin(c, b, x, tip);  // behind the surface point the tip does not pull it
+      }
       punctures[r] = p;
       continue;
     }
@@ -181,7 +213,13 @@ void main(uint3 id : SV_DispatchThreadID) {
       if (q.segment == CRESSIM_NONE) {  // on the rigid, driven needle: the tissue goes to the path
         const float across = distance(x, q.x), slide = nearest - p.place.z;
         if (abs(slide) > mu * across) p.place.z += sign(slide) * (abs(slide) - mu * across);
-        pin(c, b, x, path_at(n, a, p.place.z).x);
+        if (free_) {
+          share(n, c, b, x, path_at(n, a, p.place.z).x);
+          a = arc_of(n);
+          tip = tip_of(a);
+        } else {
+          pin(c, b, x, path_at(n, a, p.place.z).x);
+        }
         punctures[r] = p;
         continue;
       }

@@ -124,7 +124,7 @@ float4 contact_step(inout float3 x, float3 xi, float3x3 H, float3 f, float3 x0, 
     ColliderPose pose[BATCH];
     bool skip[BATCH];
     [unroll] for (uint u = 0; u < BATCH; ++u) {
-      skip[u] = c + u >= end || moves_freely(cm[u]);
+      skip[u] = c + u >= end || moves_freely(cm[u]) || !meets_particles(cm[u]);
       pose[u] = collider_pose(cm[u]);
     }
     [unroll] for (uint u = 0; u < BATCH; ++u)

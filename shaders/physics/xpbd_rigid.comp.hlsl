@@ -9,7 +9,9 @@
 
 [[vk::push_constant]] ConstantBuffer<RigidConstants> pc;
 StructuredBuffer<EnvRigidRange> env_ranges;
-StructuredBuffer<BodyModel> bodies;
+RWStructuredBuffer<BodyModel> bodies;       // kinematic flag and inverse masses set at the frame's start
+StructuredBuffer<float4> dynamic_inertia;     // per body: inverse inertia and mass as authored (0: none)
+StructuredBuffer<uint> body_kinematic;        // control: 1 kinematic, 0 dynamic
 StructuredBuffer<ColliderModel> colliders;
 StructuredBuffer<JointModel> joints;
 StructuredBuffer<uint2> filtered_pairs;       // body pairs that do not collide (jointed)
@@ -360,6 +362,14 @@ void main(uint3 id : SV_DispatchThreadID) {
   sink.count = 0;
   sink.deepest = 0;
 
+  // a body switched between kinematic and dynamic (a needle let go of, taken again) from here on;
+  // one without a mass stays kinematic
+  for (uint b = b0; b < b1; ++b) {
+    const bool kinematic = body_kinematic[b] != 0 || dynamic_inertia[b].w <= 0;
+    if (kinematic == ((bodies[b].ids.z & BODY_KINEMATIC) != 0)) continue;
+    bodies[b].ids.z = kinematic ? bodies[b].ids.z | BODY_KINEMATIC : bodies[b].ids.z & ~BODY_KINEMATIC;
+    bodies[b].inv_inertia = kinematic ? float4(0, 0, 0, 0) : dynamic_inertia[b];
+  }
   for (uint b = b0; b < b1; ++b) {
     contact_forces[b] = float4(0, 0, 0, 0);
     contact_torques[b] = float4(0, 0, 0, 0);

@@ -30,6 +30,31 @@ def test_free_fall_matches_the_analytic_solution(make_engine):
     assert np.all(np.abs(z - (1 - G * t * t / 2)) <= G * h * t / 2 + 2e-4)
 
 
+def test_a_kinematic_body_made_dynamic_falls_and_made_kinematic_again_holds(make_engine):
+    """control.body_kinematic, taken at each frame's start: a kinematic ball with a mass held at its
+    target falls freely once made dynamic (semi-implicit Euler's recurrence from rest) and, made
+    kinematic again, goes to its target and stays; a kinematic body without a mass stays put."""
+    world = cressim.World(cressim.SceneLayout(1))
+    ball = world.create_entity(env=0, name="ball")
+    ball.add(cressim.Transform(position=(0, 0, 1)))
+    ball.add(cressim.RigidBody(mass=1, kinematic=True))
+    ball.add(cressim.Collider(cressim.Shape.sphere(0.05)))
+    massless = world.create_entity(env=0, name="massless")
+    massless.add(cressim.Transform(position=(1, 0, 1)))
+    massless.add(cressim.RigidBody(kinematic=True, inertia=(1, 1, 1)))
+    engine = start(world, make_engine, substeps=4)
+    step(engine, 10)
+    assert body(engine, "rigid.positions")[2] == pytest.approx(1.0, abs=1e-6)  # held at its target
+    engine.buffer("control.body_kinematic").write(np.array([0, 0], np.uint32))
+    z = step(engine, 20, lambda e: body(e, "rigid.positions")[2])
+    n = 4 * np.arange(1, 21)
+    np.testing.assert_allclose(z, 1 - G * (DT / 4) ** 2 * n * (n + 1) / 2, atol=2e-4)
+    assert body(engine, "rigid.positions", 1)[2] == pytest.approx(1.0, abs=1e-6)  # no mass: still kinematic
+    engine.buffer("control.body_kinematic").write(np.array([1, 1], np.uint32))
+    z = step(engine, 10, lambda e: body(e, "rigid.positions")[2])
+    assert z[0] == pytest.approx(1.0, abs=1e-5) and z[-1] == pytest.approx(1.0, abs=1e-6)  # back to its target
+
+
 @pytest.mark.parametrize("substeps", [4, 8])
 def test_hinge_pendulum_period_within_one_percent(make_engine, substeps):
     world = cressim.World(cressim.SceneLayout(1))

@@ -84,15 +84,20 @@ def test_a_frictionless_puncture_passes_the_tension_on_as_a_pulley(make_engine):
 MASS = 3e-6  # kg a particle (1.5 g/m): its own weight is the load
 # a thread with no bending or twisting stiffness to speak of (a rope: the friction alone holds it)
 ROPE = {"mass": MASS, "bend_compliance": 1e9, "twist_compliance": 1e9, "damping": 10.0, "soft_body_contacts": False}
+# the scenes' thread (a 2-0 braid: 0.15 mm radius, 50 MPa, a rod that bends stiffly), as heavy as the rope
+BRAID = {"youngs_modulus": 5e7, "poisson_ratio": 0.4, "density": MASS / (0.002 * math.pi * 0.00015 ** 2), "damping": 2.0,
+         "soft_body_contacts": False}
+THREADS = pytest.mark.parametrize("strand", [ROPE, BRAID], ids=["rope", "braid"])
 
 
-def test_a_straight_pass_holds_the_thread_up_to_coulombs_limit(make_engine):
+@THREADS
+def test_a_straight_pass_holds_the_thread_up_to_coulombs_limit(make_engine, strand):
     """Coulomb's threshold: the bite's thread laid straight along the line of its two punctures (no
     turn), cut loose from the needle, and loaded along that line by its own weight with g raised
     slowly from 0: it holds while the weight beyond the exit, W, is below 2 mu N (N per puncture)
     and slides from there (within 10 %; measured onset 1.04 x)."""
     mu, squeeze, past = 0.3, 0.0015, 0.0033
-    engine, needles, tissue = scene(make_engine, friction=mu, squeeze=squeeze, strand=ROPE)
+    engine, needles, tissue = scene(make_engine, friction=mu, squeeze=squeeze, strand=strand)
     dt = engine.physics.dt
     theta = 2 * math.pi - math.asin(H / R) + past / R  # the tail 3.3 mm (along the arc) past the exit
     turn(engine, needles, to=theta)
@@ -109,7 +114,8 @@ def test_a_straight_pass_holds_the_thread_up_to_coulombs_limit(make_engine):
         engine.step_physics()
         engine.end_frame()
     for family in ("stretch", "stretch_shear", "bend", "bend_twist"):
-        engine.cut_constraints(family, [0])
+        if engine.buffer(f"particles.{family}_constraints").shape[0]:  # the families the thread has
+            engine.cut_constraints(family, [0])
     step(engine, 6)
     exit_, entry = sorted(punctures(engine)[0], key=lambda r: r["s"])
     assert exit_["s"] - R * A > 0.002  # past the cut segment
@@ -152,7 +158,8 @@ def either_side(record, x, tension, rest=0.002):
     return tension[i - 1], tension[i + 1], math.pi - math.acos(np.clip(cos, -1, 1))
 
 
-def test_a_turn_at_a_puncture_holds_by_the_capstan_law(make_engine):
+@THREADS
+def test_a_turn_at_a_puncture_holds_by_the_capstan_law(make_engine, strand):
     """The capstan law: the bite's rope, gravity along +z so that its end hangs out of the entry, the
     needle above the exit pulled up slowly (5 mm/s): the rope turns at each puncture (1.15 and 1.30
     rad) and holds until the tension toward the needle is exp(mu theta) times the other; the ratio
@@ -160,7 +167,7 @@ def test_a_turn_at_a_puncture_holds_by_the_capstan_law(make_engine):
     the exit, +3.2 % at the entry). Tensions from the rope's stretch multipliers, theta from its
     segments either side; squeeze negligible (mu N = 3e-7 N)."""
     mu = 0.3
-    engine, needles, tissue = scene(make_engine, friction=mu, squeeze=1e-6, strand=ROPE)
+    engine, needles, tissue = scene(make_engine, friction=mu, squeeze=1e-6, strand=strand)
     theta = 2 * math.pi + 0.5
     turn(engine, needles, to=theta)
     engine.physics = cressim.PhysicsSettings(gravity=(0, 0, G))  # the bite in zero g, as test_suture's
@@ -191,5 +198,5 @@ def test_a_turn_at_a_puncture_holds_by_the_capstan_law(make_engine):
     print({("exit", "entry")[k]: tuple(round(v, 3) for v in o) for k, o in onsets.items()})
     assert len(onsets) == 2, "a puncture never slipped"
     for ratio, capstan, turned in onsets.values():
-        assert 0.8 < turned < 2.0  # a clear turn (exp(mu theta) 1.27-1.82)
+        assert 0.4 < turned < 2.0  # a clear turn (exp(mu theta) 1.13-1.82; the stiff braid turns less)
         assert ratio == pytest.approx(capstan, rel=0.1)

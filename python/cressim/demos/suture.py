@@ -6,7 +6,9 @@ its own arc, through the left flap's top, out of its cut face, across the gap, i
 flap's cut face and out of its top: one bite, four punctures. It is lifted, carried 10 mm along
 the wound and turned through a second bite, then drawn along the wound and a little up until the
 knot catches at the first puncture, and 2 mm on: the thread snug. Prints the punctures after each
-bite, when the knot caught, the gap at each bite before and after, and the thread's length (also
+bite, when the knot caught, the gap at each bite before and after, the thread's slack between its
+punctures after the bites and pulled tight (its length along the thread less the straight
+distance: the stitch tightens), and the thread's length (also
 in <out>/suture_summary.json); saves <out>/suture_<frame>_rgb.png and <out>/suture.npz (the
 particle positions at the saved frames). A taut thread's squeeze on its punctures is not
 modelled (docs/particles.md, "Suturing"), so the gap narrows by the needle's passage and the knot,
@@ -141,6 +143,15 @@ def gaps(engine, world):
     return out
 
 
+def slack(records) -> list[float]:
+    """Per stretch of thread between two punctures it runs through (in order along it): its length
+    along the thread (the path parameters' difference: rest lengths) less the straight distance
+    between the punctured points, m. A stitch pulled tight has none."""
+    on_thread = sorted((r for r in records if r["state"] == PUNCTURED and r["s"] > RADIUS * ANGLE),
+                       key=lambda r: r["s"])
+    return [float(b["s"] - a["s"] - np.linalg.norm(b["point"] - a["point"])) for a, b in zip(on_thread, on_thread[1:])]
+
+
 def run(frames: int | None = None, out_dir: str = "out/demo", num_envs: int = 1, images: int = 6, width: int = 480,
         height: int = 360) -> int:
     world = cressim.World(cressim.SceneLayout(num_envs))
@@ -184,6 +195,7 @@ def run(frames: int | None = None, out_dir: str = "out/demo", num_envs: int = 1,
         frame(centre, theta)
         if f + 1 == len(steps) or steps[f + 1][0] != phase:
             after_bites[phase] = sum(1 for r in punctures(engine)[0] if r["state"] == PUNCTURED)
+            loose = slack(punctures(engine)[0])
         if f in shots:
             shoot(f)
     # draw the thread through until the knot catches at the first puncture, then on by TIGHTEN
@@ -217,12 +229,14 @@ def run(frames: int | None = None, out_dir: str = "out/demo", num_envs: int = 1,
                "knot_pulled_tissue_mm": float(np.linalg.norm(held - caught) * 1e3) if held is not None and caught is not None else 0.0,
                "gap_before_mm": [g * 1e3 for g in before], "gap_after_mm": [g * 1e3 for g in after],
                "thread_length_mm": length * 1e3, "thread_rest_length_mm": THREAD * 1e3,
+               "slack_after_bites_mm": [v * 1e3 for v in loose], "slack_tight_mm": [v * 1e3 for v in slack(records)],
                "health_events": int(engine.health_events)}
     (out / "suture_summary.json").write_text(json.dumps(summary, indent=2))
     print(f"suture: {num_envs} env(s), {f} frames; punctured points after each bite {after_bites}; the knot caught "
           f"at frame {caught_at} and {'holds' if held is not None else 'does not hold'}, drawing the tissue there "
           f"{summary['knot_pulled_tissue_mm']:.1f} mm; gap at the bites {', '.join(f'{a:.1f}' for a in summary['gap_before_mm'])}"
           f" mm -> {', '.join(f'{a:.1f}' for a in summary['gap_after_mm'])} mm; thread {length * 1e3:.1f} mm (authored "
-          f"{THREAD * 1e3:.0f}); health events {summary['health_events']}; wrote {out / 'suture_summary.json'} and "
+          f"{THREAD * 1e3:.0f}); slack between punctures {sum(loose) * 1e3:.1f} mm after the bites, "
+          f"{sum(slack(records)) * 1e3:.1f} mm pulled tight; health events {summary['health_events']}; wrote {out / 'suture_summary.json'} and "
           f"{len(saved)} images")
     return 0

@@ -57,9 +57,12 @@ from .dh import PSM_DH, dh_forward_kinematics
 from .kinematics import matrix_to_pose7, rotation_xyzw
 from .link_poses import LinkPoses
 from .psm import JAW_GRASP_POINT, JAW_LINK
-from ..suture import needle_mesh
+from ..suture import needle_arrays, needle_body
 
 ARM_GROUP = 2  # collision group of arm links; they do not collide with each other (mask below)
+COLLIDER_NO_PARTICLES = 0x80000000  # in a collider's group: particles pass through it (shaders/common/rigid.h)
+NEEDLE_WIRE = 0.00035  # m: a 2-0 needle's wire radius (drawn, collided and weighed)
+NEEDLE_SEGMENTS = 6  # capsules along a needle's arc
 DYNAMICS = ("kinematic", "dynamic")
 INTERFACE_JOINTS = tuple(row.name for row in PSM_DH)
 
@@ -216,15 +219,23 @@ class ArmBodies:
             visuals = ArmVisuals(urdf, Path(urdf_path).parent, bodies, poses)
             scenery = plan.build(world, visuals)
         self.scenery = scenery
-        self.needle_pose0 = None  # the held needle's arc frame in the world at the authored joints
+        self.needle_pose0 = None  # the held needle's arc frame in the world at the authored joints:
+        self.authored_q = q_author  # the initial ones (kinematic), zeros (dynamic: posed by the engine's reset)
         if needle:
             k, centre, frame, in_body = self._needle_frame(needle, bodies, poses)
             local = np.eye(4)
             local[:3, :3], local[:3, 3] = frame, centre
             self.needle_pose0 = bodies[k].pose @ local
+            self.needle_holder = k  # the body whose jaws hold it
             thread_way = bodies[k].pose[:3, :3] @ -in_body[:3, 1]  # back along the jaws
-            # its own kinematic body, drawn with the jaws' segmentation id
-            needle_drawn = (world.add_mesh(needle_mesh(needle["arc_radius"], needle["arc_angle"], 0.00035)), k + 1)
+            # its own body (origin at its centre of mass: the engine's), drawn with the jaws' segmentation id
+            mass, inertia, self._needle_frame_in_arc = needle_body(needle["arc_radius"], needle["arc_angle"], NEEDLE_WIRE)
+            self.needle_mass = (mass, inertia)  # kg, kg m^2 (principal, about its centre of mass)
+            arc_in_body = np.linalg.inv(self._needle_frame_in_arc)
+            pts, tris, normals = needle_arrays(needle["arc_radius"], needle["arc_angle"], NEEDLE_WIRE)
+            pts = pts @ arc_in_body[:3, :3].T.astype(np.float32) + arc_in_body[:3, 3].astype(np.float32)
+            normals = normals @ arc_in_body[:3, :3].T.astype(np.float32)
+            needle_drawn = (world.add_mesh(cressim.Mesh(pts, tris, normals)), k + 1)
         needle_ids = np.zeros(num_envs, dtype=np.int64)
         body_ids = np.zeros((num_envs, len(bodies)), dtype=np.int64)
         joint_ids = np.zeros((num_envs, len(joint_specs)), dtype=np.int64)
@@ -250,7 +261,8 @@ class ArmBodies:
                 scenery.add_env(world, env)
             if needle:
                 needle_ids[env] = self._add_needle(world, env, needle, self.needle_pose0, thread_way,
-                                                   needle_drawn if scenery else None)
+                                                   needle_drawn if scenery else None, self._needle_frame_in_arc,
+                                                   self.needle_mass, collision_group)
             for k, spec in enumerate(joint_specs):
                 parent = None if spec["parent"] is None else entities[spec["parent"]]
                 e = world.create_entity(env=env, name=spec["name"])
@@ -305,11 +317,15 @@ class ArmBodies:
         return k, centre, frame, in_body
 
     @staticmethod
-    def _add_needle(world, env, spec, pose, thread_way, drawn) -> int:
-        """The needle (cressim.Needle on a kinematic body of its own at `pose`, which the jaws carry
-        while they hold it: TwinArms) and its thread, a 2-0 braid in 2 mm segments trailing from the
-        tail along `thread_way`. Returns the needle body's entity id."""
+    def _add_needle(world, env, spec, pose, thread_way, drawn, frame_in_arc, mass, arm_group) -> int:
+        """The needle (cressim.Needle on a body of its own, its arc frame at `pose`: kinematic while
+        the jaws carry it, dynamic once they let it go: TwinArms) and its thread, a 2-0 braid in 2 mm
+        segments trailing from the tail along `thread_way`. The body (a steel wire of NEEDLE_WIRE
+        bent on the arc: `mass`, `frame_in_arc`) collides through capsules along the arc with the
+        world's rigid shapes, but neither with the arm (`arm_group`) nor with particles (its tip
+        alone acts on tissue). Returns the needle body's entity id."""
         R, A = spec["arc_radius"], spec["arc_angle"]
+        arc_in_body = np.linalg.inv(frame_in_arc)
         tail = pose[:3, 3] + R * pose[:3, 0]
         count = int(round(spec["thread_length"] / 0.002)) + 1
         pts = tail + np.linspace(0.0, spec["thread_length"], count)[:, None] * thread_way
@@ -318,11 +334,24 @@ class ArmBodies:
                                   density=1140, damping=2.0))
         thread.add(cressim.Material(color=(0.25, 0.2, 0.7, 1), roughness=0.6))
         body = world.create_entity(env=env, name="suture_needle")
-        body.add(cressim.Transform(position=tuple(float(v) for v in pose[:3, 3]), rotation=rotation_xyzw(pose[:3, :3])))
-        body.add(cressim.RigidBody(kinematic=True, mass=0.001, inertia=(1e-9, 1e-9, 1e-9)))
+        at = pose @ frame_in_arc
+        body.add(cressim.Transform(position=tuple(float(v) for v in at[:3, 3]), rotation=rotation_xyzw(at[:3, :3])))
+        body.add(cressim.RigidBody(kinematic=True, mass=float(mass[0]), inertia=tuple(float(v) for v in mass[1])))
+        phi = np.linspace(0.0, A, NEEDLE_SEGMENTS + 1)
+        ends = (arc_in_body[:3, :3] @ np.stack([R * np.cos(phi), R * np.sin(phi), np.zeros_like(phi)])).T + arc_in_body[:3, 3]
+        shapes = []
+        for a, b in zip(ends[:-1], ends[1:]):
+            z = (b - a) / np.linalg.norm(b - a)
+            x = np.cross(z, [0.0, 0.0, 1.0] if abs(z[2]) < 0.9 else [1.0, 0.0, 0.0])
+            x /= np.linalg.norm(x)
+            shapes.append(cressim.Shape.capsule(NEEDLE_WIRE, float(np.linalg.norm(b - a) / 2),
+                                                position=tuple(float(v) for v in (a + b) / 2),
+                                                rotation=rotation_xyzw(np.stack([x, np.cross(z, x), z], 1))))
+        body.add(cressim.Collider(shapes, group=1 | COLLIDER_NO_PARTICLES, mask=0xFFFFFFFF & ~arm_group))
         body.add(cressim.Needle(thread=thread, arc_radius=R, arc_angle=A, puncture_force=spec["puncture_force"],
                                 puncture_depth=spec["puncture_depth"], friction=spec["friction"],
-                                squeeze=spec.get("squeeze", 0.0)))
+                                squeeze=spec.get("squeeze", 0.0), center=tuple(float(v) for v in arc_in_body[:3, 3]),
+                                rotation=rotation_xyzw(arc_in_body[:3, :3])))
         if drawn is not None:
             mesh, label = drawn
             body.add(cressim.Renderable(mesh, color=(0.75, 0.75, 0.78, 1.0), metallic=0.9, roughness=0.3,
@@ -357,6 +386,14 @@ class ArmBodies:
                                          dtype=torch.long).reshape(num_envs, len(bodies))
         self.needle_rows = None if self.needle_entity_ids is None else torch.as_tensor(
             np.vectorize(row_of_entity.get)(self.needle_entity_ids), device=self.device, dtype=torch.long)
+        if self.needle_rows is not None:  # which needle of particles.needles is each env's, and who holds it
+            needle_bodies = np.asarray(engine.buffer("particles.needles").read())[:, 0].astype(np.int64)
+            index = {int(b): k for k, b in enumerate(needle_bodies)}
+            self._needle_index = torch.as_tensor([index[int(r)] for r in self.needle_rows.cpu()], device=self.device)
+            # uint32 buffers, written as int32 (torch fills no uint32)
+            self._needle_kinematic = torch.from_dlpack(engine.buffer("control.body_kinematic")).view(torch.int32)
+            self._needle_holders = torch.from_dlpack(engine.buffer("control.needle_holders")).view(torch.int32)
+            self.hold_needle(torch.arange(num_envs), True)
         self.health = torch.from_dlpack(self.engine.buffer("env.health"))
         self.reset_velocities = torch.from_dlpack(self.engine.buffer("control.body_reset_velocities"))
         self.reset_angular_velocities = torch.from_dlpack(
@@ -641,23 +678,41 @@ class ArmBodies:
         target = torch.where(self._hinge, here + (target - here).clamp(-MAX_HINGE_STEP, MAX_HINGE_STEP), target)
         self.joint_targets[rows.reshape(-1), 0] = target.reshape(-1).to(self.joint_targets)
 
+    def hold_needle(self, envs: torch.Tensor, held: bool):
+        """The needles of `envs` (long tensor) held by the jaws (kinematic, carried by place_needle,
+        their load borne by the jaws' body) or let go of (dynamic: they fall, held by the tissue
+        they are threaded through), from the next frame on."""
+        on = envs.to(self.device)
+        rows = self.needle_rows[on]
+        self._needle_kinematic[rows.to(self._needle_kinematic.device)] = 1 if held else 0
+        holders = (self.body_rows[on, self.needle_holder] + 1) if held else torch.zeros_like(rows)
+        self._needle_holders[self._needle_index[on].to(self._needle_holders.device)] = holders.to(self._needle_holders)
+
+    def _needle_body_poses(self, poses: torch.Tensor) -> torch.Tensor:
+        """Arc frames (M, 4, 4) -> the needle bodies' poses (float64)."""
+        return poses.to(torch.float64) @ torch.as_tensor(self._needle_frame_in_arc).to(poses.device)
+
     def place_needle(self, envs: torch.Tensor, poses: torch.Tensor):
         """Where the needles of `envs` (long tensor) go over the next frame: poses (M, 4, 4) of their
         arc frames in the world (kinematic targets)."""
         rows = self.needle_rows[envs.to(self.device)]
-        p7 = matrix_to_pose7(poses.to(torch.float64))
+        p7 = matrix_to_pose7(self._needle_body_poses(poses))
         self.target_positions[rows, :3] = p7[:, :3].to(self.target_positions)
         self.target_rotations[rows] = p7[:, 3:].to(self.target_rotations)
 
     def set_needle_pose(self, envs: torch.Tensor, poses: torch.Tensor):
-        """The needles of `envs` at poses (M, 4, 4) now: their bodies moved there and held there."""
+        """The needles of `envs` at poses (M, 4, 4) of their arc frames now, at rest: their bodies
+        moved there (kinematic ones are held there)."""
         self.place_needle(envs, poses)
         rows = self.needle_rows[envs.to(self.device)]
-        p7 = matrix_to_pose7(poses.to(torch.float64))
+        p7 = matrix_to_pose7(self._needle_body_poses(poses))
         positions = torch.from_dlpack(self.engine.buffer("rigid.positions"))
         rotations = torch.from_dlpack(self.engine.buffer("rigid.rotations"))
         positions[rows.to(positions.device), :3] = p7[:, :3].to(positions)
         rotations[rows.to(rotations.device)] = p7[:, 3:].to(rotations)
+        for key in ("rigid.linear_velocities", "rigid.angular_velocities"):
+            v = torch.from_dlpack(self.engine.buffer(key))
+            v[rows.to(v.device)] = 0
 
     def needle_poses(self, envs: torch.Tensor | None = None) -> torch.Tensor:
         """(M, 4, 4) float64 on the CPU: the needle arc frames of `envs` (long tensor; default every
@@ -668,7 +723,7 @@ class ArmBodies:
         T = torch.eye(4, dtype=torch.float64).repeat(len(rows), 1, 1)
         T[:, :3, :3] = quaternion_to_matrix(q[:, [3, 0, 1, 2]])  # the engine's xyzw as w, x, y, z
         T[:, :3, 3] = p
-        return T
+        return T @ torch.as_tensor(np.linalg.inv(self._needle_frame_in_arc))
 
     def show(self, world: cressim.World, envs, links=None, *, first_id: int = 0):
         """Renderables for cameras on a kinematic arm's bodies in `envs`: each named link's URDF

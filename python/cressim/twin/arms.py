@@ -38,8 +38,10 @@ snapshot gives it in the base frame (`spatial_cf`) and the tip frame (`body_cf`)
 tool (psm_suction) removes the world's fluid within `arm.suction.radius` of its tube's end while
 its valve (`suction_servo_jp`, 0 shut .. 1 open) is open, and draws the fluid within
 `arm.suction.reach` in at the valve's share of `arm.suction.flow_rate` (cressim.passes.Suction).
-A suture needle (`arm.needle`) is held by the same jaw angle: closed, the jaws carry it; opened,
-they let it go where it is; closed again over it, they pick it up (`_carry_needle`).
+A suture needle (`arm.needle`) is held by the same jaw angle: closed, the jaws carry it (a
+kinematic body; the jaws' body bears its weight and the tissue's pull on it); opened, they let it
+go (a dynamic body: it falls, held by the punctures it is threaded through); closed again over
+it, they pick it up (`_carry_needle`).
 """
 from __future__ import annotations
 
@@ -230,7 +232,9 @@ class TwinArms:
         self.jaw_v_limit = np.array([jaw_v * scene.velocity_ratio])
         self.needle_offset = None  # (N, 4, 4): a held needle's arc frame in the tool-tip frame
         if self.bodies.needle_rows is not None:  # held as authored, at the initial joints
-            tip0 = self.bodies.base.to(torch.float64) @ self.kin.forward(self.setpoint[:1])[0]
+            authored = torch.zeros_like(self.setpoint[:1])
+            authored[0, :len(self.bodies.authored_q)] = torch.as_tensor(self.bodies.authored_q)
+            tip0 = self.bodies.base.to(torch.float64) @ self.kin.forward(authored)[0]
             self._needle_offset0 = torch.linalg.solve(tip0, torch.as_tensor(self.bodies.needle_pose0))
             A, R = scene.needle["arc_angle"], scene.needle["arc_radius"]
             self._needle_grip = self._needle_offset0 @ torch.tensor([R * math.cos(A / 3), R * math.sin(A / 3), 0.0, 1.0],
@@ -622,6 +626,7 @@ class TwinArms:
             return
         closed = (self.jaw_meas[:, 0] < self.scene.grasp_closed_below).numpy()
         tip = self.bodies.base.to(torch.float64) @ self.kin.forward(self.measured)  # (N, 4, 4) world
+        was_held = self.needle_held.copy()
         self.needle_held &= closed
         take = np.flatnonzero(closed & ~self._jaws_were_closed & ~self.needle_held)
         self._jaws_were_closed = closed
@@ -637,6 +642,10 @@ class TwinArms:
                 if near[k]:
                     self.needle_held[env] = True
                     self.needle_offset[env] = torch.linalg.solve(tip[env], needles[k])
+        for now in (False, True):  # let go of: dynamic from this frame on; taken: kinematic, the jaws bear it
+            changed = np.flatnonzero((was_held != self.needle_held) & (self.needle_held == now))
+            if changed.size:
+                self.bodies.hold_needle(torch.as_tensor(changed), now)
         held = np.flatnonzero(self.needle_held)
         if held.size:
             held_t = torch.as_tensor(held)
@@ -648,6 +657,7 @@ class TwinArms:
             self.needle_offset[envs] = self._needle_offset0
             self.needle_held[envs.numpy()] = True
             self._jaws_were_closed[envs.numpy()] = True
+            self.bodies.hold_needle(envs, True)
 
     def _suck(self):
         """The suction follows the valve: open, the GPU pass removes the fluid at the tip and draws
@@ -829,10 +839,11 @@ class TwinArms:
         return self.bodies.needle_poses(torch.tensor([env]))[0].numpy()
 
     def set_needle_pose(self, env: int, pose: np.ndarray) -> None:
-        """Puts env's needle (arc frame, world 4x4) there now, out of the jaws (closing them over
-        it picks it up again)."""
+        """Puts env's needle (arc frame, world 4x4) there now, at rest and out of the jaws (free: it
+        falls from there; closing them over it picks it up again)."""
         self.needle_held[env] = False
         with self.engine_lock:
+            self.bodies.hold_needle(torch.tensor([env]), False)
             self.bodies.set_needle_pose(torch.tensor([env]), torch.as_tensor(pose, dtype=torch.float64)[None])
 
     # ------------------------------------------------------------------ what a tick publishes

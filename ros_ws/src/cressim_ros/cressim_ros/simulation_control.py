@@ -162,8 +162,8 @@ class SimulationControl:
         moving = [s.twist.linear, s.twist.angular, s.acceleration.linear, s.acceleration.angular]
         if (request.set_twist or request.set_acceleration) and any(abs(v.x) + abs(v.y) + abs(v.z) > 0 for v in moving):
             return _result(response, Result.RESULT_OPERATION_FAILED,
-                           f"{request.entity}: the needle is kinematic (carried or left in place): it takes a pose, "
-                           "not a twist or an acceleration")
+                           f"{request.entity}: the needle takes a pose (set at rest, out of the jaws: it falls from "
+                           "there), not a twist or an acceleration")
         if s.header.frame_id not in ("", "world"):
             return _result(response, SetEntityState.Response.INVALID_POSE,
                            f"{request.entity}: frame_id {s.header.frame_id!r}: poses are set in 'world'")
