@@ -74,11 +74,19 @@ def crtk_env():
 _ids = itertools.count()
 
 
+def pick_domain(n: int) -> int:
+    """The n-th ROS_DOMAIN_ID of this process: within CRESSIM_TEST_DOMAINS ("LO-HI", default 1-100;
+    Fast DDS ports stay below the ephemeral range), where `make test`'s concurrent pytest runs each
+    get a range of their own, and keyed by the pid so that runs of the same range rarely meet."""
+    lo, hi = (int(x) for x in os.environ.get("CRESSIM_TEST_DOMAINS", "1-100").split("-"))
+    return lo + (os.getpid() * 7 + n) % (hi - lo + 1)
+
+
 @pytest.fixture
 def ros_domain_id(monkeypatch, crtk_env):
-    """A ROS_DOMAIN_ID of this test alone (1..100; Fast DDS ports stay below the ephemeral range),
-    exported so that subprocesses inherit it; discovery kept on localhost."""
-    domain = 1 + (os.getpid() * 7 + next(_ids)) % 100
+    """A ROS_DOMAIN_ID of this test alone (pick_domain), exported so that subprocesses inherit it;
+    discovery kept on localhost."""
+    domain = pick_domain(next(_ids))
     monkeypatch.setenv("ROS_DOMAIN_ID", str(domain))
     monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     monkeypatch.delenv("ROS_LOCALHOST_ONLY", raising=False)

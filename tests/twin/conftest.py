@@ -10,7 +10,6 @@ scheme, other ids) for a twin shared by a module. Without rclpy every test needi
 """
 import importlib.util
 import itertools
-import os
 import sys
 from pathlib import Path
 
@@ -54,7 +53,7 @@ def twin_domain():
     problem = _ros.crtk_env_problem() if RCLPY_ERROR is None else RCLPY_ERROR
     if problem:
         pytest.fail(problem, pytrace=False)
-    return 1 + (os.getpid() * 7 + next(_module_ids)) % 100
+    return _ros.pick_domain(next(_module_ids))
 
 
 @pytest.fixture
