@@ -85,7 +85,7 @@ test-cpp: build/cpp/build.ninja
 # domain ids of its own (CRESSIM_TEST_DOMAINS, tests/ros/conftest.py); the twin's log follows.
 test-python: $(STAMPS)/build $(STAMPS)/ros $(STAMPS)/pykdl
 	@echo "pytest: start $$(date -u +%FT%TZ)"
-	@source ros_ws/env.sh && export CRESSIM_VALIDATION=1 && \
+	@source ros_ws/env.sh || exit 1; export CRESSIM_VALIDATION=1; \
 	{ CRESSIM_TEST_DOMAINS=1-60 $(PY) -m pytest -p no:cacheprovider tests/twin > $(STAMPS)/pytest-twin.log 2>&1; \
 	  echo $$? > $(STAMPS)/pytest-twin.rc; } & \
 	CRESSIM_TEST_DOMAINS=61-100 $(PY) -m pytest tests --ignore=tests/twin; rest=$$?; \
