@@ -73,7 +73,7 @@ LATENCY_NOTE = re.compile(r"Inverse kinematic error in position \[\d+\]: [0-9.e-
 def run_python(args: list[str], clients: Path, domain: int, cwd: Path) -> tuple[int | None, str]:
     """(exit status or None after the safety limit, stdout and stderr together)."""
     with ScriptRun(clients, domain, args, cwd) as run:
-        return run.wait(SCRIPT_TIMEOUT), run.output()
+        return run.wait(SCRIPT_TIMEOUT), run.output_after_exit_race()
 
 
 # Before a crtk example: the device enabled, homed and at the dVRK scripts' Cartesian start pose,
