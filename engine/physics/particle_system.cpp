@@ -169,6 +169,9 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
        {nr, int64_t(sizeof(shader::Puncture) / 4)}, DType::UINT32);
     in("needle_states", "particles.needle_states", std::vector<float4>(size_t(nn), float4{0, 0, 0, -1}), {nn, 4},
        DType::FLOAT32);
+    // per needle: the taut thread's tension (N) and its way from the tail (particle_needle_solve)
+    in("needle_threads", "particles.needle_threads", std::vector<float4>(size_t(nn), float4{0, 0, 0, 0}), {nn, 4},
+       DType::FLOAT32);
     // per needle: the body that holds it (its row + 1; 0: none), which bears its load (particle_needle_load)
     const std::vector<uint32_t> free_(size_t(nn), 0u);
     bindings_["needle_holders"] = make(control, "control.needle_holders", free_.data(), free_.size() * 4, {nn},

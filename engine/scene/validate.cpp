@@ -340,6 +340,8 @@ void needle(const Fields& c, const Needle& n) {
   c.non_negative("friction", n.friction);
   c.non_negative("squeeze", n.squeeze);
   c.at_least("max_punctures", n.max_punctures, 2);
+  if (n.max_punctures > 64)  // the taut thread's string is solved in one thread's registers
+    c.fail("max_punctures", "is " + std::to_string(n.max_punctures) + "; at most 64 (particle_needle_solve.comp.hlsl, MAX_STRING)");
   if (n.thread >= 0) {
     const World& w = c.world();
     if (uint64_t(n.thread) >= w.entity_count() || !w.has<Strand>(EntityId(n.thread)))

@@ -39,6 +39,15 @@ def punctures(engine) -> list[list[dict]]:
     return out
 
 
+def thread_tension(engine) -> np.ndarray:
+    """Per needle (in env order), its thread's tension (N) once its knot has caught and the thread
+    from the needle's tail through its punctures to the knot is taut; 0 while it is slack or the
+    knot has not caught. What the needle's holder feels of the thread (docs/particles.md, "Suturing")."""
+    if "particles.needle_threads" not in engine.internal_keys:
+        return np.zeros(0)
+    return engine.buffer("particles.needle_threads").read()[:, 0].astype(np.float64)
+
+
 STEEL = 7900.0  # kg/m^3: a needle's wire
 
 

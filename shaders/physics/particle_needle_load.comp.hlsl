@@ -6,14 +6,16 @@
 //   holder bears its weight and those forces: they are added to the holder's contact force and
 //   torque (what a tool reports) and, where the holder is dynamic, act on it over the next frame
 //   as a held particle's load does (particle_rigid_hold: a change of its velocity).
+// - The taut thread's pull on the tail (its tension along its way from the tail, once the knot
+//   has caught: particles.needle_threads) is among them; a slack thread's weight and drag are not.
 // A needle let go of (dynamic) is held by its punctures in the solve instead (particle_needle_solve).
-// Not carried: the thread's pull on the tail (the thread's first particle is put at the tail).
 #define NEEDLE_MOVES_BODY  // the holder's velocity
 #include "particle_needle.hlsli"
 
 StructuredBuffer<BodyModel> bodies;
 StructuredBuffer<float4> body_dynamic_inertia;  // the needle's mass while it is kinematic
 StructuredBuffer<uint> needle_holders;
+StructuredBuffer<float4> needle_threads;
 RWStructuredBuffer<float4> body_contact_forces;
 RWStructuredBuffer<float4> body_contact_torques;
 
@@ -57,6 +59,9 @@ void main(uint3 id : SV_DispatchThreadID) {
       f += F;
       t += cross(on_needle - origin, F);
     }
+    const float4 thread = needle_threads[id.x];
+    f += thread.x * thread.yzw;
+    t += cross(tail_of(a) - origin, thread.x * thread.yzw);
     body_contact_forces[h].xyz += f;
     body_contact_torques[h].xyz += t;
     const BodyModel m = bodies[h];

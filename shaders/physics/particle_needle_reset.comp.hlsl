@@ -7,6 +7,7 @@
 StructuredBuffer<NeedleModel> needles;
 RWStructuredBuffer<Puncture> punctures;
 RWStructuredBuffer<float4> needle_states;
+RWStructuredBuffer<float4> needle_threads;
 StructuredBuffer<uint> reset_mask;
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
@@ -16,4 +17,5 @@ void main(uint3 id : SV_DispatchThreadID) {
   if (reset_mask[n.ids.w] == 0) return;
   for (uint r = n.records.x; r < n.records.x + n.records.y; ++r) punctures[r].ids.x = PUNCTURE_FREE;
   needle_states[id.x] = float4(0, 0, 0, -1);
+  needle_threads[id.x] = float4(0, 0, 0, 0);
 }

@@ -24,16 +24,17 @@
 //   last substep; thread_through), along the thread's chord across the puncture. Checked with a
 //   rope: Coulomb's threshold of a straight pass and the capstan law at a turn.
 // Each puncture on the thread reports the force it put on it over the last substep (Puncture.force).
-// Not modelled: a taut thread's squeeze on the punctures it runs through (it passes them without
-// pulling them), so pulling a running suture tight moves the tissue at the knot only. Tried: split
-// by inverse mass, a thread 100 times lighter than the tissue still dragged it toward the straight
-// line its own length solve pulled it to every iteration; with the tissue following a taut thread,
-// pulled by a kinematic needle, the flaps were lifted away.
+// - Once the knot has caught, the thread from the tail through the punctures on it to the knot
+//   is one string of a fixed length (taut_thread): where the straight way from point to point
+//   is longer, each point is pulled along its string's sides by one tension (frictionless: the
+//   same all along), so that a stitch pulled tight draws the tissue it passes toward the line and
+//   closes a wound; that tension is what the needle's tail bears (particles.needle_threads).
 #define NEEDLE_MOVES_BODY  // a needle let go of (dynamic) and the tissue it is in share each correction
 #include "particle_needle.hlsli"
 
 StructuredBuffer<BodyModel> bodies;
 RWStructuredBuffer<float4> tet_pins;  // per particle: sum K T, sum K (cleared each substep)
+RWStructuredBuffer<float4> needle_threads;  // per needle: x the thread's tension (N), yzw its way from the tail
 
 static const float TURN_SPAN = 0.003;     // m along the path either side of a puncture: a turn's extent
 static const float REACH = 0.002;         // m: the most a punctured point slides along the path an iteration
@@ -112,13 +113,10 @@ void thread_through(NeedleModel n, Arc a, inout Puncture p, float3 x, float mu) 
 // Without friction the light thread is drawn through the puncture: it moves across to it (the
 // least motion of its segment's ends; the segment from the driven tail turned about it), s
 // following the path's nearest point.
-void slide_through(NeedleModel n, Arc a, inout Puncture p, float3 x) {
-  p.place.z = min(nearest_s(n, a, x, p.place.z, REACH), path_length(a));
+void slide_through(NeedleModel n, Arc a, inout Puncture p, float3 x, float2 bounds) {
+  p.place.z = min(max(nearest_s(n, a, x, p.place.z, REACH), bounds.x), bounds.y);
   const PathPoint q = path_at(n, a, p.place.z);
-  // s back at the tail (the thread's start: nearest_s gives exactly the needle's length for a
-  // point beside it) is on the needle again, which the next iteration holds the tissue to; there
-  // is no segment to draw (NONE + 1 would wrap to global particle 0, env 0's tissue)
-  if (q.segment == CRESSIM_NONE) return;
+  if (q.segment == CRESSIM_NONE) return;  // no thread (NONE + 1 would wrap to global particle 0)
   const uint i0 = q.segment, i1 = q.segment + 1;
   const float3 d = x - q.x;
   float3 moved1;
@@ -162,6 +160,102 @@ void share(NeedleModel n, uint3 c, float3 b, float3 x, float3 on_needle) {
   body_angular_velocities[body].xyz += turn / h;
 }
 
+static const uint MAX_STRING = 64;  // punctures on a string (scene validation bounds max_punctures)
+
+// The string: the punctured points on the thread in the order of s (the tail before them), as
+// they are at the pass's start (the pass moves the thread and pins the tissue, never moves it).
+static uint string_records[MAX_STRING];
+static float3 string_points[MAX_STRING];
+static uint string_count;
+
+void load_string(NeedleModel n, Arc a) {
+  string_count = 0;
+  const float needle_length = a.radius * a.angle;
+  for (uint r = n.records.x; r < n.records.x + n.records.y && string_count < MAX_STRING; ++r) {
+    const Puncture p = punctures[r];
+    if (p.ids.x != PUNCTURE_THROUGH || p.place.z <= needle_length) continue;
+    uint k = string_count++;
+    for (; k > 0 && punctures[string_records[k - 1]].place.z > p.place.z; --k) string_records[k] = string_records[k - 1];
+    string_records[k] = r;
+  }
+  for (uint j = 0; j < string_count; ++j) {
+    const Puncture p = punctures[string_records[j]];
+    string_points[j] = surface_point(corners(p.ids.y), weights(p));
+  }
+}
+
+// The thread slides through its punctures as a whole: where the tail has drawn it through the
+// string's first point (its s below the straight way from the tail), every point's s moves on by
+// as much (up to a caught knot, which holds), so the spans between them keep their thread.
+void slide_string(NeedleModel n, Arc a, bool caught) {
+  if (string_count == 0) return;
+  const float needle_length = a.radius * a.angle, end = path_length(a);
+  const float lo = needle_length + distance(tail_of(a), string_points[0]);
+  const float by = lo - punctures[string_records[0]].place.z;
+  if (by <= 0) return;
+  for (uint j = 0; j < string_count; ++j) {
+    const uint r = string_records[j];
+    if (punctures[r].ids.w != 0) continue;
+    const float hi = caught ? end - distance(string_points[j], string_points[string_count - 1]) : end;
+    punctures[r].place.z = max(punctures[r].place.z, min(punctures[r].place.z + by, hi));
+  }
+}
+
+// The range of s a punctured point on the thread can hold: its place along the string (between
+// its neighbours' s), at least the straight way from the tail for the string's first point, and
+// at most the thread less the straight way to a caught knot (the string's last). Without the
+// first, where the tail had gone on faster than the first point's s followed the thread, the
+// nearest thread within reach lay behind, toward the tail: a bite's entry stuck at the thread's
+// start, never drawn through, until the needle dragged it; with the last, a caught knot does not
+// pass the puncture it caught at (the others followed it to the thread's end), and a pull
+// tightens what lies between instead. (Bounds of the straight way between any two neighbours,
+// tried, held points at s not yet caught up with the needle's passage and broke the bites.)
+float2 span_bounds(NeedleModel n, Arc a, uint record, float3 x, bool caught) {
+  const float needle_length = a.radius * a.angle, end = path_length(a);
+  uint j = 0;
+  while (j < string_count && string_records[j] != record) ++j;
+  const bool knot = caught && string_count > 0 && j == string_count - 1;
+  float lo = j == 0 || j == string_count ? needle_length + max(distance(tail_of(a), x), 1e-5)
+                                         : punctures[string_records[j - 1]].place.z;
+  float hi = caught && !knot && string_count > 0 ? end - distance(x, string_points[string_count - 1]) : end;
+  if (j + 1 < string_count) hi = min(hi, punctures[string_records[j + 1]].place.z);
+  return float2(min(lo, hi), hi);
+}
+
+// Once the knot has caught, the string from the needle's tail (driven) through the punctured
+// points to the knot's (the last) has the thread's length L (rest lengths: s counts them); where
+// the straight way through its points is longer by C, the one constraint sum |x_j+1 - x_j| <= L
+// moves each tissue point j by lambda g_j, g_j the sum of the unit vectors toward its neighbours
+// (the knot's: toward the one before it), lambda = C / sum |g_j|^2, as a position-based solve with
+// the points' weights equal. Given to the elastic solve as the grip spring K toward there, the
+// force on point j is K lambda g_j: the pull of a string of tension T = K lambda on a point it
+// turns at, the same T at every point (no friction along the thread: for squeeze 0). The tail
+// bears T along the string's first side (particle_needle_load).
+void taut_thread(NeedleModel n, Arc a, uint needle) {
+  const float3 tail = tail_of(a);
+  float length = 0;
+  for (uint j = 0; j < string_count; ++j) length += distance(j > 0 ? string_points[j - 1] : tail, string_points[j]);
+  const float C = length - (path_length(a) - a.radius * a.angle);
+  const float3 way = string_count > 0 ? normalize(string_points[0] - tail + 1e-12) : float3(0, 0, 0);
+  if (string_count == 0 || C <= 0) {
+    needle_threads[needle] = float4(0, way);
+    return;
+  }
+  float3 g[MAX_STRING];
+  float sum = 0;
+  for (uint j = 0; j < string_count; ++j) {
+    g[j] = normalize((j > 0 ? string_points[j - 1] : tail) - string_points[j] + 1e-12);
+    if (j + 1 < string_count) g[j] += normalize(string_points[j + 1] - string_points[j] + 1e-12);
+    sum += dot(g[j], g[j]);
+  }
+  const float lambda = C / max(sum, 1e-6);
+  for (uint j = 0; j < string_count; ++j) {
+    const Puncture p = punctures[string_records[j]];
+    pin(corners(p.ids.y), weights(p), string_points[j], string_points[j] + lambda * g[j]);
+  }
+  needle_threads[needle] = float4(PUNCTURE_GRIP * lambda, way);
+}
+
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
 void main(uint3 id : SV_DispatchThreadID) {
   if (id.x >= pc.item_count) return;
@@ -173,12 +267,16 @@ void main(uint3 id : SV_DispatchThreadID) {
   const float mu = n.arc.w;
   load_thread(n, a);
   const float end = path_length(a);
-  // this iteration's grip replaces the last one's
+  // this iteration's grip replaces the last one's; whether the knot has caught
+  bool caught = false;
   for (uint r = n.records.x; r < n.records.x + n.records.y; ++r)
     if (punctures[r].ids.x != PUNCTURE_FREE) {
       const uint3 c = corners(punctures[r].ids.y);
       tet_pins[c.x] = tet_pins[c.y] = tet_pins[c.z] = float4(0, 0, 0, 0);
+      caught = caught || punctures[r].ids.w != 0;
     }
+  load_string(n, a);
+  if (n.puncture.y == 0) slide_string(n, a, caught);  // friction on the thread (squeeze) holds s itself
   for (uint r = n.records.x; r < n.records.x + n.records.y; ++r) {
     Puncture p = punctures[r];
     if (p.ids.x == PUNCTURE_FREE) continue;
@@ -226,23 +324,25 @@ void main(uint3 id : SV_DispatchThreadID) {
       p.place.z = nearest;  // the tail has passed: on the thread from here
       p.impulse = float4(0, 0, 0, 0);
     }
-    if (p.place.z >= end - 1e-6 || p.ids.w != 0) {
-      // the knot does not pass (nor come back out): it and the tissue there meet by inverse mass
+    const float2 bounds = span_bounds(n, a, r, x, caught);
+    if (p.ids.w != 0 || (!caught && p.place.z >= end - 1e-6)) {
+      // the knot does not pass (nor come back out): it sits on the tissue, an anchor to the
+      // thread's own solves (driven, as the tail is; an env reset gives it its mass back); the
+      // tissue bears the thread's pull on it (taut_thread)
       p.place.z = end;
       p.ids.w = 1;
-      const uint k = n.ids.y + thread_count - 1;
-      const float wk = positions[k].w;
-      const float3 d = x - positions[k].xyz;
-      if (wp + wk > 0) {
-        positions[k].xyz += wk / (wp + wk) * d;
-        pin(c, b, x, x - wp / (wp + wk) * d);
-        p.impulse.xyz += d / (wp + wk);
-      }
+      caught = true;
+      positions[n.ids.y + thread_count - 1] = float4(x, 0);
     } else if (n.puncture.y > 0) {  // squeeze > 0: friction on the thread
       thread_through(n, a, p, x, mu);
     } else {
-      slide_through(n, a, p, x);
+      slide_through(n, a, p, x, bounds);
     }
     punctures[r] = p;
   }
+  if (caught && n.puncture.y == 0) {
+    load_string(n, a);  // with this pass's s (and a knot caught in it)
+    taut_thread(n, a, id.x);
+  }
+  else needle_threads[id.x] = float4(0, 0, 0, 0);
 }

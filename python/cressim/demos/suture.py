@@ -1,18 +1,19 @@
-"""`cressim demo suture`: a running suture across a wound. Two flaps of soft tissue (24 x 30 x 8 mm
-each, 10 kPa, 3 mm tets) lie on a table 4 mm apart, each held at its far edge. A 16 mm 3/8 circle
-needle (cressim.Needle on a kinematic body) carries 160 mm of 2-0 braided thread (a cressim.Strand
-of a material), its end a knot. The needle is turned about its centre, so that its tip runs along
-its own arc, through the left flap's top, out of its cut face, across the gap, into the right
-flap's cut face and out of its top: one bite, four punctures. It is lifted, carried 10 mm along
-the wound and turned through a second bite, then drawn along the wound and a little up until the
-knot catches at the first puncture, and 2 mm on: the thread snug. Prints the punctures after each
-bite, when the knot caught, the gap at each bite before and after, the thread's slack between its
-punctures after the bites and pulled tight (its length along the thread less the straight
-distance: the stitch tightens), and the thread's length (also
-in <out>/suture_summary.json); saves <out>/suture_<frame>_rgb.png and <out>/suture.npz (the
-particle positions at the saved frames). A taut thread's squeeze on its punctures is not
-modelled (docs/particles.md, "Suturing"), so the gap narrows by the needle's passage and the knot,
-not by the thread's tension across it."""
+"""`cressim demo suture`: a running suture across a wound, pulled tight. Two flaps of soft tissue
+(24 x 30 x 8 mm each, 10 kPa, 3 mm tets) lie on a table 4 mm apart, each held at its far edge. A
+16 mm 3/8 circle needle (cressim.Needle on a kinematic body) carries 160 mm of 2-0 braided thread
+(a cressim.Strand of a material), its end a knot. The needle is turned about its centre, so that
+its tip runs along its own arc, through the left flap's top, out of its cut face, across the gap,
+into the right flap's cut face and out of its top: one bite, four punctures. It is lifted,
+carried 10 mm along the wound and turned through a second bite, drawn out along its arc, then
+moved along the wound and a little up: the thread runs through until the knot catches at the
+first puncture, the loop between the bites is drawn through, and the needle pulls on, slowing as
+the thread's tension nears TENSION, until it has held there for HOLD s. The taut thread draws
+the tissue it passes toward its line (docs/particles.md, "Suturing"), so the wound narrows at
+the bites. Prints the punctures after each bite, when the knot caught, the gap at each bite
+before and after, the thread's slack between its punctures after the bites and pulled tight
+(its length along the thread less the straight distance: the stitch tightens), the tension
+reached and the thread's length (also in <out>/suture_summary.json); saves
+<out>/suture_<frame>_rgb.png and <out>/suture.npz (the particle positions at the saved frames)."""
 from __future__ import annotations
 
 import json
@@ -23,7 +24,7 @@ import numpy as np
 
 import cressim
 from cressim import io
-from cressim.suture import PUNCTURED, needle_mesh, punctures
+from cressim.suture import PUNCTURED, needle_mesh, punctures, thread_tension
 from .stage import add_camera_and_sun
 
 FLAP = (0.012, 0.015, 0.004)  # m: half extents of each flap
@@ -35,8 +36,8 @@ RADIUS, ANGLE, HEIGHT = 0.008, 3 * math.pi / 4, 0.003  # the needle's arc; its c
 THREAD, THREAD_COUNT = 0.16, 81
 BITES = (-0.005, 0.005)  # y of each bite
 TURN_RATE, LIFT = 2.0, 0.015  # rad/s, m above the bite for the carry
-PULL = (0.0, 0.02, 0.004)  # m/s: drawing the thread through, along the wound and a little up
-TIGHTEN = 0.002  # m the needle goes on once the knot has caught: the thread snug
+PULL, PULL_SPEED = (0.0, 1.0, 0.2), 0.02  # drawing the thread through: along the wound and a little up, m/s
+TENSION, HOLD, PULL_LIMIT = 0.05, 0.5, 10.0  # N the stitch is pulled tight with, s held there; s at most
 
 
 def _quat(theta):
@@ -57,8 +58,8 @@ START = math.pi + math.asin(HEIGHT / RADIUS) - 0.25 - ANGLE
 END = 2 * math.pi - math.asin(HEIGHT / RADIUS) + 0.6
 
 
-def author_env(world, env, meshes, width, height, camera=True):
-    """One env: table, two flaps, thread, needle (returned), camera and light."""
+def author_env(world, env, meshes, width, height, camera=True, bites=BITES):
+    """One env: table, two flaps, thread, needle (returned; over the first bite), camera and light."""
     top = TOP
     table = world.create_entity(env=env, name="table")
     table.add(cressim.Transform())
@@ -73,7 +74,7 @@ def author_env(world, env, meshes, width, height, camera=True):
         flap.add(cressim.SoftBody(mesh, fixed=far, youngs_modulus=10e3, poisson_ratio=0.45, density=1050,
                                   radius=PARTICLE, damping=5.0, friction=0.3))
         flap.add(cressim.Material(color=(0.78, 0.45, 0.4, 1), roughness=0.5))
-    centre = np.array([0.0, BITES[0], top + HEIGHT])
+    centre = np.array([0.0, bites[0], top + HEIGHT])
     tail = centre + RADIUS * np.array([math.cos(START), 0.0, math.sin(START)])
     s = np.linspace(0, THREAD, THREAD_COUNT)[:, None]
     pts = tail + s * np.array([-0.6, 0.0, 0.8])  # trailing up and back from the tail
@@ -96,15 +97,15 @@ def author_env(world, env, meshes, width, height, camera=True):
     return needle
 
 
-def motion(dt):
-    """The needle's (phase, centre, turn) per frame through both bites (the pull follows the knot:
-    run())."""
+def motion(dt, bites=BITES):
+    """The needle's (phase, centre, turn) per frame through the bites (the pull follows the
+    thread's tension: pull_tight())."""
     top = TOP
     steps = []
-    for k, y in enumerate(BITES):
+    for k, y in enumerate(bites):
         low = np.array([0.0, y, top + HEIGHT])
         if k > 0:  # carry over from the last bite: up, turn back in the air, along, down
-            prev = np.array([0.0, BITES[k - 1], top + HEIGHT])
+            prev = np.array([0.0, bites[k - 1], top + HEIGHT])
             n = round(0.3 / dt)
             for i in range(n):
                 steps.append(("carry", prev + (0, 0, LIFT * (i + 1) / n), END))
@@ -124,7 +125,7 @@ def motion(dt):
     return steps
 
 
-def gaps(engine, world):
+def gaps(engine, world, bites=BITES):
     """The gap between the flaps' cut faces (m) at each bite's y, on their top layer."""
     m = engine.particle_mapping
     p = engine.buffer("particles.positions").read()[:, :3]
@@ -135,12 +136,42 @@ def gaps(engine, world):
         if name in ("left_flap", "right_flap"):
             faces[name] = p[int(o):int(o) + int(c)]
     top = TOP
-    for y in BITES:
+    for y in bites:
         def edge(q, inner):
             near = q[(np.abs(q[:, 1] - y) < 0.0031) & (q[:, 2] > top - 0.0035)]
             return near[:, 0].max() if inner == "max" else near[:, 0].min()
         out.append(float(edge(faces["right_flap"], "min") - edge(faces["left_flap"], "max")))
     return out
+
+
+def needle_out(engine, frame, centre, theta: float, dt: float) -> tuple[float, int]:
+    """The needle drawn out along its arc (turned on about its centre, as a surgeon draws it out by
+    its tip) until no punctured point is on it (pulled sideways, the needle would drag them), at
+    most 1.5 rad more. `frame(centre, theta)` steps a frame. Returns the turn and the frames."""
+    n = 0
+    while any(r["state"] == PUNCTURED and r["s"] <= RADIUS * ANGLE for r in punctures(engine)[0]) and n * TURN_RATE * dt < 1.5:
+        theta += TURN_RATE * dt
+        frame(centre, theta)
+        n += 1
+    return theta, n
+
+
+def pull_tight(engine, frame, centre, theta: float, dt: float, tension: float, limit: int, each=None):
+    """Draws the thread through and pulls it tight: the needle moves along PULL, the slower the
+    nearer env 0's thread tension (cressim.suture.thread_tension) is to `tension` N, holding
+    still at or above it, until the tension has stayed within 10 % of it for HOLD s, or `limit`
+    frames. `each(k)` after frame k. Returns the needle's centre, the frames and the tension."""
+    way = np.asarray(PULL) / np.linalg.norm(PULL)
+    held_for, k, now = 0, 0, 0.0
+    while k < limit and held_for < round(HOLD / dt):
+        now = float(thread_tension(engine)[0])
+        centre = centre + way * PULL_SPEED * max(0.0, 1 - now / tension) * dt
+        frame(centre, theta)
+        if each is not None:
+            each(k)
+        held_for = held_for + 1 if abs(now - tension) < 0.1 * tension else 0
+        k += 1
+    return centre, k, now
 
 
 def slack(records) -> list[float]:
@@ -198,23 +229,22 @@ def run(frames: int | None = None, out_dir: str = "out/demo", num_envs: int = 1,
             loose = slack(punctures(engine)[0])
         if f in shots:
             shoot(f)
-    # draw the thread through until the knot catches at the first puncture, then on by TIGHTEN
     f, centre, theta = len(steps), steps[-1][1], steps[-1][2]
-    caught, caught_at, limit = None, None, len(steps) + round(6.0 / dt)
-    while f < (frames if frames is not None else limit):
-        centre = centre + np.asarray(PULL) * dt
-        frame(centre, theta)
+    theta, n = needle_out(engine, frame, centre, theta, dt)
+    f += n
+    caught, caught_at = None, None
+
+    def watch(k):
+        nonlocal caught, caught_at
         if caught is None:
             caught = knot()
             if caught is not None:
-                caught_at, pulled_from = f, centre.copy()
-                shoot(f)
-        elif np.linalg.norm(centre - pulled_from) >= TIGHTEN:
-            break
-        f += 1
-    for _ in range(round(0.5 / dt)):
-        frame(centre, theta)
-        f += 1
+                caught_at = f + k
+                shoot(f + k)
+
+    centre, n, tension = pull_tight(engine, frame, centre, theta, dt, TENSION,
+                                    limit=(frames - f) if frames is not None else round(PULL_LIMIT / dt), each=watch)
+    f += n
     shoot(f)
     held = knot()
     after = gaps(engine, world)
@@ -230,6 +260,7 @@ def run(frames: int | None = None, out_dir: str = "out/demo", num_envs: int = 1,
                "gap_before_mm": [g * 1e3 for g in before], "gap_after_mm": [g * 1e3 for g in after],
                "thread_length_mm": length * 1e3, "thread_rest_length_mm": THREAD * 1e3,
                "slack_after_bites_mm": [v * 1e3 for v in loose], "slack_tight_mm": [v * 1e3 for v in slack(records)],
+               "tension_n": tension, "tension_target_n": TENSION,
                "health_events": int(engine.health_events)}
     (out / "suture_summary.json").write_text(json.dumps(summary, indent=2))
     print(f"suture: {num_envs} env(s), {f} frames; punctured points after each bite {after_bites}; the knot caught "
@@ -237,6 +268,6 @@ def run(frames: int | None = None, out_dir: str = "out/demo", num_envs: int = 1,
           f"{summary['knot_pulled_tissue_mm']:.1f} mm; gap at the bites {', '.join(f'{a:.1f}' for a in summary['gap_before_mm'])}"
           f" mm -> {', '.join(f'{a:.1f}' for a in summary['gap_after_mm'])} mm; thread {length * 1e3:.1f} mm (authored "
           f"{THREAD * 1e3:.0f}); slack between punctures {sum(loose) * 1e3:.1f} mm after the bites, "
-          f"{sum(slack(records)) * 1e3:.1f} mm pulled tight; health events {summary['health_events']}; wrote {out / 'suture_summary.json'} and "
+          f"{sum(slack(records)) * 1e3:.1f} mm pulled tight to {tension:.3f} N; health events {summary['health_events']}; wrote {out / 'suture_summary.json'} and "
           f"{len(saved)} images")
     return 0
