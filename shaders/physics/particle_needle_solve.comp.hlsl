@@ -44,11 +44,11 @@ static const float REACH = 0.002;         // m: the most a punctured point slide
 // corners are solved apart, each against the gap as it was: with K b_i each moves by the whole gap
 // where the spring dominates, which moves p by exactly the gap (the sum of the b_i is 1), where
 // K b_i^2 would move each by gap / b_i and p by three times the gap, and the solve would diverge.
-void pin(uint3 c, float3 b, float3 p, float3 goal) {
+void pin(uint3 c, float3 b, float3 p, float3 goal, float stiffness = PUNCTURE_GRIP) {
   [unroll] for (uint k = 0; k < 3; ++k) {
     const uint i = c[k];
     if (positions[i].w <= 0 || b[k] <= 0) continue;
-    const float K = PUNCTURE_GRIP * b[k];
+    const float K = stiffness * b[k];
     tet_pins[i] += float4(K * (goal - p + positions[i].xyz), K);
   }
 }
@@ -160,6 +160,11 @@ void share(NeedleModel n, uint3 c, float3 b, float3 x, float3 on_needle) {
   body_angular_velocities[body].xyz += turn / h;
 }
 
+// N/m: the taut string's grip on the tissue (its give: T / STRING_GRIP over the string, 0.2 mm at
+// 0.05 N across a bite). The tissue settles under it at k / (k + STRING_GRIP) an iteration (k its
+// own stiffness there, tens of N/m for 10 kPa): at the needle's 10^4 N/m a held tension was still
+// falling seconds later as the tissue crept after it.
+static const float STRING_GRIP = 1e3;
 static const uint MAX_STRING = 64;  // punctures on a string (scene validation bounds max_punctures)
 
 // The string: the punctured points on the thread in the order of s (the tail before them), as
@@ -219,6 +224,7 @@ float2 span_bounds(NeedleModel n, Arc a, uint record, float3 x, bool caught) {
                                          : punctures[string_records[j - 1]].place.z;
   float hi = caught && !knot && string_count > 0 ? end - distance(x, string_points[string_count - 1]) : end;
   if (j + 1 < string_count) hi = min(hi, punctures[string_records[j + 1]].place.z);
+  hi = max(hi, needle_length + 1e-5);  // on the thread whatever the tissue did
   return float2(min(lo, hi), hi);
 }
 
@@ -227,8 +233,8 @@ float2 span_bounds(NeedleModel n, Arc a, uint record, float3 x, bool caught) {
 // the straight way through its points is longer by C, the one constraint sum |x_j+1 - x_j| <= L
 // moves each tissue point j by lambda g_j, g_j the sum of the unit vectors toward its neighbours
 // (the knot's: toward the one before it), lambda = C / sum |g_j|^2, as a position-based solve with
-// the points' weights equal. Given to the elastic solve as the grip spring K toward there, the
-// force on point j is K lambda g_j: the pull of a string of tension T = K lambda on a point it
+// the points' weights equal. Given to the elastic solve as a spring K (STRING_GRIP) toward there,
+// the force on point j is K lambda g_j: the pull of a string of tension T = K lambda on a point it
 // turns at, the same T at every point (no friction along the thread: for squeeze 0). The tail
 // bears T along the string's first side (particle_needle_load).
 void taut_thread(NeedleModel n, Arc a, uint needle) {
@@ -251,9 +257,9 @@ void taut_thread(NeedleModel n, Arc a, uint needle) {
   const float lambda = C / max(sum, 1e-6);
   for (uint j = 0; j < string_count; ++j) {
     const Puncture p = punctures[string_records[j]];
-    pin(corners(p.ids.y), weights(p), string_points[j], string_points[j] + lambda * g[j]);
+    pin(corners(p.ids.y), weights(p), string_points[j], string_points[j] + lambda * g[j], STRING_GRIP);
   }
-  needle_threads[needle] = float4(PUNCTURE_GRIP * lambda, way);
+  needle_threads[needle] = float4(STRING_GRIP * lambda, way);
 }
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]

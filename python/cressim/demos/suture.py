@@ -58,8 +58,9 @@ START = math.pi + math.asin(HEIGHT / RADIUS) - 0.25 - ANGLE
 END = 2 * math.pi - math.asin(HEIGHT / RADIUS) + 0.6
 
 
-def author_env(world, env, meshes, width, height, camera=True, bites=BITES):
-    """One env: table, two flaps, thread, needle (returned; over the first bite), camera and light."""
+def author_env(world, env, meshes, width, height, camera=True, bites=BITES, thread=(THREAD, THREAD_COUNT)):
+    """One env: table, two flaps, thread (length m, particles), needle (returned; over the first
+    bite), camera and light."""
     top = TOP
     table = world.create_entity(env=env, name="table")
     table.add(cressim.Transform())
@@ -76,19 +77,19 @@ def author_env(world, env, meshes, width, height, camera=True, bites=BITES):
         flap.add(cressim.Material(color=(0.78, 0.45, 0.4, 1), roughness=0.5))
     centre = np.array([0.0, bites[0], top + HEIGHT])
     tail = centre + RADIUS * np.array([math.cos(START), 0.0, math.sin(START)])
-    s = np.linspace(0, THREAD, THREAD_COUNT)[:, None]
+    s = np.linspace(0, thread[0], thread[1])[:, None]
     pts = tail + s * np.array([-0.6, 0.0, 0.8])  # trailing up and back from the tail
-    thread = world.create_entity(env=env, name="thread")
+    strand = world.create_entity(env=env, name="thread")
     # a 2-0 braided suture (0.3 mm across): a rod of a material, so it weighs what the real thread
     # does (0.08 g/m, 100 times lighter than the tissue it is pulled through); a braid bends far
     # more easily than its fibres' modulus says (an effective 50 MPa here)
-    thread.add(cressim.Strand(pts.astype(np.float32), radius=0.00015, youngs_modulus=5e7, poisson_ratio=0.4,
+    strand.add(cressim.Strand(pts.astype(np.float32), radius=0.00015, youngs_modulus=5e7, poisson_ratio=0.4,
                               density=1140, damping=2.0))
-    thread.add(cressim.Material(color=(0.25, 0.2, 0.7, 1), roughness=0.6))
+    strand.add(cressim.Material(color=(0.25, 0.2, 0.7, 1), roughness=0.6))
     needle = world.create_entity(env=env, name="needle")
     needle.add(cressim.Transform(position=tuple(centre), rotation=_quat(START)))
     needle.add(cressim.RigidBody(kinematic=True, mass=0.001, inertia=(1e-8, 1e-8, 1e-8)))
-    needle.add(cressim.Needle(thread=thread, arc_radius=RADIUS, arc_angle=ANGLE, puncture_force=0.5,
+    needle.add(cressim.Needle(thread=strand, arc_radius=RADIUS, arc_angle=ANGLE, puncture_force=0.5,
                               puncture_depth=0.001, friction=0.0, max_punctures=8))
     needle.add(cressim.Renderable(meshes["needle"], color=(0.85, 0.85, 0.9, 1), metallic=0.9, roughness=0.25))
     if camera:
@@ -156,16 +157,18 @@ def needle_out(engine, frame, centre, theta: float, dt: float) -> tuple[float, i
     return theta, n
 
 
-def pull_tight(engine, frame, centre, theta: float, dt: float, tension: float, limit: int, each=None):
-    """Draws the thread through and pulls it tight: the needle moves along PULL, the slower the
-    nearer env 0's thread tension (cressim.suture.thread_tension) is to `tension` N, holding
-    still at or above it, until the tension has stayed within 10 % of it for HOLD s, or `limit`
+def pull_tight(engine, frame, centre, theta: float, dt: float, tension: float, limit: int, each=None,
+               speed: float = PULL_SPEED):
+    """Draws the thread through and pulls it tight: the needle moves along PULL at up to `speed`
+    m/s, the slower the nearer env 0's thread tension (cressim.suture.thread_tension) is to
+    `tension` N, backing off at a tenth of that above it (a quarter, tried, let a short thread
+    go slack and snap taut again, tearing the tissue away), until the tension has stayed within 10 % of it for HOLD s, or `limit`
     frames. `each(k)` after frame k. Returns the needle's centre, the frames and the tension."""
     way = np.asarray(PULL) / np.linalg.norm(PULL)
     held_for, k, now = 0, 0, 0.0
     while k < limit and held_for < round(HOLD / dt):
         now = float(thread_tension(engine)[0])
-        centre = centre + way * PULL_SPEED * max(0.0, 1 - now / tension) * dt
+        centre = centre + way * speed * float(np.clip(1 - now / tension, -0.1, 1)) * dt
         frame(centre, theta)
         if each is not None:
             each(k)

@@ -1,0 +1,79 @@
+"""A stitch pulled tight (docs/particles.md, "Suturing"): the demo's two 10 kPa flaps 4 mm apart,
+one bite across the gap with 40 mm of thread, the needle drawn out along its arc and then away
+until the knot catches at the entry and the thread's tension reaches a target. The taut thread
+runs straight from puncture to puncture, keeps its length, and draws the flaps together, the
+more the harder it is pulled; an env reset lets the knot go."""
+import numpy as np
+import pytest
+
+import cressim
+from cressim.demos import suture as demo
+from cressim.suture import PUNCTURED, needle_mesh, punctures, thread_tension
+
+BITE = (0.0,)
+THREAD = (0.04, 21)  # m, particles: 2 mm segments, as the demo's
+
+
+@pytest.fixture(scope="module")
+def sewn():
+    world = cressim.World(cressim.SceneLayout(1))
+    meshes = {"table": world.add_mesh(cressim.Mesh.plane(0.1)),
+              "needle": world.add_mesh(needle_mesh(demo.RADIUS, demo.ANGLE, 0.00035))}
+    needle = demo.author_env(world, 0, meshes, 8, 8, camera=False, bites=BITE, thread=THREAD)
+    engine = cressim.Engine(world)
+    engine.prepare()
+    engine.upload_world()
+    dt = engine.physics.dt
+
+    def frame(centre, theta):
+        needle.transform = cressim.Transform(position=tuple(centre), rotation=demo._quat(theta))
+        engine.step_physics()
+        engine.end_frame()
+
+    steps = demo.motion(dt, bites=BITE)
+    for _, centre, theta in steps:
+        frame(centre, theta)
+    before = demo.gaps(engine, world, BITE)[0]
+    theta, _ = demo.needle_out(engine, frame, steps[-1][1], steps[-1][2], dt)
+    return engine, world, frame, dt, steps[-1][1], theta, before
+
+
+def _thread(engine, world):
+    m = engine.particle_mapping
+    o, c = [(int(o), int(c)) for e, o, c in zip(m["object_entity"], m["object_offset"], m["object_count"])
+            if world.entity(int(e)).name == "thread"][0]
+    return engine.buffer("particles.positions").read()[o:o + c]
+
+
+def test_a_stitch_pulled_tight_closes_the_wound_the_harder_the_more(sewn):
+    engine, world, frame, dt, centre, theta, before = sewn
+    assert abs(before - demo.GAP) < 0.2e-3
+    records = punctures(engine)[0]
+    assert len(records) == 4 and all(r["state"] == PUNCTURED and r["s"] > demo.RADIUS * demo.ANGLE for r in records)
+    closed = []
+    for target in (0.02, 0.05):
+        # slowly (5 mm/s): the short thread goes taut within a frame, and the tension overshoots by
+        # what the needle moved in it
+        centre, frames, tension = demo.pull_tight(engine, frame, centre, theta, dt, target, limit=round(16 / dt),
+                                                  speed=0.005)
+        assert abs(tension - target) < 0.1 * target, (target, tension, frames)
+        records = sorted(punctures(engine)[0], key=lambda r: r["s"])
+        # the knot caught at the entry (the first puncture made: the last along the thread), and
+        # only there
+        assert [r["knot"] for r in records] == [False, False, False, True]
+        # taut: from puncture to puncture the thread runs straight (within a segment's length)
+        assert all(abs(v) < 2.5e-3 for v in demo.slack(records)), demo.slack(records)
+        x = _thread(engine, world)
+        length = np.linalg.norm(np.diff(x[:, :3], axis=0), axis=1).sum()
+        assert abs(length - THREAD[0]) < 0.01 * THREAD[0], length
+        closed.append(demo.gaps(engine, world, BITE)[0])
+    assert before - closed[0] > 0.3e-3, (before, closed)  # the tension draws the flaps together
+    assert closed[0] - closed[1] > 0.05e-3, closed  # and more of it, further
+    assert engine.health_events == 0
+    # the knot is an anchor of the thread while it holds: an env reset lets it go and gives the
+    # thread's last particle its mass back
+    assert _thread(engine, world)[-1, 3] == 0
+    engine.reset_envs([0])
+    frame(centre, theta)
+    assert punctures(engine)[0] == [] and thread_tension(engine)[0] == 0
+    assert _thread(engine, world)[-1, 3] > 0
