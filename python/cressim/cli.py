@@ -217,7 +217,7 @@ def main(argv: list[str] | None = None) -> int:
                         "particle scenes saved as particle-state sequences (.npz) and a few rendered frames (PNG "
                         "colour, segmentation); cautery: an energized hook coagulates and cuts a track in liver; "
                         "cable: a tendon-driven continuum robot bends, sweeps and carries a load; suture: a "
-                        "needle sews two bites across a wound and the thread is drawn until its knot catches; "
+                        "needle sews two bites across a wound and the stitch is pulled tight to a tension; "
                         "ultrasound: a B-mode image of fat over liver with a cyst and a shadowing calcification. "
                         "The twin's demo is ROS's: `python -m cressim_ros.demo`")
     p.add_argument("--envs", type=int, help="batched: envs (default 16); cautery, cable, suture: envs (default 1)")

@@ -160,8 +160,8 @@ void share(NeedleModel n, uint3 c, float3 b, float3 x, float3 on_needle) {
   body_angular_velocities[body].xyz += turn / h;
 }
 
-// N/m: the taut string's grip on the tissue (its give: T / STRING_GRIP over the string, 0.2 mm at
-// 0.05 N across a bite). The tissue settles under it at k / (k + STRING_GRIP) an iteration (k its
+// N/m: the taut string's grip on the tissue (its give: T sum |g_j|^2 / STRING_GRIP, a few tenths of
+// a millimetre at 0.05 N). The tissue settles under it at k / (k + STRING_GRIP) an iteration (k its
 // own stiffness there, tens of N/m for 10 kPa): at the needle's 10^4 N/m a held tension was still
 // falling seconds later as the tissue crept after it.
 static const float STRING_GRIP = 1e3;

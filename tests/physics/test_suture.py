@@ -190,6 +190,8 @@ def test_bad_needles_say_what_and_where(make_engine):
         prepare({"puncture_force": float("nan")})
     with pytest.raises(cressim.AuthoringError, match="Needle.max_punctures must be at least 2, got 1"):
         prepare({"max_punctures": 1})
+    with pytest.raises(cressim.AuthoringError, match="Needle.max_punctures is 65; at most 64"):
+        prepare({"max_punctures": 65})
     with pytest.raises(cressim.AuthoringError, match="Needle.thread names entity 1, which has no Strand"):
         prepare({"thread": 1})
 
