@@ -2,7 +2,8 @@
 one bite across the gap with 40 mm of thread, the needle drawn out along its arc and then away
 until the knot catches at the entry and the thread's tension reaches a target. The taut thread
 runs straight from puncture to puncture, keeps its length, and draws the flaps together, the
-more the harder it is pulled; an env reset lets the knot go."""
+more the harder it is pulled; the hand holding the needle bears the pull; an env reset lets the
+knot go."""
 import numpy as np
 import pytest
 
@@ -20,9 +21,14 @@ def sewn():
     meshes = {"table": world.add_mesh(cressim.Mesh.plane(0.1)),
               "needle": world.add_mesh(needle_mesh(demo.RADIUS, demo.ANGLE, 0.00035))}
     needle = demo.author_env(world, 0, meshes, 8, 8, camera=False, bites=BITE, thread=THREAD)
+    hand = world.create_entity(env=0, name="hand")  # holds the needle: bears its load
+    hand.add(cressim.Transform(position=(0.0, 0.0, 0.05)))
+    hand.add(cressim.RigidBody(kinematic=True, mass=0.01, inertia=(1e-6, 1e-6, 1e-6)))
     engine = cressim.Engine(world)
     engine.prepare()
     engine.upload_world()
+    row = [int(e) for e in engine.buffer("rigid.body_entity").read()].index(hand.id)  # its body row
+    engine.buffer("control.needle_holders").write(np.array([row + 1], np.uint32))
     dt = engine.physics.dt
 
     def frame(centre, theta):
@@ -35,7 +41,7 @@ def sewn():
         frame(centre, theta)
     before = demo.gaps(engine, world, BITE)[0]
     theta, _ = demo.needle_out(engine, frame, steps[-1][1], steps[-1][2], dt)
-    return engine, world, frame, dt, steps[-1][1], theta, before
+    return engine, world, frame, dt, steps[-1][1], theta, before, row
 
 
 def _thread(engine, world):
@@ -46,7 +52,8 @@ def _thread(engine, world):
 
 
 def test_a_stitch_pulled_tight_closes_the_wound_the_harder_the_more(sewn):
-    engine, world, frame, dt, centre, theta, before = sewn
+    engine, world, frame, dt, centre, theta, before, hand = sewn
+    weight = 0.001 * np.asarray(engine.physics.gravity)  # the needle's (RigidBody mass 1 g)
     assert abs(before - demo.GAP) < 0.2e-3
     records = punctures(engine)[0]
     assert len(records) == 4 and all(r["state"] == PUNCTURED and r["s"] > demo.RADIUS * demo.ANGLE for r in records)
@@ -67,6 +74,16 @@ def test_a_stitch_pulled_tight_closes_the_wound_the_harder_the_more(sewn):
         length = np.linalg.norm(np.diff(x[:, :3], axis=0), axis=1).sum()
         assert abs(length - THREAD[0]) < 0.01 * THREAD[0], length
         closed.append(demo.gaps(engine, world, BITE)[0])
+        # the hand holding the needle bears its weight and the thread's pull at the tail: the
+        # tension along the thread's way to its first puncture
+        string = engine.buffer("particles.needle_threads").read()[0]
+        assert string[0] == pytest.approx(target, rel=0.15)
+        first = records[0]["point"]
+        tail = _thread(engine, world)[0, :3]
+        way = (first - tail) / np.linalg.norm(first - tail)
+        assert np.dot(string[1:], way) > 0.99, (string, way)
+        load = engine.buffer("rigid.contact_forces").read()[hand, :3]
+        np.testing.assert_allclose(load, weight + string[0] * string[1:], atol=0.02 * target)
     assert before - closed[0] > 0.3e-3, (before, closed)  # the tension draws the flaps together
     assert closed[0] - closed[1] > 0.05e-3, closed  # and more of it, further
     assert engine.health_events == 0
