@@ -13,22 +13,21 @@
 //   tissue goes to the path there.
 // - Punctured, on the thread, squeeze 0 (the default, and every shipped scene): the thread, light
 //   and slack, is drawn through the puncture (it moves across to it; the tissue stays), s
-//   following the nearest point along it; `friction` acts on the needle only. Once s reaches the
-//   path's end, the thread's last particle is a knot: it neither passes nor comes back out, and
-//   it and the tissue there meet by inverse mass (the thread, far lighter, does most of the
-//   moving: pulled on against the knot, it gives rather than tear the tissue away).
+//   following the nearest point along it (within span_bounds); `friction` acts on the needle
+//   only. Once s reaches the path's end, the thread's last particle is a knot: it neither passes
+//   nor comes back out, and sits on the tissue there, an anchor to the thread's own solves.
 // - Punctured, on the thread, squeeze N > 0 (friction on the thread; docs/particles.md): the
 //   puncture holds the thread's material point s (s counts rest lengths: particle_needle.hlsli),
 //   its impulse along the thread summed over the substep's iterations and clamped to the capstan
 //   limit T_high <= T_low exp(mu theta) + mu N (the tensions from the puncture's force over the
 //   last substep; thread_through), along the thread's chord across the puncture. Checked with a
 //   rope: Coulomb's threshold of a straight pass and the capstan law at a turn.
-// Each puncture on the thread reports the force it put on it over the last substep (Puncture.force).
-// - Once the knot has caught, the thread from the tail through the punctures on it to the knot
+// - Once the knot has caught (squeeze 0), the thread from the tail through the punctures on it to the knot
 //   is one string of a fixed length (taut_thread): where the straight way from point to point
 //   is longer, each point is pulled along its string's sides by one tension (frictionless: the
 //   same all along), so that a stitch pulled tight draws the tissue it passes toward the line and
 //   closes a wound; that tension is what the needle's tail bears (particles.needle_threads).
+// Each puncture on the thread reports the force it put on it over the last substep (Puncture.force).
 #define NEEDLE_MOVES_BODY  // a needle let go of (dynamic) and the tissue it is in share each correction
 #include "particle_needle.hlsli"
 
