@@ -191,7 +191,7 @@ void load_string(NeedleModel n, Arc a) {
 // The thread slides through its punctures as a whole: where the tail has drawn it through the
 // string's first point (its s below the straight way from the tail), every point's s moves on by
 // as much (up to a caught knot, which holds), so the spans between them keep their thread.
-void slide_string(NeedleModel n, Arc a, bool caught) {
+void slide_string(Arc a, bool caught) {
   if (string_count == 0) return;
   const float needle_length = a.radius * a.angle, end = path_length(a);
   const float lo = needle_length + distance(tail_of(a), string_points[0]);
@@ -214,7 +214,7 @@ void slide_string(NeedleModel n, Arc a, bool caught) {
 // pass the puncture it caught at (the others followed it to the thread's end), and a pull
 // tightens what lies between instead. (Bounds of the straight way between any two neighbours,
 // tried, held points at s not yet caught up with the needle's passage and broke the bites.)
-float2 span_bounds(NeedleModel n, Arc a, uint record, float3 x, bool caught) {
+float2 span_bounds(Arc a, uint record, float3 x, bool caught) {
   const float needle_length = a.radius * a.angle, end = path_length(a);
   uint j = 0;
   while (j < string_count && string_records[j] != record) ++j;
@@ -236,7 +236,7 @@ float2 span_bounds(NeedleModel n, Arc a, uint record, float3 x, bool caught) {
 // the force on point j is K lambda g_j: the pull of a string of tension T = K lambda on a point it
 // turns at, the same T at every point (no friction along the thread: for squeeze 0). The tail
 // bears T along the string's first side (particle_needle_load).
-void taut_thread(NeedleModel n, Arc a, uint needle) {
+void taut_thread(Arc a, uint needle) {
   const float3 tail = tail_of(a);
   float length = 0;
   for (uint j = 0; j < string_count; ++j) length += distance(j > 0 ? string_points[j - 1] : tail, string_points[j]);
@@ -281,14 +281,12 @@ void main(uint3 id : SV_DispatchThreadID) {
       caught = caught || punctures[r].ids.w != 0;
     }
   load_string(n, a);
-  if (n.puncture.y == 0) slide_string(n, a, caught);  // friction on the thread (squeeze) holds s itself
+  if (n.puncture.y == 0) slide_string(a, caught);  // friction on the thread (squeeze) holds s itself
   for (uint r = n.records.x; r < n.records.x + n.records.y; ++r) {
     Puncture p = punctures[r];
     if (p.ids.x == PUNCTURE_FREE) continue;
     const uint3 c = corners(p.ids.y);
     const float3 b = weights(p);
-    const float3 wc = float3(positions[c.x].w, positions[c.y].w, positions[c.z].w);
-    const float wp = dot(b * b, wc);
     const float3 x = surface_point(c, b);
     if (p.ids.x == PUNCTURE_INDENTING) {
       // the push counts along the normal toward the side the tip came from
@@ -329,7 +327,6 @@ void main(uint3 id : SV_DispatchThreadID) {
       p.place.z = nearest;  // the tail has passed: on the thread from here
       p.impulse = float4(0, 0, 0, 0);
     }
-    const float2 bounds = span_bounds(n, a, r, x, caught);
     if (p.ids.w != 0 || (!caught && p.place.z >= end - 1e-6)) {
       // the knot does not pass (nor come back out): it sits on the tissue, an anchor to the
       // thread's own solves (driven, as the tail is; an env reset gives it its mass back); the
@@ -341,13 +338,14 @@ void main(uint3 id : SV_DispatchThreadID) {
     } else if (n.puncture.y > 0) {  // squeeze > 0: friction on the thread
       thread_through(n, a, p, x, mu);
     } else {
-      slide_through(n, a, p, x, bounds);
+      slide_through(n, a, p, x, span_bounds(a, r, x, caught));
     }
     punctures[r] = p;
   }
   if (caught && n.puncture.y == 0) {
     load_string(n, a);  // with this pass's s (and a knot caught in it)
-    taut_thread(n, a, id.x);
+    taut_thread(a, id.x);
+  } else {
+    needle_threads[id.x] = float4(0, 0, 0, 0);
   }
-  else needle_threads[id.x] = float4(0, 0, 0, 0);
 }
