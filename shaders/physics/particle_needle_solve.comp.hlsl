@@ -22,11 +22,12 @@
 //   limit T_high <= T_low exp(mu theta) + mu N (the tensions from the puncture's force over the
 //   last substep; thread_through), along the thread's chord across the puncture. Checked with a
 //   rope: Coulomb's threshold of a straight pass and the capstan law at a turn.
-// - Once the knot has caught (squeeze 0), the thread from the tail through the punctures on it to the knot
-//   is one string of a fixed length (taut_thread): where the straight way from point to point
-//   is longer, each point is pulled along its string's sides by one tension (frictionless: the
-//   same all along), so that a stitch pulled tight draws the tissue it passes toward the line and
-//   closes a wound; that tension is what the needle's tail bears (particles.needle_threads).
+// - Once the knot has caught, the thread from the tail through the punctures on it to the knot is
+//   a taut string (taut_string): each span between two points holds its thread and bears its
+//   stretch's tension, and the thread slides through a puncture only where the two sides'
+//   tensions break the capstan law (without friction on the thread: where they differ), so that a
+//   stitch pulled tight draws the tissue it passes toward the line and closes a wound; the first
+//   span's tension is what the needle's tail bears (particles.needle_threads).
 // Each puncture on the thread reports the force it put on it over the last substep (Puncture.force).
 #define NEEDLE_MOVES_BODY  // a needle let go of (dynamic) and the tissue it is in share each correction
 #include "particle_needle.hlsli"
@@ -159,10 +160,12 @@ void share(NeedleModel n, uint3 c, float3 b, float3 x, float3 on_needle) {
   body_angular_velocities[body].xyz += turn / h;
 }
 
-// N/m: the taut string's grip on the tissue (its give: T sum |g_j|^2 / STRING_GRIP, a few tenths of
-// a millimetre at 0.05 N). The tissue settles under it at k / (k + STRING_GRIP) an iteration (k its
-// own stiffness there, tens of N/m for 10 kPa): at the needle's 10^4 N/m a held tension was still
-// falling seconds later as the tissue crept after it.
+// N/m: the taut string's grip on the tissue. Each span of the string is held to its thread by a
+// position-based solve of its two ends, given to the elastic solve as a spring of STRING_GRIP toward
+// there: a span between two tissue points bears T = STRING_GRIP / 2 times its stretch, the span
+// from the driven tail STRING_GRIP times it (its give: 0.1 mm at 0.05 N). The tissue settles under
+// it at k / (k + STRING_GRIP) an iteration (k its own stiffness there, tens of N/m for 10 kPa): at
+// the needle's 10^4 N/m a held tension was still falling seconds later as the tissue crept after it.
 static const float STRING_GRIP = 1e3;
 static const uint MAX_STRING = 64;  // punctures on a string (scene validation bounds max_punctures)
 
@@ -188,77 +191,92 @@ void load_string(NeedleModel n, Arc a) {
   }
 }
 
-// The thread slides through its punctures as a whole: where the tail has drawn it through the
-// string's first point (its s below the straight way from the tail), every point's s moves on by
-// as much (up to a caught knot, which holds), so the spans between them keep their thread.
-void slide_string(Arc a, bool caught) {
+// Before the knot has caught, the thread slides through its punctures as a whole: where the tail
+// has drawn it through the string's first point (its s below the straight way from the tail),
+// every point's s moves on by as much, so the spans between them keep their thread.
+void slide_string(Arc a) {
   if (string_count == 0) return;
   const float needle_length = a.radius * a.angle, end = path_length(a);
-  const float lo = needle_length + distance(tail_of(a), string_points[0]);
-  const float by = lo - punctures[string_records[0]].place.z;
+  const float by = needle_length + distance(tail_of(a), string_points[0]) - punctures[string_records[0]].place.z;
   if (by <= 0) return;
   for (uint j = 0; j < string_count; ++j) {
     const uint r = string_records[j];
-    if (punctures[r].ids.w != 0) continue;
-    const float hi = caught ? end - distance(string_points[j], string_points[string_count - 1]) : end;
-    punctures[r].place.z = max(punctures[r].place.z, min(punctures[r].place.z + by, hi));
+    punctures[r].place.z = max(punctures[r].place.z, min(punctures[r].place.z + by, end));
   }
 }
 
-// The range of s a punctured point on the thread can hold: its place along the string (between
-// its neighbours' s), at least the straight way from the tail for the string's first point, and
-// at most the thread less the straight way to a caught knot (the string's last). Without the
-// first, where the tail had gone on faster than the first point's s followed the thread, the
-// nearest thread within reach lay behind, toward the tail: a bite's entry stuck at the thread's
-// start, never drawn through, until the needle dragged it; with the last, a caught knot does not
-// pass the puncture it caught at (the others followed it to the thread's end), and a pull
-// tightens what lies between instead. (Bounds of the straight way between any two neighbours,
-// tried, held points at s not yet caught up with the needle's passage and broke the bites.)
-float2 span_bounds(Arc a, uint record, float3 x, bool caught) {
-  const float needle_length = a.radius * a.angle, end = path_length(a);
+// The range of s a punctured point on the loose thread can hold: its place along the string
+// (between its neighbours' s), and at least the straight way from the tail for the string's first
+// point. Without the latter, where the tail had gone on faster than the first point's s followed
+// the thread, the nearest thread within reach lay behind, toward the tail: a bite's entry stuck at
+// the thread's start, never drawn through, until the needle dragged it. (Bounds of the straight
+// way between any two neighbours, tried, held points at s not yet caught up with the needle's
+// passage and broke the bites.)
+float2 span_bounds(Arc a, uint record, float3 x) {
+  const float needle_length = a.radius * a.angle;
   uint j = 0;
   while (j < string_count && string_records[j] != record) ++j;
-  const bool knot = caught && string_count > 0 && j == string_count - 1;
-  float lo = j == 0 || j == string_count ? needle_length + max(distance(tail_of(a), x), 1e-5)
-                                         : punctures[string_records[j - 1]].place.z;
-  float hi = caught && !knot && string_count > 0 ? end - distance(x, string_points[string_count - 1]) : end;
+  const float lo = j == 0 || j == string_count ? needle_length + max(distance(tail_of(a), x), 1e-5)
+                                               : punctures[string_records[j - 1]].place.z;
+  float hi = path_length(a);
   if (j + 1 < string_count) hi = min(hi, punctures[string_records[j + 1]].place.z);
   hi = max(hi, needle_length + 1e-5);  // on the thread whatever the tissue did
   return float2(min(lo, hi), hi);
 }
 
-// Once the knot has caught, the string from the needle's tail (driven) through the punctured
-// points to the knot's (the last) has the thread's length L (rest lengths: s counts them); where
-// the straight way through its points is longer by C, the one constraint sum |x_j+1 - x_j| <= L
-// moves each tissue point j by lambda g_j, g_j the sum of the unit vectors toward its neighbours
-// (the knot's: toward the one before it), lambda = C / sum |g_j|^2, as a position-based solve with
-// the points' weights equal. Given to the elastic solve as a spring K (STRING_GRIP) toward there,
-// the force on point j is K lambda g_j: the pull of a string of tension T = K lambda on a point it
-// turns at, the same T at every point (no friction along the thread: for squeeze 0). The tail
-// bears T along the string's first side (particle_needle_load).
-void taut_thread(Arc a, uint needle) {
+// Once the knot has caught, the thread from the needle's tail (driven) through the punctured
+// points to the knot (the last) is a taut string: span j, from point j - 1 (the tail before the
+// first) to point j, holds the thread between their s, l_j = s_j - s_j-1, and where it runs
+// straight farther than that it bears the tension T_j of its stretch (STRING_GRIP above). The
+// thread slides through a puncture (s_j moves, giving one span's thread to the other) only where
+// its two sides' tensions break the capstan law, T_high <= T_low exp(mu theta) + mu N (theta the
+// string's turn there, N the squeeze; mu and N 0 without friction on the thread, so the tensions
+// are the same all along): by as much as brings them to the limit, in one sweep from the tail so
+// that a pull reaches the knot in an iteration. Each tissue point is then pulled toward its
+// neighbours by its spans' tensions (the force T_j u_back + T_j+1 u_fwd, as a spring toward
+// there), so that a stitch pulled tight draws the tissue it passes toward its line and closes a
+// wound. The tail bears T_0 along the first span (particles.needle_threads, particle_needle_load).
+void taut_string(NeedleModel n, Arc a, uint needle) {
   const float3 tail = tail_of(a);
-  float length = 0;
-  for (uint j = 0; j < string_count; ++j) length += distance(j > 0 ? string_points[j - 1] : tail, string_points[j]);
-  const float C = length - (path_length(a) - a.radius * a.angle);
+  const float needle_length = a.radius * a.angle;
+  const float mu = n.puncture.y > 0 ? n.arc.w : 0.0, held = mu * n.puncture.y;
   const float3 way = string_count > 0 ? normalize(string_points[0] - tail + 1e-12) : float3(0, 0, 0);
-  if (string_count == 0 || C <= 0) {
-    needle_threads[needle] = float4(0, way);
-    return;
-  }
-  float3 g[MAX_STRING];
-  float sum = 0;
+  float s[MAX_STRING], d[MAX_STRING];
   for (uint j = 0; j < string_count; ++j) {
-    g[j] = normalize((j > 0 ? string_points[j - 1] : tail) - string_points[j] + 1e-12);
-    if (j + 1 < string_count) g[j] += normalize(string_points[j + 1] - string_points[j] + 1e-12);
-    sum += dot(g[j], g[j]);
+    s[j] = punctures[string_records[j]].place.z;
+    d[j] = distance(j > 0 ? string_points[j - 1] : tail, string_points[j]);
   }
-  const float lambda = C / max(sum, 1e-6);
+  // span j's tension for its end at s_j (and its start at s_j-1)
+#define SPAN_TENSION(j) ((j) == 0 ? 1.0 : 0.5) * STRING_GRIP * max(d[j] - (s[j] - ((j) > 0 ? s[(j) - 1] : needle_length)), 0.0)
+  for (uint j = 0; j + 1 < string_count; ++j) {
+    if (punctures[string_records[j]].ids.w != 0) continue;  // a knot caught here holds
+    const float3 back = normalize((j > 0 ? string_points[j - 1] : tail) - string_points[j] + 1e-12);
+    const float3 fwd = normalize(string_points[j + 1] - string_points[j] + 1e-12);
+    const float E = exp(mu * acos(clamp(-dot(back, fwd), -1.0, 1.0)));
+    const float Ka = (j == 0 ? 1.0 : 0.5) * STRING_GRIP, Kb = 0.5 * STRING_GRIP;
+    const float Ta = SPAN_TENSION(j), Tb = SPAN_TENSION(j + 1);
+    float by = 0;  // toward the knot: more thread on the tail's side
+    if (Ta > Tb * E + held) by = (Ta - Tb * E - held) / (Ka + Kb * E);
+    else if (Tb > Ta * E + held) by = -(Tb - Ta * E - held) / (Kb + Ka * E);
+    const float lo = j > 0 ? s[j - 1] : needle_length + 1e-5;
+    s[j] = clamp(s[j] + by, min(lo, s[j]), max(s[j + 1] - 1e-5, s[j]));
+  }
+  float T_first = 0;
   for (uint j = 0; j < string_count; ++j) {
-    const Puncture p = punctures[string_records[j]];
-    pin(corners(p.ids.y), weights(p), string_points[j], string_points[j] + lambda * g[j], STRING_GRIP);
+    Puncture p = punctures[string_records[j]];
+    const float Ta = SPAN_TENSION(j), Tb = j + 1 < string_count ? SPAN_TENSION(j + 1) : 0.0;
+    if (j == 0) T_first = Ta;
+    const float3 back = normalize((j > 0 ? string_points[j - 1] : tail) - string_points[j] + 1e-12);
+    const float3 fwd = j + 1 < string_count ? normalize(string_points[j + 1] - string_points[j] + 1e-12) : float3(0, 0, 0);
+    const float3 pull = Ta * back + Tb * fwd;  // the thread's on the tissue
+    pin(corners(p.ids.y), weights(p), string_points[j], string_points[j] + pull / STRING_GRIP, STRING_GRIP);
+    p.place.z = s[j];
+    // reported as the force the puncture puts on the thread, and its part along it (toward the knot)
+    p.impulse = float4(-pull, Ta - Tb) * (pc.gravity.w * pc.gravity.w);
+    punctures[string_records[j]] = p;
   }
-  needle_threads[needle] = float4(STRING_GRIP * lambda, way);
+#undef SPAN_TENSION
+  needle_threads[needle] = float4(T_first, way);
 }
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
@@ -281,7 +299,8 @@ void main(uint3 id : SV_DispatchThreadID) {
       caught = caught || punctures[r].ids.w != 0;
     }
   load_string(n, a);
-  if (n.puncture.y == 0) slide_string(a, caught);  // friction on the thread (squeeze) holds s itself
+  if (caught) taut_string(n, a, id.x);  // sets the string's s, pins its tissue
+  else if (n.puncture.y == 0) slide_string(a);  // friction on the thread (squeeze) holds s itself
   for (uint r = n.records.x; r < n.records.x + n.records.y; ++r) {
     Puncture p = punctures[r];
     if (p.ids.x == PUNCTURE_FREE) continue;
@@ -330,22 +349,21 @@ void main(uint3 id : SV_DispatchThreadID) {
     if (p.ids.w != 0 || (!caught && p.place.z >= end - 1e-6)) {
       // the knot does not pass (nor come back out): it sits on the tissue, an anchor to the
       // thread's own solves (driven, as the tail is; an env reset gives it its mass back); the
-      // tissue bears the thread's pull on it (taut_thread)
+      // tissue bears the thread's pull on it (taut_string, from the next iteration)
       p.place.z = end;
       p.ids.w = 1;
       caught = true;
       positions[n.ids.y + thread_count - 1] = float4(x, 0);
+    } else if (caught) {  // the taut string set s: the thread is drawn through there
+      const float4 reported = p.impulse;
+      slide_through(n, a, p, x, p.place.zz);
+      p.impulse = reported;
     } else if (n.puncture.y > 0) {  // squeeze > 0: friction on the thread
       thread_through(n, a, p, x, mu);
     } else {
-      slide_through(n, a, p, x, span_bounds(a, r, x, caught));
+      slide_through(n, a, p, x, span_bounds(a, r, x));
     }
     punctures[r] = p;
   }
-  if (caught && n.puncture.y == 0) {
-    load_string(n, a);  // with this pass's s (and a knot caught in it)
-    taut_thread(a, id.x);
-  } else {
-    needle_threads[id.x] = float4(0, 0, 0, 0);
-  }
+  if (!caught) needle_threads[id.x] = float4(0, 0, 0, 0);
 }

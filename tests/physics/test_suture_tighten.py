@@ -3,7 +3,8 @@ one bite across the gap with 40 mm of thread, the needle drawn out along its arc
 until the knot catches at the entry and the thread's tension reaches a target. The taut thread
 runs straight from puncture to puncture, keeps its length, and draws the flaps together, the
 more the harder it is pulled; the hand holding the needle bears the pull; an env reset lets the
-knot go."""
+knot go. With friction on the thread, a stitch pulled on loses tension at each puncture by the
+capstan law (Euler-Eytelwein)."""
 import numpy as np
 import pytest
 
@@ -15,12 +16,14 @@ BITE = (0.0,)
 THREAD = (0.04, 21)  # m, particles: 2 mm segments, as the demo's
 
 
-@pytest.fixture(scope="module")
-def sewn():
+def _sew(friction=0.0, squeeze=0.0):
+    """The bite made and the needle drawn out along its arc: (engine, world, frame, dt, centre,
+    theta, gap before, the hand's body row)."""
     world = cressim.World(cressim.SceneLayout(1))
     meshes = {"table": world.add_mesh(cressim.Mesh.plane(0.1)),
               "needle": world.add_mesh(needle_mesh(demo.RADIUS, demo.ANGLE, 0.00035))}
-    needle = demo.author_env(world, 0, meshes, 8, 8, camera=False, bites=BITE, thread=THREAD)
+    needle = demo.author_env(world, 0, meshes, 8, 8, camera=False, bites=BITE, thread=THREAD, friction=friction,
+                             squeeze=squeeze)
     hand = world.create_entity(env=0, name="hand")  # holds the needle: bears its load
     hand.add(cressim.Transform(position=(0.0, 0.0, 0.05)))
     hand.add(cressim.RigidBody(kinematic=True, mass=0.01, inertia=(1e-6, 1e-6, 1e-6)))
@@ -42,6 +45,11 @@ def sewn():
     before = demo.gaps(engine, world, BITE)[0]
     theta, _ = demo.needle_out(engine, frame, steps[-1][1], steps[-1][2], dt)
     return engine, world, frame, dt, steps[-1][1], theta, before, row
+
+
+@pytest.fixture(scope="module")
+def sewn():
+    return _sew()
 
 
 def _thread(engine, world):
@@ -68,6 +76,8 @@ def test_a_stitch_pulled_tight_closes_the_wound_the_harder_the_more(sewn):
         # the knot caught at the entry (the first puncture made: the last along the thread), and
         # only there
         assert [r["knot"] for r in records] == [False, False, False, True]
+        # without friction on the thread the tension is the same either side of each puncture
+        assert all(abs(r["friction"]) < 0.02 * target for r in records[:-1]), [r["friction"] for r in records]
         # taut: from puncture to puncture the thread runs straight (within a segment's length)
         assert all(abs(v) < 2.5e-3 for v in demo.slack(records)), demo.slack(records)
         x = _thread(engine, world)
@@ -94,3 +104,40 @@ def test_a_stitch_pulled_tight_closes_the_wound_the_harder_the_more(sewn):
     frame(centre, theta)
     assert punctures(engine)[0] == [] and thread_tension(engine)[0] == 0
     assert _thread(engine, world)[-1, 3] > 0
+
+
+def _tensions(engine, world):
+    """Along a caught stitch, from the needle's tail to the knot: each span's tension (N; the
+    first the needle's, each next one less the friction at the puncture between) and the string's
+    turn at each puncture between two spans (rad)."""
+    records = sorted(punctures(engine)[0], key=lambda r: r["s"])
+    T = [float(thread_tension(engine)[0])]
+    for r in records[:-1]:
+        T.append(T[-1] - r["friction"])
+    x = [_thread(engine, world)[0, :3]] + [r["point"] for r in records]
+    turns = []
+    for j in range(1, len(x) - 1):
+        a, b = x[j] - x[j - 1], x[j + 1] - x[j]
+        turns.append(float(np.arccos(np.clip(np.dot(a, b) / np.linalg.norm(a) / np.linalg.norm(b), -1, 1))))
+    return np.array(T), np.array(turns)
+
+
+def test_a_stitch_pulled_on_with_friction_loses_tension_by_the_capstan_law():
+    """mu 0.3 with capstan friction alone (a squeeze of 1 uN): pulled on slowly once taut, the
+    thread slides through every puncture, and the tension before each over that after it is
+    exp(mu theta), theta the stitch's turn there (Euler-Eytelwein), so the knot's side bears less
+    than the needle pulls with."""
+    mu = 0.3
+    engine, world, frame, dt, centre, theta, _, _ = _sew(friction=mu, squeeze=1e-6)
+    centre, _, tension = demo.pull_tight(engine, frame, centre, theta, dt, 0.02, limit=round(16 / dt), speed=0.005)
+    assert abs(tension - 0.02) < 0.002
+    way = np.asarray(demo.PULL) / np.linalg.norm(demo.PULL)
+    for _ in range(round(2.0 / dt)):  # 4 mm at 2 mm/s: every puncture slips
+        centre = centre + way * 0.002 * dt
+        frame(centre, theta)
+    T, turns = _tensions(engine, world)
+    assert [r["knot"] for r in sorted(punctures(engine)[0], key=lambda r: r["s"])] == [False, False, False, True]
+    assert np.all(turns > 0.1), turns  # the stitch turns at each: the law has something to show
+    np.testing.assert_allclose(T[:-1] / T[1:], np.exp(mu * turns), rtol=0.03)
+    assert T[-1] < 0.7 * T[0], T
+    assert engine.health_events == 0

@@ -58,9 +58,10 @@ START = math.pi + math.asin(HEIGHT / RADIUS) - 0.25 - ANGLE
 END = 2 * math.pi - math.asin(HEIGHT / RADIUS) + 0.6
 
 
-def author_env(world, env, meshes, width, height, camera=True, bites=BITES, thread=(THREAD, THREAD_COUNT)):
+def author_env(world, env, meshes, width, height, camera=True, bites=BITES, thread=(THREAD, THREAD_COUNT),
+               friction=0.0, squeeze=0.0):
     """One env: table, two flaps, thread (length m, particles), needle (returned; over the first
-    bite), camera and light."""
+    bite; `friction` and `squeeze` its cressim.Needle's), camera and light."""
     top = TOP
     table = world.create_entity(env=env, name="table")
     table.add(cressim.Transform())
@@ -90,7 +91,8 @@ def author_env(world, env, meshes, width, height, camera=True, bites=BITES, thre
     needle.add(cressim.Transform(position=tuple(centre), rotation=_quat(START)))
     needle.add(cressim.RigidBody(kinematic=True, mass=0.001, inertia=(1e-8, 1e-8, 1e-8)))
     needle.add(cressim.Needle(thread=strand, arc_radius=RADIUS, arc_angle=ANGLE, puncture_force=0.5,
-                              puncture_depth=0.001, friction=0.0, max_punctures=8))
+                              puncture_depth=0.001, friction=friction, squeeze=squeeze,
+                              max_punctures=8))
     needle.add(cressim.Renderable(meshes["needle"], color=(0.85, 0.85, 0.9, 1), metallic=0.9, roughness=0.25))
     if camera:
         add_camera_and_sun(world, env, eye=(0.035, -0.06, 0.06), target=(0.0, 0.0, top), sun=(0.02, -0.03, 0.3),
