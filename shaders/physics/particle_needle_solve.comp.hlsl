@@ -246,25 +246,38 @@ void taut_string(NeedleModel n, Arc a, uint needle) {
     s[j] = punctures[string_records[j]].place.z;
     d[j] = distance(j > 0 ? string_points[j - 1] : tail, string_points[j]);
   }
-  // span j's tension for its end at s_j (and its start at s_j-1)
-#define SPAN_TENSION(j) ((j) == 0 ? 1.0 : 0.5) * STRING_GRIP * max(d[j] - (s[j] - ((j) > 0 ? s[(j) - 1] : needle_length)), 0.0)
-  for (uint j = 0; j + 1 < string_count; ++j) {
+  // span j's stretch for its end at s_j (and its start at s_j-1), and its stiffness
+#define SPAN_STRETCH(j) (d[j] - (s[j] - ((j) > 0 ? s[(j) - 1] : needle_length)))
+#define SPAN_K(j) (((j) == 0 ? 1.0 : 0.5) * STRING_GRIP)
+  // sweeps from the tail and back, as many as the string has points: a pull reaches the knot in an
+  // iteration, and a loose loop anywhere along the string is drawn through at the friction's
+  // tension (one sweep a iteration drew it as through a dashpot: 15 mN at the demo's 12 mm/s)
+  for (uint sweep = 0; sweep < string_count; ++sweep)
+  for (uint i = 0; i + 1 < string_count; ++i) {
+    const uint j = (sweep & 1) != 0 ? string_count - 2 - i : i;
     if (punctures[string_records[j]].ids.w != 0) continue;  // a knot caught here holds
     const float3 back = normalize((j > 0 ? string_points[j - 1] : tail) - string_points[j] + 1e-12);
     const float3 fwd = normalize(string_points[j + 1] - string_points[j] + 1e-12);
     const float E = exp(mu * acos(clamp(-dot(back, fwd), -1.0, 1.0)));
-    const float Ka = (j == 0 ? 1.0 : 0.5) * STRING_GRIP, Kb = 0.5 * STRING_GRIP;
-    const float Ta = SPAN_TENSION(j), Tb = SPAN_TENSION(j + 1);
-    float by = 0;  // toward the knot: more thread on the tail's side
-    if (Ta > Tb * E + held) by = (Ta - Tb * E - held) / (Ka + Kb * E);
-    else if (Tb > Ta * E + held) by = -(Tb - Ta * E - held) / (Kb + Ka * E);
+    const float Ka = SPAN_K(j), Kb = SPAN_K(j + 1), ea = SPAN_STRETCH(j), eb = SPAN_STRETCH(j + 1);
+    // by: toward the knot (more thread on the tail's side); a slack side takes up its slack first,
+    // so a loose loop is drawn through at the friction's tension, not at one the slip's rate sets
+    float by = 0;
+    if (Ka * max(ea, 0.0) > E * Kb * max(eb, 0.0) + held) {
+      by = ea - held / Ka;  // the far side stays slack
+      if (eb + by > 0) by = (Ka * ea - E * Kb * eb - held) / (Ka + E * Kb);
+    } else if (Kb * max(eb, 0.0) > E * Ka * max(ea, 0.0) + held) {
+      by = -(eb - held / Kb);
+      if (ea - by > 0) by = -(Kb * eb - E * Ka * ea - held) / (Kb + E * Ka);
+    }
     const float lo = j > 0 ? s[j - 1] : needle_length + 1e-5;
     s[j] = clamp(s[j] + by, min(lo, s[j]), max(s[j + 1] - 1e-5, s[j]));
   }
   float T_first = 0;
   for (uint j = 0; j < string_count; ++j) {
     Puncture p = punctures[string_records[j]];
-    const float Ta = SPAN_TENSION(j), Tb = j + 1 < string_count ? SPAN_TENSION(j + 1) : 0.0;
+    const float Ta = SPAN_K(j) * max(SPAN_STRETCH(j), 0.0);
+    const float Tb = j + 1 < string_count ? SPAN_K(j + 1) * max(SPAN_STRETCH(j + 1), 0.0) : 0.0;
     if (j == 0) T_first = Ta;
     const float3 back = normalize((j > 0 ? string_points[j - 1] : tail) - string_points[j] + 1e-12);
     const float3 fwd = j + 1 < string_count ? normalize(string_points[j + 1] - string_points[j] + 1e-12) : float3(0, 0, 0);
@@ -275,7 +288,8 @@ void taut_string(NeedleModel n, Arc a, uint needle) {
     p.impulse = float4(-pull, Ta - Tb) * (pc.gravity.w * pc.gravity.w);
     punctures[string_records[j]] = p;
   }
-#undef SPAN_TENSION
+#undef SPAN_STRETCH
+#undef SPAN_K
   needle_threads[needle] = float4(T_first, way);
 }
 

@@ -9,8 +9,9 @@ from skfem.models.elasticity import lame_parameters, linear_elasticity
 
 
 def static_displacement(points, tets, clamped, youngs_modulus, poisson_ratio, density, gravity=(0.0, 0.0, -9.81),
-                        quadratic=False, sliding=False):
-    """(n, 3) displacement of every mesh vertex at static equilibrium under the body's weight;
+                        quadratic=False, sliding=False, point_loads=None):
+    """(n, 3) displacement of every mesh vertex at static equilibrium under the body's weight and
+    `point_loads` ((n, 3) N on the vertices, or None);
     `clamped(x)` ((3, m) points -> m bools) selects the boundary facets held in place: wholly, or
     with `sliding` only in z (a frictionless floor; the mesh's bottom centre vertex is then held
     in x and y and one vertex on its +x axis in y, which removes the rigid motions the floor
@@ -25,6 +26,8 @@ def static_displacement(points, tets, clamped, youngs_modulus, poisson_ratio, de
         return g[0] * v[0] + g[1] * v[1] + g[2] * v[2]
 
     f = weight.assemble(basis)
+    if point_loads is not None:
+        f[basis.nodal_dofs] += np.asarray(point_loads, dtype=np.float64).T
     held = basis.get_dofs(clamped)
     if sliding:
         p = mesh.p.T

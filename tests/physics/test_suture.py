@@ -144,7 +144,9 @@ def test_the_knot_does_not_pass_the_punctures_and_pulls_the_tissue(make_engine):
         engine.end_frame()
     thread = positions(engine)[tissue:]
     length = np.linalg.norm(np.diff(thread, axis=0), axis=1).sum()
-    assert length == pytest.approx(0.03, rel=0.02)  # inextensible through the punctures
+    # nearly inextensible through the punctures: the taut string gives T / (500 N/m) a span under
+    # this kinematic yank (docs/particles.md, "Suturing")
+    assert length == pytest.approx(0.03, rel=0.03)
     knot = [r for r in punctures(engine)[0] if r["knot"]]
     # the knot held the entry and drew it through the bite and up with the thread: they meet by
     # inverse mass, the thread (far lighter) giving most, so a kinematic pull does not tear the

@@ -141,3 +141,74 @@ def test_a_stitch_pulled_on_with_friction_loses_tension_by_the_capstan_law():
     np.testing.assert_allclose(T[:-1] / T[1:], np.exp(mu * turns), rtol=0.03)
     assert T[-1] < 0.7 * T[0], T
     assert engine.health_events == 0
+
+
+def test_the_flaps_close_under_the_stitch_as_linear_elasticity_says():
+    """The closing against the flaps' own stiffness, checked against scikit-fem: the bite made
+    with no table and no gravity (each flap held only at its far edge), the stitch pulled to
+    0.02 N and held still until the tissue has settled; then each flap's displacement from rest
+    where the stitch holds it matches static linear elasticity (P1 tets on the same mesh, the
+    same E and nu, the far edge clamped) under the pulls the punctures report, spread on their
+    triangles' corners by their weights as the engine spreads them."""
+    from .fem_reference import static_displacement
+
+    world = cressim.World(cressim.SceneLayout(1))
+    meshes = {"needle": world.add_mesh(needle_mesh(demo.RADIUS, demo.ANGLE, 0.00035))}
+    needle = demo.author_env(world, 0, meshes, 8, 8, camera=False, bites=BITE, thread=THREAD, table=False)
+    engine = cressim.Engine(world)
+    physics = engine.physics
+    physics.gravity = (0.0, 0.0, 0.0)
+    engine.physics = physics
+    engine.prepare()
+    engine.upload_world()
+    dt = engine.physics.dt
+
+    def frame(centre, theta):
+        needle.transform = cressim.Transform(position=tuple(centre), rotation=demo._quat(theta))
+        engine.step_physics()
+        engine.end_frame()
+
+    steps = demo.motion(dt, bites=BITE)
+    for _, centre, theta in steps:
+        frame(centre, theta)
+    theta, _ = demo.needle_out(engine, frame, steps[-1][1], steps[-1][2], dt)
+    centre, _, tension = demo.pull_tight(engine, frame, steps[-1][1], theta, dt, 0.02, limit=round(16 / dt),
+                                         speed=0.005)
+    for _ in range(round(1.0 / dt)):  # held still: the tissue settles under the stitch
+        frame(centre, theta)
+    records = punctures(engine)[0]
+    assert len(records) == 4 and records and all(r["state"] == PUNCTURED for r in records)
+    assert thread_tension(engine)[0] > 0.01  # still taut
+    x = engine.buffer("particles.positions").read()[:, :3]
+    surface = engine.buffer("particles.surface").read()
+    mesh = cressim.TetMesh.box(demo.FLAP, demo.CELLS)
+    rest = np.asarray(mesh.positions, dtype=np.float64)
+    m = engine.particle_mapping
+    compared = 0
+    for e, o, c in zip(m["object_entity"], m["object_offset"], m["object_count"]):
+        name = world.entity(int(e)).name
+        if name not in ("left_flap", "right_flap"):
+            continue
+        side = -1 if name == "left_flap" else 1
+        o, c = int(o), int(c)
+        loads = np.zeros((c, 3))
+        held = []
+        for r in records:
+            corners = surface[r["triangle"]]
+            if not (o <= corners[0] < o + c):
+                continue
+            loads[corners - o] += np.outer(r["weights"], -r["force"])  # the stitch's pull on the tissue
+            held.append(r)
+        assert len(held) == 2, name  # each flap holds two punctures of the bite
+        ref = static_displacement(rest, np.asarray(mesh.tets), lambda p: side * p[0] > demo.FLAP[0] - 1e-6,
+                                  10e3, 0.45, 1050, gravity=(0.0, 0.0, 0.0), point_loads=loads)
+        origin = np.array([side * (demo.GAP / 2 + demo.FLAP[0]), 0, demo.FLAP[2] + demo.PARTICLE])
+        moved = x[o:o + c] - (rest + origin)
+        for r in held:
+            corners = surface[r["triangle"]] - o
+            engine_u, fem_u = r["weights"] @ moved[corners], r["weights"] @ ref[corners]
+            assert np.linalg.norm(fem_u) > 0.2e-3, fem_u  # the stitch moves the tissue measurably
+            np.testing.assert_allclose(engine_u, fem_u, atol=0.1 * np.linalg.norm(fem_u)), (name, engine_u, fem_u)
+            compared += 1
+    assert compared == 4
+    assert engine.health_events == 0

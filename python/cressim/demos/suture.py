@@ -59,14 +59,15 @@ END = 2 * math.pi - math.asin(HEIGHT / RADIUS) + 0.6
 
 
 def author_env(world, env, meshes, width, height, camera=True, bites=BITES, thread=(THREAD, THREAD_COUNT),
-               friction=0.0, squeeze=0.0):
-    """One env: table, two flaps, thread (length m, particles), needle (returned; over the first
-    bite; `friction` and `squeeze` its cressim.Needle's), camera and light."""
+               friction=0.0, squeeze=0.0, table=True):
+    """One env: table (or none), two flaps, thread (length m, particles), needle (returned; over
+    the first bite; `friction` and `squeeze` its cressim.Needle's), camera and light."""
     top = TOP
-    table = world.create_entity(env=env, name="table")
-    table.add(cressim.Transform())
-    table.add(cressim.Collider(cressim.Shape.plane()))
-    table.add(cressim.Renderable(meshes["table"], color=(0.75, 0.78, 0.8, 1), roughness=0.7))
+    if table:
+        plane = world.create_entity(env=env, name="table")
+        plane.add(cressim.Transform())
+        plane.add(cressim.Collider(cressim.Shape.plane()))
+        plane.add(cressim.Renderable(meshes["table"], color=(0.75, 0.78, 0.8, 1), roughness=0.7))
     mesh = cressim.TetMesh.box(FLAP, CELLS)
     rest = np.asarray(mesh.positions)
     for side, name in ((-1, "left_flap"), (1, "right_flap")):
