@@ -215,22 +215,29 @@ def test_the_flaps_close_under_the_stitch_as_linear_elasticity_says():
 
 
 def test_friction_holds_a_stitch_once_the_needle_lets_up():
-    """mu 0.3 with a squeeze of 5 mN: pulled to 0.05 N, then the needle brought 10 mm back so that
-    its side goes slack. Friction keeps tension inside the stitch (each puncture holds its far
-    side to within the capstan law plus mu N of its near side's), so the wound stays closed
-    where without friction it opens again (3.94 -> 3.77 mm in a like release, measured)."""
+    """mu 0.3 with a squeeze of 5 mN: pulled on until the needle's side bears 0.05 N, then the
+    needle brought 20 mm back so that its side goes slack. The stitch slips toward it until each
+    puncture holds its far side at the most friction can: T_next = T exp(mu theta) + mu N from the
+    needle's slack side on (the capstan law with the squeeze). So tension stays inside the stitch
+    and the wound stays partly closed, where without friction it would open again."""
     mu, squeeze = 0.3, 0.005
     engine, world, frame, dt, centre, theta, before, _ = _sew(friction=mu, squeeze=squeeze)
-    centre, _, tension = demo.pull_tight(engine, frame, centre, theta, dt, 0.05, limit=round(16 / dt), speed=0.005)
-    assert abs(tension - 0.05) < 0.005
     way = np.asarray(demo.PULL) / np.linalg.norm(demo.PULL)
-    for _ in range(round(1.0 / dt)):
+    # pulled on at 5 mm/s until the needle's side bears 0.05 N (a tension held there by a controller
+    # stick-slips through the punctures' friction)
+    for _ in range(round(16 / dt)):
+        if thread_tension(engine)[0] >= 0.05:
+            break
+        centre = centre + way * 0.005 * dt
+        frame(centre, theta)
+    assert thread_tension(engine)[0] >= 0.05
+    for _ in range(round(2.0 / dt)):  # 20 mm back
         centre = centre - way * 0.01 * dt
         frame(centre, theta)
     for _ in range(round(1.0 / dt)):
         frame(centre, theta)
     T, turns = _tensions(engine, world)
-    assert T[0] < 0.005 and T[-1] > 0.008, T  # slack at the needle, held at the knot
-    np.testing.assert_array_less(T[1:], 1.05 * (T[:-1] * np.exp(mu * turns) + mu * squeeze) + 1e-4)
-    assert demo.gaps(engine, world, BITE)[0] < before - 0.5e-3
+    assert T[0] < 1e-3, T  # the needle's side slack
+    np.testing.assert_allclose(T[1:], T[:-1] * np.exp(mu * turns) + mu * squeeze, rtol=0.05)
+    assert demo.gaps(engine, world, BITE)[0] < before - 0.3e-3
     assert engine.health_events == 0
