@@ -241,10 +241,17 @@ void taut_string(NeedleModel n, Arc a, uint needle) {
   const float needle_length = a.radius * a.angle;
   const float mu = n.puncture.y > 0 ? n.arc.w : 0.0, held = mu * n.puncture.y;
   const float3 way = string_count > 0 ? normalize(string_points[0] - tail + 1e-12) : float3(0, 0, 0);
-  float s[MAX_STRING], d[MAX_STRING];
+  // per point: s, the span to it, the unit vectors toward its neighbours and the string's turn
+  // there as the capstan factor (the points stay put through the pass: taken once)
+  float s[MAX_STRING], d[MAX_STRING], E[MAX_STRING];
+  float3 back[MAX_STRING], fwd[MAX_STRING];
   for (uint j = 0; j < string_count; ++j) {
+    const float3 before = j > 0 ? string_points[j - 1] : tail;
     s[j] = punctures[string_records[j]].place.z;
-    d[j] = distance(j > 0 ? string_points[j - 1] : tail, string_points[j]);
+    d[j] = distance(before, string_points[j]);
+    back[j] = normalize(before - string_points[j] + 1e-12);
+    fwd[j] = j + 1 < string_count ? normalize(string_points[j + 1] - string_points[j] + 1e-12) : float3(0, 0, 0);
+    E[j] = exp(mu * acos(clamp(-dot(back[j], fwd[j]), -1.0, 1.0)));
   }
   // span j's stretch for its end at s_j (and its start at s_j-1), and its stiffness
 #define SPAN_STRETCH(j) (d[j] - (s[j] - ((j) > 0 ? s[(j) - 1] : needle_length)))
@@ -256,19 +263,16 @@ void taut_string(NeedleModel n, Arc a, uint needle) {
   for (uint i = 0; i + 1 < string_count; ++i) {
     const uint j = (sweep & 1) != 0 ? string_count - 2 - i : i;
     if (punctures[string_records[j]].ids.w != 0) continue;  // a knot caught here holds
-    const float3 back = normalize((j > 0 ? string_points[j - 1] : tail) - string_points[j] + 1e-12);
-    const float3 fwd = normalize(string_points[j + 1] - string_points[j] + 1e-12);
-    const float E = exp(mu * acos(clamp(-dot(back, fwd), -1.0, 1.0)));
     const float Ka = SPAN_K(j), Kb = SPAN_K(j + 1), ea = SPAN_STRETCH(j), eb = SPAN_STRETCH(j + 1);
     // by: toward the knot (more thread on the tail's side); a slack side takes up its slack first,
     // so a loose loop is drawn through at the friction's tension, not at one the slip's rate sets
     float by = 0;
-    if (Ka * max(ea, 0.0) > E * Kb * max(eb, 0.0) + held) {
+    if (Ka * max(ea, 0.0) > E[j] * Kb * max(eb, 0.0) + held) {
       by = ea - held / Ka;  // the far side stays slack
-      if (eb + by > 0) by = (Ka * ea - E * Kb * eb - held) / (Ka + E * Kb);
-    } else if (Kb * max(eb, 0.0) > E * Ka * max(ea, 0.0) + held) {
+      if (eb + by > 0) by = (Ka * ea - E[j] * Kb * eb - held) / (Ka + E[j] * Kb);
+    } else if (Kb * max(eb, 0.0) > E[j] * Ka * max(ea, 0.0) + held) {
       by = -(eb - held / Kb);
-      if (ea - by > 0) by = -(Kb * eb - E * Ka * ea - held) / (Kb + E * Ka);
+      if (ea - by > 0) by = -(Kb * eb - E[j] * Ka * ea - held) / (Kb + E[j] * Ka);
     }
     const float lo = j > 0 ? s[j - 1] : needle_length + 1e-5;
     s[j] = clamp(s[j] + by, min(lo, s[j]), max(s[j + 1] - 1e-5, s[j]));
@@ -279,9 +283,7 @@ void taut_string(NeedleModel n, Arc a, uint needle) {
     const float Ta = SPAN_K(j) * max(SPAN_STRETCH(j), 0.0);
     const float Tb = j + 1 < string_count ? SPAN_K(j + 1) * max(SPAN_STRETCH(j + 1), 0.0) : 0.0;
     if (j == 0) T_first = Ta;
-    const float3 back = normalize((j > 0 ? string_points[j - 1] : tail) - string_points[j] + 1e-12);
-    const float3 fwd = j + 1 < string_count ? normalize(string_points[j + 1] - string_points[j] + 1e-12) : float3(0, 0, 0);
-    const float3 pull = Ta * back + Tb * fwd;  // the thread's on the tissue
+    const float3 pull = Ta * back[j] + Tb * fwd[j];  // the thread's on the tissue
     pin(corners(p.ids.y), weights(p), string_points[j], string_points[j] + pull / STRING_GRIP, STRING_GRIP);
     p.place.z = s[j];
     // reported as the force the puncture puts on the thread, and its part along it (toward the knot)

@@ -16,18 +16,22 @@ BITE = (0.0,)
 THREAD = (0.04, 21)  # m, particles: 2 mm segments, as the demo's
 
 
-def _sew(friction=0.0, squeeze=0.0):
+def _sew(friction=0.0, squeeze=0.0, table=True, gravity=None):
     """The bite made and the needle drawn out along its arc: (engine, world, frame, dt, centre,
     theta, gap before, the hand's body row)."""
     world = cressim.World(cressim.SceneLayout(1))
     meshes = {"table": world.add_mesh(cressim.Mesh.plane(0.1)),
               "needle": world.add_mesh(needle_mesh(demo.RADIUS, demo.ANGLE, 0.00035))}
     needle = demo.author_env(world, 0, meshes, 8, 8, camera=False, bites=BITE, thread=THREAD, friction=friction,
-                             squeeze=squeeze)
+                             squeeze=squeeze, table=table)
     hand = world.create_entity(env=0, name="hand")  # holds the needle: bears its load
     hand.add(cressim.Transform(position=(0.0, 0.0, 0.05)))
     hand.add(cressim.RigidBody(kinematic=True, mass=0.01, inertia=(1e-6, 1e-6, 1e-6)))
     engine = cressim.Engine(world)
+    if gravity is not None:
+        physics = engine.physics
+        physics.gravity = gravity
+        engine.physics = physics
     engine.prepare()
     engine.upload_world()
     row = [int(e) for e in engine.buffer("rigid.body_entity").read()].index(hand.id)  # its body row
@@ -152,28 +156,8 @@ def test_the_flaps_close_under_the_stitch_as_linear_elasticity_says():
     triangles' corners by their weights as the engine spreads them."""
     from .fem_reference import static_displacement
 
-    world = cressim.World(cressim.SceneLayout(1))
-    meshes = {"needle": world.add_mesh(needle_mesh(demo.RADIUS, demo.ANGLE, 0.00035))}
-    needle = demo.author_env(world, 0, meshes, 8, 8, camera=False, bites=BITE, thread=THREAD, table=False)
-    engine = cressim.Engine(world)
-    physics = engine.physics
-    physics.gravity = (0.0, 0.0, 0.0)
-    engine.physics = physics
-    engine.prepare()
-    engine.upload_world()
-    dt = engine.physics.dt
-
-    def frame(centre, theta):
-        needle.transform = cressim.Transform(position=tuple(centre), rotation=demo._quat(theta))
-        engine.step_physics()
-        engine.end_frame()
-
-    steps = demo.motion(dt, bites=BITE)
-    for _, centre, theta in steps:
-        frame(centre, theta)
-    theta, _ = demo.needle_out(engine, frame, steps[-1][1], steps[-1][2], dt)
-    centre, _, tension = demo.pull_tight(engine, frame, steps[-1][1], theta, dt, 0.02, limit=round(16 / dt),
-                                         speed=0.005)
+    engine, world, frame, dt, centre, theta, _, _ = _sew(table=False, gravity=(0.0, 0.0, 0.0))
+    centre, _, tension = demo.pull_tight(engine, frame, centre, theta, dt, 0.02, limit=round(16 / dt), speed=0.005)
     for _ in range(round(1.0 / dt)):  # held still: the tissue settles under the stitch
         frame(centre, theta)
     records = punctures(engine)[0]
