@@ -137,6 +137,7 @@ def _train(args: argparse.Namespace) -> int:
                    out_dir=args.out or f"runs/{args.task.lower()}", rollout=args.rollout, save_every=args.save_every,
                    backend=args.backend, minibatch=args.minibatch, task_options=_task_options(args.task_option),
                    obs_normalization=args.obs_normalization or None, compile=args.compile or None,
+                   fused_update=args.fused_update,
                    video_envs=_env_list(args.video_envs) if args.video else None, engine_rollout=args.engine_rollout)
     if not _leader():
         return 0
@@ -199,7 +200,7 @@ def _bench(args: argparse.Namespace) -> int:
 
     run(args.task, [int(n) for n in args.envs.split(",")] if args.envs else None, mode=args.mode, out_dir=args.out,
         device=args.device, backend=args.backend, extend=args.extend, minibatch=args.minibatch, policy=args.policy,
-        compile=args.compile)
+        compile=args.compile, fused_update=args.fused_update)
     return 0
 
 
@@ -254,6 +255,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--video-envs", default="0", help="comma-separated env indices filmed (default 0)")
     p.add_argument("--compile", action="store_true",
                    help="the built-in learner's minibatch step through torch.compile (PPOConfig.compile)")
+    p.add_argument("--fused-update", default="auto", choices=("auto", "on", "off"),
+                   help="the built-in learner's update as fused Triton kernels in one CUDA graph (PPOConfig.fused_update; "
+                        "auto: where it applies, TASKS.md's MLPs of width <= 128 on CUDA)")
     p.add_argument("--engine-rollout", action="store_true",
                    help="the actor (an MLP, or TASKS.md's CNN) runs inside the engine's frame, a whole rollout a submit; "
                         "torch only learns")
@@ -307,6 +311,9 @@ def main(argv: list[str] | None = None) -> int:
                    help="where PPO's actor runs (auto: in the engine where the task's actor is an MLP)")
     p.add_argument("--compile", action="store_true",
                    help="the built-in learner's minibatch step through torch.compile (PPOConfig.compile)")
+    p.add_argument("--fused-update", default="auto", choices=("auto", "on", "off"),
+                   help="the built-in learner's update as fused Triton kernels in one CUDA graph (PPOConfig.fused_update; "
+                        "auto: where it applies, TASKS.md's MLPs of width <= 128 on CUDA)")
     p.add_argument("--out", default="benchmarks/results", help="folder for the JSON and PNG")
     p.add_argument("--device", help="torch device (default: what the env picks)")
     p.add_argument("--backend", default="auto", choices=("auto", "rsl_rl", "torch"), help="PPO learner")

@@ -10,12 +10,12 @@ from cressim.learn.torch_ppo import TorchPPO
 
 pytestmark = pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA device")
 
-CASES = {  # (config, observation shape, observation dtype)
-    "mlp": (PPOConfig(rollout=16, minibatch=32, hidden=(32, 32)), (6,), torch.float32),
+CASES = {  # (config, observation shape, observation dtype); MLPs in torch (test_fused_update.py: in Triton)
+    "mlp": (PPOConfig(rollout=16, minibatch=32, hidden=(32, 32), fused_update="off"), (6,), torch.float32),
     "cnn": (PPOConfig(rollout=16, minibatch=32, hidden=(64,), network="cnn"), (32, 32, 3), torch.uint8),
     # the normalisers' statistics change in place after each update: the replayed graphs must see them
-    "mlp_normalized": (PPOConfig(rollout=16, minibatch=32, hidden=(32, 32), obs_normalization=True), (6,),
-                       torch.float32),
+    "mlp_normalized": (PPOConfig(rollout=16, minibatch=32, hidden=(32, 32), obs_normalization=True,
+                                 fused_update="off"), (6,), torch.float32),
 }
 
 

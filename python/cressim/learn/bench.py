@@ -181,7 +181,7 @@ def bench_policy(task: str, num_envs: int, device=None, warmup: int = 128, steps
 
 def bench_ppo(task: str, num_envs: int, device=None, warmup: int = 5, updates: int = 10, rollout: int = 128,
               backend: str = "auto", seed: int = 0, minibatch: int | None = None, policy: str = "auto",
-              compile: bool = False) -> dict:
+              compile: bool = False, fused_update: str = "auto") -> dict:
     """PPO end to end: rollouts and learning (`ppo_sps`); policy "engine" collects the rollouts
     with the actor in the engine (EngineRollout, the built-in learner), "torch" with the learner's
     policy step between frames, "auto" the engine where the task's actor fits it."""
@@ -192,8 +192,8 @@ def bench_ppo(task: str, num_envs: int, device=None, warmup: int = 5, updates: i
     fits = backend in ("auto", "torch") and engine_policy_fits(task, env)
     in_engine = policy == "engine" or (policy == "auto" and fits)
     venv = CressimVecEnv(env)
-    alg, backend = make_learner(venv, ppo_config(task, rollout=rollout, minibatch=minibatch, compile=compile or None),
-                                "torch" if in_engine or compile else backend)
+    cfg = ppo_config(task, rollout=rollout, minibatch=minibatch, compile=compile or None, fused_update=fused_update)
+    alg, backend = make_learner(venv, cfg, "torch" if in_engine or compile or fused_update == "on" else backend)
     collect = EngineRollout(env, alg, seed=seed).collect if in_engine else lambda: collect_rollout(venv, alg, rollout)
     for _ in range(warmup):
         collect()
@@ -211,7 +211,8 @@ def bench_ppo(task: str, num_envs: int, device=None, warmup: int = 5, updates: i
     samples = updates * rollout * num_envs
     out = {"ppo_sps": samples / (rollout_s + learn_s), "ppo_rollout_sps": samples / rollout_s,
            "ppo_learn_s_per_update": learn_s / updates, "ppo_backend": backend,
-           "ppo_policy": "engine" if in_engine else "torch", "ppo_compiled": compile, "engine_bytes": engine_bytes(env),
+           "ppo_policy": "engine" if in_engine else "torch", "ppo_compiled": compile,
+           "ppo_fused_update": getattr(alg, "fused", False), "engine_bytes": engine_bytes(env),
            "vulkan_device": env.engine.device["name"], "torch_device": str(env.device)}
     env.close()
     del env, venv, alg
@@ -242,10 +243,11 @@ MEASURED = {
 
 def run(task: str = "CartPole", env_counts=None, mode: str = "both", out_dir="benchmarks/results",
         device=None, backend: str = "auto", extend: bool = False, protocol: dict | None = None,
-        minibatch: int | None = None, policy: str = "auto", compile: bool = False) -> dict:
+        minibatch: int | None = None, policy: str = "auto", compile: bool = False, fused_update: str = "auto") -> dict:
     """Measures each env count in `mode` (step, policy, ppo; both: step and ppo; all: the three);
     with `extend`, keeps doubling past the last count while step throughput still rises by 5 %
-    or more. `policy` (auto, engine, torch): where PPO's actor runs; `compile`: PPOConfig.compile.
+    or more. `policy` (auto, engine, torch): where PPO's actor runs; `compile`, `fused_update`:
+    PPOConfig's.
     Prints a table; writes JSON and a PNG."""
     if mode not in MODES:
         raise ValueError(f"bench: mode must be one of {', '.join(MODES)}, got {mode!r}")
@@ -260,7 +262,7 @@ def run(task: str = "CartPole", env_counts=None, mode: str = "both", out_dir="be
             row.update(bench_policy(task, n, device, p["rollout"], max(p["steps"], p["rollout"]), p["rollout"]))
         if "ppo" in MODES[mode]:
             row.update(bench_ppo(task, n, device, p["warmup_updates"], p["updates"], p["rollout"], backend,
-                                 minibatch=minibatch, policy=policy, compile=compile))
+                                 minibatch=minibatch, policy=policy, compile=compile, fused_update=fused_update))
             row["ppo_minibatch"] = minibatch or ppo_config(task).minibatch
         row["engine_bytes_per_env"] = row["engine_bytes"] / n if row.get("engine_bytes") else None
         rows.append(row)
@@ -292,7 +294,8 @@ def run(task: str = "CartPole", env_counts=None, mode: str = "both", out_dir="be
         "task": task, "device_name": name, "torch_device": rows[0]["torch_device"] if rows else None,
         "env_counts": [r["envs"] for r in rows], "mode": mode, "ppo_backend": backends,
         "command": " ".join(sys.argv), "protocol": p,
-        "ppo": ppo_config(task, rollout=p["rollout"], minibatch=minibatch, compile=compile or None).to_dict(),
+        "ppo": ppo_config(task, rollout=p["rollout"], minibatch=minibatch, compile=compile or None,
+                          fused_update=fused_update).to_dict(),
         "torch": torch.__version__, "python": platform.python_version(), "time": time.strftime("%Y-%m-%dT%H:%M:%S"),
         "memory_note": "engine_bytes: sum of the engine's buffer sizes (internal + shared) on the Vulkan device; "
                        "excludes driver overhead and torch allocations",

@@ -36,6 +36,10 @@ class PPOConfig:
     # minibatches make an update thousands of optimizer steps of ~150 tiny kernels each; the
     # first update compiles (about a minute)
     compile: bool = False
+    # the built-in learner's whole update as Triton kernels replayed in one CUDA graph
+    # (fused_update.py): "auto" where it applies (CUDA, one process, TASKS.md's two-tanh-layer MLP
+    # of width <= 128), "on" (an error where it does not), "off" (torch)
+    fused_update: str = "auto"
 
     def num_mini_batches(self, num_envs: int) -> int:
         return max(1, round(num_envs * self.rollout / self.minibatch))

@@ -5,7 +5,8 @@ training loop drives either; the update follows rsl-rl's: whole-rollout advantag
 normalisation, time-out bootstrapping, one shuffle reused by all epochs, gradients clipped
 separately for actor and critic. On CUDA the policy step and the minibatch update are replayed
 as CUDA graphs (cuda_graph.py): the networks are small enough that launching kernels one by one
-would cost more than running them."""
+would cost more than running them. TASKS.md's MLPs update through fused Triton kernels instead, the
+whole update one graph (fused_update.py, PPOConfig.fused_update)."""
 from __future__ import annotations
 
 import math
@@ -17,6 +18,7 @@ from torch.distributions import Normal
 from .config import PPOConfig
 from .cuda_graph import Captured
 from .distributed import active, all_sum, average_gradients, broadcast
+from .fused_update import FusedUpdate, why_not
 
 
 def tanh_layers(inputs: int, hidden: tuple) -> list:
@@ -189,6 +191,21 @@ class TorchPPO:
         self._apply = torch.compile(self._apply_gradients) if cfg.compile else self._apply_gradients
         self._policy_step = Captured(self._sample_policy, self.device)
         self._learn_step = Captured(self._learn_minibatch, self.device)
+        self._fused = self._fused_update()
+
+    def _fused_update(self) -> FusedUpdate | None:
+        mode = self.cfg.fused_update
+        if mode not in ("auto", "on", "off"):
+            raise ValueError(f"PPOConfig.fused_update must be 'auto', 'on' or 'off', got {mode!r}")
+        reason = None if mode == "off" else why_not(self)
+        if mode == "on" and reason:
+            raise ValueError(f"PPOConfig.fused_update='on' does not apply here: {reason}")
+        return FusedUpdate(self) if mode != "off" and reason is None else None
+
+    @property
+    def fused(self) -> bool:
+        """Whether update() runs as fused Triton kernels (fused_update.py) rather than torch."""
+        return self._fused is not None
 
     def _dist(self, x: torch.Tensor) -> Normal:
         # no argument checks: they read values back to the host, a sync per call (and no graph)
@@ -270,7 +287,9 @@ class TorchPPO:
         c, n, size = self.cfg, self.num_mini_batches, self._minibatch.numel()
         order = torch.randperm(n * size, device=self.device, generator=self._shuffle)
         self._loss_sums.zero_()
-        for _ in range(c.epochs):
+        if self._fused:
+            self._fused.run(order)
+        for _ in range(0 if self._fused else c.epochs):
             for i in range(n):
                 self._minibatch.copy_(order[i * size:(i + 1) * size])
                 self._learn_step()
@@ -286,6 +305,8 @@ class TorchPPO:
         self.actor.train(), self.critic.train()
 
     def save(self) -> dict:
+        if self._fused:  # its Adam state lives in its own buffers
+            self._fused.to_optimizer(self.optimizer)
         return {"actor_state_dict": self.actor.state_dict(), "critic_state_dict": self.critic.state_dict(),
                 "log_std": self.log_std.detach().clone(), "optimizer_state_dict": self.optimizer.state_dict()}
 
@@ -295,3 +316,5 @@ class TorchPPO:
         with torch.no_grad():
             self.log_std.copy_(saved["log_std"])
         self.optimizer.load_state_dict(saved["optimizer_state_dict"])
+        if self._fused:
+            self._fused.from_optimizer()
