@@ -5,6 +5,7 @@
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-b bench-twin  # ultrasound; the twin
 #   source .gpu/prelude.sh; CRESSIM_TESTS=OFF bash benchmarks/gpu_batch.sh setup bench-policy  # issue 19
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-policy-ppo  # issue 19: PPO, training
+#   source .gpu/prelude.sh; CRESSIM_TESTS=OFF bash benchmarks/gpu_batch.sh setup bench-fused  # issue 19: fused update
 #   source .gpu/prelude.sh; CRESSIM_TESTS=OFF bash benchmarks/gpu_batch.sh setup bench-cnn  # issue 19: the CNN
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-twin-tissue  # the twin over tissue
 #   source .gpu/prelude.sh; bash benchmarks/gpu_batch.sh bench-cart  # the patient cart (ECM, 3 PSMs, stereo)
@@ -107,6 +108,23 @@ for stage in "$@"; do
         --out "$OUT/policy_compiled_ppo"
       run train_engine_rollout 200 python3 -m cressim train CartPole --envs 8192 --iterations 60 --engine-rollout \
         --device cuda --save-every 60 --out "$OUT/train_engine_rollout"
+      ;;
+    bench-fused)  # issue 19: PPO's update as fused Triton kernels (learn/fused_update.py) against torch's
+      run pytest_fused 300 env CRESSIM_VALIDATION=1 python3 -m pytest -q -p no:cacheprovider \
+        tests/learn/test_fused_update.py tests/learn/test_cuda_graph_ppo.py tests/learn/test_engine_rollout.py \
+        tests/learn/test_bench_smoke.py tests/learn/test_train_smoke.py
+      mkdir -p "$OUT/ppo_fused" "$OUT/ppo_unfused" "$OUT/ppo_fused_particles"
+      run cartpole_ppo_fused 300 python3 -m cressim bench CartPole --envs 1024,4096,8192,16384 --mode ppo \
+        --device cuda --out "$OUT/ppo_fused"
+      run cartpole_ppo_unfused 150 python3 -m cressim bench CartPole --envs 8192 --mode ppo --fused-update off \
+        --device cuda --out "$OUT/ppo_unfused"
+      run train_fused 200 python3 -m cressim train CartPole --envs 8192 --iterations 60 --engine-rollout \
+        --device cuda --save-every 60 --out "$OUT/train_fused"
+      for spec in "SoftBodyPush 512" "FluidPour 128"; do
+        read -r task counts <<< "$spec"
+        run "ppo_fused_$task" 200 python3 -m cressim bench "$task" --envs "$counts" --mode ppo --device cuda \
+          --out "$OUT/ppo_fused_particles"
+      done
       ;;
     bench-b)
       mkdir -p "$OUT/ultrasound" "$OUT/ultrasound_sweep"
