@@ -30,7 +30,6 @@ except ImportError:  # the learner then runs in torch
 
 MAX_WIDTH, MAX_OBS, MAX_ACTIONS = 128, 64, 16
 BLOCK = 32  # samples a program: tl.dot's tiles are at least 16 wide
-BETA1, BETA2, EPS = 0.9, 0.999, 1e-8  # torch.optim.Adam's defaults, as TorchPPO uses
 
 
 def interpreted() -> bool:
@@ -73,6 +72,9 @@ def why_not(alg) -> str | None:
 
 
 if triton is not None:
+    BETA1, BETA2, EPS = tl.constexpr(0.9), tl.constexpr(0.999), tl.constexpr(1e-8)  # torch Adam's defaults
+    HALF_LOG_2PI = tl.constexpr(0.9189385332046727)
+
     @triton.jit
     def _tanh(x):
         e = tl.exp(-2.0 * tl.abs(x))
@@ -143,8 +145,7 @@ if triton is not None:
         ls = tl.load(log_std + a_i, mask=a_i < NACT, other=0.0)
         inv_var = tl.exp(-2.0 * ls)[None, :]
         diff = tl.where(a_mask, a - mu, 0.0)
-        half_log_2pi = 0.9189385332046727
-        logp = tl.sum(tl.where(a_mask, -diff * diff * 0.5 * inv_var - ls[None, :] - half_log_2pi, 0.0), 1)
+        logp = tl.sum(tl.where(a_mask, -diff * diff * 0.5 * inv_var - ls[None, :] - HALF_LOG_2PI, 0.0), 1)
         ratio = tl.exp(logp - tl.load(old_logp + row, mask=live, other=0.0))
         advantage = tl.load(adv + row, mask=live, other=0.0)
         clipped = tl.minimum(tl.maximum(ratio, 1.0 - clip), 1.0 + clip)
@@ -170,7 +171,7 @@ if triton is not None:
         tl.atomic_add(sums, tl.sum(err * err, 0) * inv_size, sem="relaxed")
         tl.atomic_add(sums + 1, tl.sum(surrogate, 0) * inv_size, sem="relaxed")
         if pid == 0:  # the entropy, sum over actions of 1/2 + log(2 pi)/2 + log_std, is the same for every sample
-            tl.atomic_add(sums + 2, tl.sum(tl.where(a_i < NACT, 0.5 + half_log_2pi + ls, 0.0), 0), sem="relaxed")
+            tl.atomic_add(sums + 2, tl.sum(tl.where(a_i < NACT, 0.5 + HALF_LOG_2PI + ls, 0.0), 0), sem="relaxed")
             tl.atomic_add(grads + NA_W + a_i, tl.where(a_i < NACT, -entropy_coef, 0.0), mask=a_i < NACT,
                           sem="relaxed")
             tl.store(adam + 1, 0.0)  # the squared norms _grad_norms adds up
