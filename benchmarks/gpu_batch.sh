@@ -112,8 +112,6 @@ for stage in "$@"; do
     bench-fused)  # issue 19: PPO's update as fused Triton kernels (learn/fused_update.py) against torch's
       run pytest_fused 200 env CRESSIM_VALIDATION=1 python3 -m pytest -v -p no:cacheprovider \
         tests/learn/test_fused_update.py tests/learn/test_cuda_graph_ppo.py tests/learn/test_engine_rollout.py
-      run pytest_learn_smoke 200 env CRESSIM_VALIDATION=1 python3 -m pytest -v -p no:cacheprovider \
-        tests/learn/test_bench_smoke.py tests/learn/test_train_smoke.py
       mkdir -p "$OUT/ppo_fused" "$OUT/ppo_unfused" "$OUT/ppo_fused_particles"
       run cartpole_ppo_fused 300 python3 -m cressim bench CartPole --envs 1024,4096,8192,16384 --mode ppo \
         --device cuda --out "$OUT/ppo_fused"
@@ -126,6 +124,8 @@ for stage in "$@"; do
         run "ppo_fused_$task" 200 python3 -m cressim bench "$task" --envs "$counts" --mode ppo --device cuda \
           --out "$OUT/ppo_fused_particles"
       done
+      run pytest_learn_smoke 200 env CRESSIM_VALIDATION=1 python3 -m pytest -v -p no:cacheprovider \
+        tests/learn/test_bench_smoke.py tests/learn/test_train_smoke.py
       ;;
     bench-b)
       mkdir -p "$OUT/ultrasound" "$OUT/ultrasound_sweep"
