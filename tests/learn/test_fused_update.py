@@ -62,7 +62,7 @@ def compare(case: str, device: str, updates: int = 3) -> list:
                       for i in state[0] for k in ("exp_avg", "exp_avg_sq"))
         steps = {float(state[1][i]["step"]) for i in state[1]} | {float(state[0][i]["step"]) for i in state[0]}
         weights = max((a - b).abs().max().item() for a, b in zip(plain.learned, fused.learned))
-        loss = max(abs(losses[0][k] - losses[1][k]) for k in losses[0])
+        loss = max(abs(losses[0][k] - losses[1][k]) / max(1.0, abs(losses[0][k])) for k in losses[0])
         out.append((weights, moments, loss, len(steps), max(p.abs().max().item() for p in plain.learned)))
     return out
 

@@ -5,8 +5,9 @@ update, each a few dozen tiny kernels in torch (forward, backward, clipping, Ada
 not the rollout, bounded PPO. Here a minibatch step is:
   1. `_minibatch_grads`: each program takes BLOCK samples of the minibatch, runs actor and critic
      forward, the loss's gradient (clipped surrogate, value MSE, entropy) and both networks'
-     backward, and adds its share of every gradient into one flat buffer (atomics);
-  2. `_grad_norms`: the actor's and the critic's squared gradient norms;
+     backward, and stores its share of every gradient in a slot of its own;
+  2. `_reduce`: the slots summed in order (the same sums every run), and the actor's and the
+     critic's squared gradient norms;
   3. `_adam`: each network's gradients clipped to max_grad_norm, Adam's step on the parameters
      where they live (the engine policy may hold the actor's), the gradients zeroed.
 The update's 4 x minibatches steps are captured once as one CUDA graph and replayed. The math is
@@ -29,7 +30,6 @@ except ImportError:  # the learner then runs in torch
     triton = None
 
 MAX_WIDTH, MAX_OBS, MAX_ACTIONS = 128, 64, 16
-BLOCK = 32  # samples a program: tl.dot's tiles are at least 16 wide
 
 
 def interpreted() -> bool:
@@ -83,21 +83,29 @@ if triton is not None:
 
     @triton.jit
     def _forward(x, w1, b1, w2, b2, w3, b3, NIN: tl.constexpr, IP: tl.constexpr, NOUT: tl.constexpr,
-                 OP: tl.constexpr, H: tl.constexpr):
+                 OP: tl.constexpr, H: tl.constexpr, PREC: tl.constexpr):
         """h1, h2 and the output (BLOCK x OP, zero past NOUT) of a two-tanh-layer MLP."""
         k_in, j, o = tl.arange(0, IP), tl.arange(0, H), tl.arange(0, OP)
         w1t = tl.load(w1 + j[None, :] * NIN + k_in[:, None], mask=k_in[:, None] < NIN, other=0.0)  # IP x H
-        h1 = _tanh(tl.dot(x, w1t, input_precision="ieee") + tl.load(b1 + j)[None, :])
+        h1 = _tanh(tl.dot(x, w1t, input_precision=PREC) + tl.load(b1 + j)[None, :])
         w2t = tl.load(w2 + j[None, :] * H + j[:, None])  # H x H: w2t[k, j] = W2[j, k]
-        h2 = _tanh(tl.dot(h1, w2t, input_precision="ieee") + tl.load(b2 + j)[None, :])
+        h2 = _tanh(tl.dot(h1, w2t, input_precision=PREC) + tl.load(b2 + j)[None, :])
         w3t = tl.load(w3 + o[None, :] * H + j[:, None], mask=o[None, :] < NOUT, other=0.0)  # H x OP
-        out = tl.dot(h2, w3t, input_precision="ieee") + tl.load(b3 + o, mask=o < NOUT, other=0.0)[None, :]
+        out = tl.dot(h2, w3t, input_precision=PREC) + tl.load(b3 + o, mask=o < NOUT, other=0.0)[None, :]
         return h1, h2, out
 
     @triton.jit
+    def _put(ptr, value, mask, ATOMIC: tl.constexpr):
+        """A program's share of a gradient: added into the one sum, or stored in its own slot."""
+        if ATOMIC:
+            tl.atomic_add(ptr, value, mask=mask, sem="relaxed")
+        else:
+            tl.store(ptr, value, mask=mask)
+
+    @triton.jit
     def _backward(dout, x, h1, h2, w2, w3, g, NIN: tl.constexpr, IP: tl.constexpr, NOUT: tl.constexpr,
-                  OP: tl.constexpr, H: tl.constexpr):
-        """Adds this block's gradients of W1, b1, W2, b2, W3, b3 (in that order, from `g`) for the
+                  OP: tl.constexpr, H: tl.constexpr, PREC: tl.constexpr, ATOMIC: tl.constexpr):
+        """This block's gradients of W1, b1, W2, b2, W3, b3 (in that order, from `g`) for the
         output gradient `dout` (zero in padded rows and columns)."""
         k_in, j, o = tl.arange(0, IP), tl.arange(0, H), tl.arange(0, OP)
         g_b1 = g + H * NIN
@@ -106,27 +114,30 @@ if triton is not None:
         g_w3 = g_b2 + H
         g_b3 = g_w3 + NOUT * H
         out_rows = o[:, None] < NOUT
-        tl.atomic_add(g_w3 + o[:, None] * H + j[None, :], tl.dot(tl.trans(dout), h2, input_precision="ieee"),
-                      mask=out_rows, sem="relaxed")
-        tl.atomic_add(g_b3 + o, tl.sum(dout, 0), mask=o < NOUT, sem="relaxed")
+        _put(g_w3 + o[:, None] * H + j[None, :], tl.dot(tl.trans(dout), h2, input_precision=PREC), out_rows, ATOMIC)
+        _put(g_b3 + o, tl.sum(dout, 0), o < NOUT, ATOMIC)
         w3 = tl.load(w3 + o[:, None] * H + j[None, :], mask=out_rows, other=0.0)  # OP x H
-        dz2 = tl.dot(dout, w3, input_precision="ieee") * (1.0 - h2 * h2)
-        tl.atomic_add(g_w2 + j[:, None] * H + j[None, :], tl.dot(tl.trans(dz2), h1, input_precision="ieee"),
-                      sem="relaxed")
-        tl.atomic_add(g_b2 + j, tl.sum(dz2, 0), sem="relaxed")
+        dz2 = tl.dot(dout, w3, input_precision=PREC) * (1.0 - h2 * h2)
+        _put(g_w2 + j[:, None] * H + j[None, :], tl.dot(tl.trans(dz2), h1, input_precision=PREC), None, ATOMIC)
+        _put(g_b2 + j, tl.sum(dz2, 0), None, ATOMIC)
         w2 = tl.load(w2 + j[:, None] * H + j[None, :])
-        dz1 = tl.dot(dz2, w2, input_precision="ieee") * (1.0 - h1 * h1)
-        tl.atomic_add(g + j[:, None] * NIN + k_in[None, :], tl.dot(tl.trans(dz1), x, input_precision="ieee"),
-                      mask=k_in[None, :] < NIN, sem="relaxed")
-        tl.atomic_add(g_b1 + j, tl.sum(dz1, 0), sem="relaxed")
+        dz1 = tl.dot(dz2, w2, input_precision=PREC) * (1.0 - h1 * h1)
+        _put(g + j[:, None] * NIN + k_in[None, :], tl.dot(tl.trans(dz1), x, input_precision=PREC),
+             k_in[None, :] < NIN, ATOMIC)
+        _put(g_b1 + j, tl.sum(dz1, 0), None, ATOMIC)
 
     @triton.jit
     def _minibatch_grads(order, start, size, inv_size, obs, act, old_logp, ret, adv, mean, var,
                          aw1, ab1, aw2, ab2, aw3, ab3, log_std, cw1, cb1, cw2, cb2, cw3, cb3,
                          grads, sums, adam, clip, value_coef, entropy_coef,
                          NOBS: tl.constexpr, NACT: tl.constexpr, IP: tl.constexpr, AP: tl.constexpr,
-                         H: tl.constexpr, BLOCK: tl.constexpr, NORMALIZE: tl.constexpr):
+                         H: tl.constexpr, BLOCK: tl.constexpr, NORMALIZE: tl.constexpr, PREC: tl.constexpr,
+                         ATOMIC: tl.constexpr):
         pid = tl.program_id(0)
+        NA_W: tl.constexpr = H * NOBS + H + H * H + H + NACT * H + NACT  # the actor's weights; then log_std
+        NPARAM: tl.constexpr = 2 * (H * NOBS + H + H * H + H) + NACT * H + 2 * NACT + H + 1
+        if not ATOMIC:  # each program its own slot of partial sums (_reduce adds them up)
+            grads += pid * NPARAM
         r = pid * BLOCK + tl.arange(0, BLOCK)
         live = r < size
         row = tl.load(order + start + r, mask=live, other=0)
@@ -139,7 +150,7 @@ if triton is not None:
             x = tl.where(in_mask, tl.minimum(tl.maximum((x - m[None, :]) / tl.sqrt(v[None, :] + 1e-8), -10.0), 10.0),
                          0.0)
         # actor: the Gaussian's log-probability ratio and the clipped surrogate's gradient
-        h1, h2, mu = _forward(x, aw1, ab1, aw2, ab2, aw3, ab3, NOBS, IP, NACT, AP, H)
+        h1, h2, mu = _forward(x, aw1, ab1, aw2, ab2, aw3, ab3, NOBS, IP, NACT, AP, H, PREC)
         a_mask = live[:, None] & (a_i[None, :] < NACT)
         a = tl.load(act + row[:, None] * NACT + a_i[None, :], mask=a_mask, other=0.0)
         ls = tl.load(log_std + a_i, mask=a_i < NACT, other=0.0)
@@ -156,37 +167,43 @@ if triton is not None:
         d_ratio = tl.where(live, -advantage * (w1 + (1.0 - w1) * inside) * inv_size, 0.0)
         d_logp = (d_ratio * ratio)[:, None]
         d_mu = d_logp * diff * inv_var  # d logp / d mu = (a - mu) / sigma^2
-        # d logp / d log_std = (a - mu)^2 / sigma^2 - 1
+        # d logp / d log_std = (a - mu)^2 / sigma^2 - 1; the entropy's, the same for every sample,
+        # is -entropy_coef, counted once (by program 0)
         d_ls = tl.sum(tl.where(a_mask, d_logp * (diff * diff * inv_var - 1.0), 0.0), 0)
-        NA_W: tl.constexpr = H * NOBS + H + H * H + H + NACT * H + NACT
-        tl.atomic_add(grads + NA_W + a_i, d_ls, mask=a_i < NACT, sem="relaxed")
-        _backward(d_mu, x, h1, h2, aw2, aw3, grads, NOBS, IP, NACT, AP, H)
+        d_ls -= tl.where((a_i < NACT) & (pid == 0), entropy_coef, 0.0)
+        _put(grads + NA_W + a_i, d_ls, a_i < NACT, ATOMIC)
+        _backward(d_mu, x, h1, h2, aw2, aw3, grads, NOBS, IP, NACT, AP, H, PREC, ATOMIC)
         # critic: the value loss's gradient
-        h1, h2, v = _forward(x, cw1, cb1, cw2, cb2, cw3, cb3, NOBS, IP, 1, 16, H)
+        h1, h2, v = _forward(x, cw1, cb1, cw2, cb2, cw3, cb3, NOBS, IP, 1, 16, H, PREC)
         value = tl.sum(tl.where(tl.arange(0, 16)[None, :] == 0, v, 0.0), 1)
         err = tl.where(live, value - tl.load(ret + row, mask=live, other=0.0), 0.0)
         d_v = tl.where(tl.arange(0, 16)[None, :] == 0, (2.0 * value_coef * inv_size * err)[:, None], 0.0)
-        _backward(d_v, x, h1, h2, cw2, cw3, grads + NA_W + NACT, NOBS, IP, 1, 16, H)
+        _backward(d_v, x, h1, h2, cw2, cw3, grads + NA_W + NACT, NOBS, IP, 1, 16, H, PREC, ATOMIC)
         surrogate = tl.where(live, tl.maximum(s1, s2), 0.0)
         tl.atomic_add(sums, tl.sum(err * err, 0) * inv_size, sem="relaxed")
         tl.atomic_add(sums + 1, tl.sum(surrogate, 0) * inv_size, sem="relaxed")
         if pid == 0:  # the entropy, sum over actions of 1/2 + log(2 pi)/2 + log_std, is the same for every sample
             tl.atomic_add(sums + 2, tl.sum(tl.where(a_i < NACT, 0.5 + HALF_LOG_2PI + ls, 0.0), 0), sem="relaxed")
-            tl.atomic_add(grads + NA_W + a_i, tl.where(a_i < NACT, -entropy_coef, 0.0), mask=a_i < NACT,
-                          sem="relaxed")
-            tl.store(adam + 1, 0.0)  # the squared norms _grad_norms adds up
+            tl.store(adam + 1, 0.0)  # the squared norms _reduce adds up
             tl.store(adam + 2, 0.0)
             tl.store(adam, tl.load(adam) + 1.0)  # Adam's step count
 
     @triton.jit
-    def _grad_norms(grads, adam, n_actor, n_all, CHUNK: tl.constexpr):
+    def _reduce(partials, parts, grads, adam, n_actor, n_all, CHUNK: tl.constexpr):
+        """The gradients, summed over the programs' `parts` slots of partials (1: they are summed
+        already), and the actor's and the critic's squared norms."""
         i = tl.program_id(0) * CHUNK + tl.arange(0, CHUNK)
-        g = tl.load(grads + i, mask=i < n_all, other=0.0)
+        live = i < n_all
+        g = tl.zeros((CHUNK,), tl.float32)
+        for p in range(parts):
+            g += tl.load(partials + p * n_all + i, mask=live, other=0.0)
+        tl.store(grads + i, g, mask=live)
         tl.atomic_add(adam + 1, tl.sum(tl.where(i < n_actor, g * g, 0.0), 0), sem="relaxed")
         tl.atomic_add(adam + 2, tl.sum(tl.where(i >= n_actor, g * g, 0.0), 0), sem="relaxed")
 
     @triton.jit
-    def _adam(table, grads, exp_avg, exp_avg_sq, adam, n_actor, lr, max_norm, CHUNK: tl.constexpr):
+    def _adam(table, grads, exp_avg, exp_avg_sq, adam, n_actor, lr, max_norm, ZERO: tl.constexpr,
+              CHUNK: tl.constexpr):
         """Program (tensor, chunk): table rows are (parameter address, flat offset, size)."""
         t, c = tl.program_id(0), tl.program_id(1)
         offset, size = tl.load(table + 3 * t + 1), tl.load(table + 3 * t + 2)
@@ -207,7 +224,8 @@ if triton is not None:
             tl.store(param + i, p, mask=live)
             tl.store(exp_avg + f, m, mask=live)
             tl.store(exp_avg_sq + f, v, mask=live)
-            tl.store(grads + f, 0.0, mask=live)
+            if ZERO:  # for the next step's atomic sums
+                tl.store(grads + f, 0.0, mask=live)
 
 
 class FusedUpdate:
@@ -215,6 +233,11 @@ class FusedUpdate:
     itself; `to_optimizer` / `from_optimizer` move them into and out of torch's Adam for save and load."""
 
     CHUNK = 1024
+    # how the kernels run (benchmarks/bench_fused_update.py compares them): samples a program
+    # (tl.dot's tiles are at least 16 wide), its warps, tl.dot's precision ("ieee": float32
+    # FMAs; "tf32x3": tensor cores, three TF32 products for float32 accuracy), and whether the
+    # programs add their gradients atomically or store them apart for _reduce to sum in order
+    BLOCK, WARPS, PRECISION, ATOMIC = 32, 4, "ieee", False
 
     def __init__(self, alg):
         self.alg = alg
@@ -229,6 +252,8 @@ class FusedUpdate:
         self.grads, self.exp_avg, self.exp_avg_sq = z(self.n_all), z(self.n_all), z(self.n_all)
         self.adam = z(3)  # step count, actor's and critic's squared gradient norms
         self.order = torch.zeros(alg.obs.shape[0] * alg.obs.shape[1], device=alg.device, dtype=torch.int32)
+        self.blocks = triton.cdiv(alg._minibatch.numel(), self.BLOCK)
+        self.partials = self.grads if self.ATOMIC else z(self.blocks * self.n_all)
         self.graph, self.bound = None, None
         self.from_optimizer()
 
@@ -246,21 +271,23 @@ class FusedUpdate:
         mean, var = (norm.mean, norm.var) if norm is not None else (self.adam, self.adam)
         actor, critic = _layers(a.actor)[1], _layers(a.critic)[1]
         table = self.table
-        blocks = triton.cdiv(size, BLOCK)
+        prec = "ieee" if interpreted() else self.PRECISION
         for _ in range(c.epochs):
             for i in range(n):
-                _minibatch_grads[(blocks,)](
+                _minibatch_grads[(self.blocks,)](
                     self.order, i * size, size, 1.0 / size, a.obs, a.actions, a.log_prob, a.returns, a.advantages,
                     mean, var, *(t for l in actor for t in (l.weight, l.bias)), a.log_std,
-                    *(t for l in critic for t in (l.weight, l.bias)), self.grads, a._loss_sums, self.adam,
+                    *(t for l in critic for t in (l.weight, l.bias)), self.partials, a._loss_sums, self.adam,
                     c.clip, c.value_coef, c.entropy_coef, NOBS=obs_n, NACT=act_n,
                     IP=max(16, triton.next_power_of_2(obs_n)), AP=max(16, triton.next_power_of_2(act_n)),
-                    H=self.width, BLOCK=BLOCK, NORMALIZE=norm is not None, num_warps=4)
-                _grad_norms[(triton.cdiv(self.n_all, self.CHUNK),)](self.grads, self.adam, self.n_actor, self.n_all,
-                                                                   CHUNK=self.CHUNK)
+                    H=self.width, BLOCK=self.BLOCK, NORMALIZE=norm is not None, PREC=prec, ATOMIC=self.ATOMIC,
+                    num_warps=self.WARPS)
+                _reduce[(triton.cdiv(self.n_all, self.CHUNK),)](
+                    self.partials, 1 if self.ATOMIC else self.blocks, self.grads, self.adam, self.n_actor,
+                    self.n_all, CHUNK=self.CHUNK)
                 _adam[(len(self.params), triton.cdiv(max(p.numel() for p in self.params), self.CHUNK))](
                     table, self.grads, self.exp_avg, self.exp_avg_sq, self.adam, self.n_actor, c.lr,
-                    c.max_grad_norm, CHUNK=self.CHUNK)
+                    c.max_grad_norm, ZERO=self.ATOMIC, CHUNK=self.CHUNK)
 
     def _offsets(self) -> list:
         out, o = [], 0
