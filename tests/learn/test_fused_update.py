@@ -70,8 +70,8 @@ def compare(case: str, device: str, updates: int = 3) -> list:
 def _check(rows: list) -> None:
     for weights, moments, loss, steps, size in rows:
         assert steps == 1  # both Adams counted the same optimizer steps
-        assert weights < 2e-6 * max(size, 1.0), rows
-        assert moments < 1e-6 and loss < 1e-5, rows
+        assert weights < 4e-6 * max(size, 1.0), rows
+        assert moments < 2e-6 and loss < 3e-5, rows
 
 
 @pytest.mark.parametrize("case", sorted(CASES))
