@@ -20,38 +20,47 @@ from cressim.learn.torch_ppo import TorchPPO
 SIZES = {"CartPole": (4, 1), "SoftBodyPush": (17, 3), "FluidPour": (15, 2)}  # observations, actions
 
 
+DEVICE = "cuda"
+
+
 def learner(task: str, envs: int, fused: str) -> TorchPPO:
     torch.manual_seed(0)
     obs, act = SIZES[task]
-    alg = TorchPPO(obs, act, envs, ppo_config(task, fused_update=fused), "cuda")
-    g = torch.Generator(device="cuda").manual_seed(1)
+    alg = TorchPPO(obs, act, envs, ppo_config(task, fused_update=fused), DEVICE)
+    g = torch.Generator(device=DEVICE).manual_seed(1)
     with torch.no_grad():
         for t in (alg.obs, alg.actions, alg.log_prob, alg.values, alg.rewards):
-            t.copy_(torch.randn(t.shape, generator=g, device="cuda"))
-        alg.dones.copy_(torch.rand(alg.dones.shape, generator=g, device="cuda") < 0.02)
+            t.copy_(torch.randn(t.shape, generator=g, device=DEVICE))
+        alg.dones.copy_(torch.rand(alg.dones.shape, generator=g, device=DEVICE) < 0.02)
     return alg
+
+
+def sync() -> None:
+    if DEVICE == "cuda":
+        torch.cuda.synchronize()
 
 
 def timed(alg: TorchPPO, updates: int) -> float:
     def one():
         alg.step = alg.cfg.rollout
-        alg.compute_returns({"policy": alg.obs[-1]})
+        with torch.no_grad():
+            alg.compute_returns({"policy": alg.obs[-1]})
         alg.update()
     for _ in range(2):  # compiles, captures
         one()
-    torch.cuda.synchronize()
+    sync()
     t0 = time.perf_counter()
     for _ in range(updates):
         alg.update()
-    torch.cuda.synchronize()
+    sync()
     return (time.perf_counter() - t0) / updates
 
 
 def kernels(alg: TorchPPO) -> list:
     from torch.profiler import ProfilerActivity, profile
-    with profile(activities=[ProfilerActivity.CUDA]) as prof:
+    with profile(activities=[ProfilerActivity.CUDA if DEVICE == "cuda" else ProfilerActivity.CPU]) as prof:
         alg.update()
-        torch.cuda.synchronize()
+        sync()
     rows = [(e.key, e.device_time_total / 1e3, e.count) for e in prof.key_averages()]
     return sorted(rows, key=lambda r: -r[1])[:8]
 
@@ -66,7 +75,10 @@ def main() -> None:
     ap.add_argument("--precisions", default="ieee,tf32x3")
     ap.add_argument("--atomic", default="0,1")
     ap.add_argument("--json")
+    ap.add_argument("--device", default="cuda", help="cpu: a dry run under TRITON_INTERPRET=1")
     a = ap.parse_args()
+    global DEVICE
+    DEVICE = a.device
     samples = a.envs * ppo_config(a.task).rollout
     rows = []
     alg = learner(a.task, a.envs, "off")
@@ -93,7 +105,8 @@ def main() -> None:
     if a.json:
         with open(a.json, "w") as f:
             json.dump({"task": a.task, "envs": a.envs, "samples_per_update": samples,
-                       "device": torch.cuda.get_device_name(), "torch": torch.__version__, "rows": rows}, f, indent=1)
+                       "device": torch.cuda.get_device_name() if DEVICE == "cuda" else "cpu", "torch": torch.__version__,
+                       "rows": rows}, f, indent=1)
 
 
 if __name__ == "__main__":

@@ -237,7 +237,7 @@ class FusedUpdate:
     # (tl.dot's tiles are at least 16 wide), its warps, tl.dot's precision ("ieee": float32
     # FMAs; "tf32x3": tensor cores, three TF32 products for float32 accuracy), and whether the
     # programs add their gradients atomically or store them apart for _reduce to sum in order
-    BLOCK, WARPS, PRECISION, ATOMIC = 32, 4, "ieee", False
+    BLOCK, WARPS, PRECISION, ATOMIC = 32, 8, "tf32x3", False
 
     def __init__(self, alg):
         self.alg = alg
