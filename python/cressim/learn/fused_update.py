@@ -9,7 +9,7 @@ not the rollout, bounded PPO. Here a minibatch step is:
   2. `_reduce`: the slots summed in order (the same sums every run), and the actor's and the
      critic's squared gradient norms;
   3. `_adam`: each network's gradients clipped to max_grad_norm, Adam's step on the parameters
-     where they live (the engine policy may hold the actor's), the gradients zeroed.
+     where they live (the engine policy may hold the actor's).
 The update's 4 x minibatches steps are captured once as one CUDA graph and replayed. The math is
 TorchPPO's, term for term (torch's tie rules for max and clamp included); tests compare the two.
 
