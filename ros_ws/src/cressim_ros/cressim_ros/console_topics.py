@@ -54,11 +54,13 @@ class MtmTopics(CrtkArmTopics):
 
     def publish(self, stamp):
         mtm = self.mtm
+        self.check_hold()
         self.joint_state("measured_js", stamp, MTM_JOINT_NAMES, mtm.q, mtm.q_v)
         self.joint_state("setpoint_js", stamp, MTM_JOINT_NAMES, mtm.q, mtm.q_v)
         self.poses(stamp, [("local/measured_cp", f"{mtm.name}_dh_base", mtm.local), ("measured_cp", self.frame, mtm.pose),
                            ("setpoint_cp", self.frame, mtm.pose)])
         self.joint_state("gripper/measured_js", stamp, ["gripper"], [mtm.gripper], [mtm.gripper_v])
+        self.release_held()
 
 
 class ConsoleTopics:

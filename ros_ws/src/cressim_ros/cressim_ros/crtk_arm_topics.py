@@ -4,13 +4,16 @@
     topics.emit(arm.state_command("enable"))   # (topic, value) events -> messages
     topics.joint_state("measured_js", stamp, names, q, v)
     topics.poses(stamp, [("measured_cp", frame, T), ...])
+    topics.check_hold(); ...the tick's samples...; topics.release_held()   # each tick
 
 `arm` has a `name`, `report()` (a StateReport) and `state_command(text)`. Publishers of the
 `published` topics (operating_state says the state again to each new reader: crtk's readers are
 volatile), a subscription per `handlers` entry (name -> fn(msg) -> events; an exception becomes
 an `error` event, the node goes on), `state_command` also through a transient-local reader (crtk
 latches it; each command once), the `operating_state` and `crtk_version` services. Every message
-is recorded when the node records. QoS and types are cressim.record.schema's (`specs`).
+is recorded when the node records. QoS and types are cressim.record.schema's (`specs`). The
+operating_state that answers `home` waits until the arm's state topics have their readers
+(homed_hold.py), checked each tick by `check_hold` and `release_held` around the tick's samples.
 """
 from __future__ import annotations
 
@@ -26,6 +29,7 @@ from std_srvs.srv import Trigger
 
 from cressim.robots.kinematics import matrix_to_pose7
 
+from .homed_hold import HomedHold, readers_caught_up
 from .topics import CRTK_VERSION, FirstDelivery, fill_pose, latched_reader_qos, msg_class, on_new_reader, qos
 
 
@@ -41,6 +45,7 @@ class CrtkArmTopics:
                                               lambda m, h=handler, n=name: self._on(n, h, m), qos(specs[name]))
                      for name, handler in handlers.items()]
         self._latched = FirstDelivery()
+        self.hold = HomedHold()  # one arm: key None
         self.subs.append(node.create_subscription(
             msg_class(specs["state_command"]), f"{namespace}/state_command",
             lambda m: self._on("state_command", handlers["state_command"], m),
@@ -76,7 +81,7 @@ class CrtkArmTopics:
     def emit(self, events):
         """The arm's (topic, value) events as messages: operating_state, bools (goal_reached),
         text (errors and warnings prefixed with the arm's name, and logged)."""
-        for topic, value in events:
+        for topic, value in (item for event in events for item in self.hold.admit(None, *event)):
             if topic == "operating_state":
                 msg = self._state_msg(value)
             elif isinstance(value, bool):
@@ -86,6 +91,15 @@ class CrtkArmTopics:
                 if topic in ("error", "warning"):
                     self.node.get_logger().warning(msg.data, throttle_duration_sec=1.0)
             self._out(topic, msg)
+
+    def check_hold(self):
+        """Before the tick's samples: whether the state topics' readers will get them."""
+        self.hold.check(lambda _: readers_caught_up(self.pubs, self.pubs["operating_state"]))
+
+    def release_held(self):
+        """After the tick's samples: a held answer to `home` whose wait is over."""
+        for _, topic, value in self.hold.due(self.node.arms.period_ns):
+            self._out(topic, self._state_msg(value))
 
     def joint_state(self, name, stamp, names, position, velocity):
         m = msg_class(self.specs[name])()

@@ -41,6 +41,7 @@ class EcmTopics(CrtkArmTopics):
     def publish(self, stamp):
         """The periodic topics, then the ECM's events of the tick."""
         ecm = self.ecm
+        self.check_hold()
         self.joint_state("measured_js", stamp, ECM_JOINT_NAMES, ecm.measured, ecm.measured_v)
         self.joint_state("setpoint_js", stamp, ECM_JOINT_NAMES, ecm.setpoint, ecm.setpoint_v)
         items = []
@@ -48,6 +49,7 @@ class EcmTopics(CrtkArmTopics):
             local = ecm.local_cp(which)
             items += [(f"local/{which}_cp", f"{ecm.name}_base", local), (f"{which}_cp", self.frame, ecm.base_frame @ local)]
         self.poses(stamp, items)
+        self.release_held()
         self.emit(self.node.arms.ecm_events)
 
     def tip_pose7(self) -> np.ndarray:

@@ -112,6 +112,7 @@ class SimulationControl:
         arms = self.node.arms
         if state:
             arms.restart(clock=clock)
+            self.node.drop_held_answers()
         elif clock:
             arms.sim_ns, arms.ticks = 0, 0
         if clock:

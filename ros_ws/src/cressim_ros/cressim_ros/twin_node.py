@@ -9,7 +9,9 @@ Timing. A steady-clock timer at publish_rate runs the tick (steady, so that with
 it does not wait on the /clock it publishes itself): TwinArms.tick (simulated time advances one
 period), the periodic topics from one device -> host snapshot, the tick's events (after the
 data: a client that sees is_busy=false then reads measured at the goal), then the sensors due
-are handed to the sensor thread. The tick never waits on an image.
+are handed to the sensor thread. The tick never waits on an image. The operating_state that
+answers `home` may be held over ticks (at most 1 s of simulated time) until the arm's state
+topics have their readers (homed_hold.py: a client told "homed" reads setpoint_cp at once).
 
 Start. "cressim twin ready" is logged after the first tick has been published; before it, one
 sensor frame is rendered so every pipeline is built (the drivers cache them on disk, so a second
@@ -60,6 +62,7 @@ from .camera_topics import PRODUCTS, CameraTopics, CameraView, camera_frame
 from .console_topics import ConsoleTopics
 from .ecm_topics import EcmTopics
 from .diagnostics import build_diagnostics
+from .homed_hold import HomedHold, readers_caught_up
 from .recorder import RecordingUnavailable, open_recorder
 from .robot_state import RobotStateTopics
 from .simulation_control import SimulationControl
@@ -209,6 +212,7 @@ class TwinNode(Node):
         self._next_tf_ns = 0
         self._next_diagnostics = 0.0
         self._last_statistics = None
+        self.homed_hold = HomedHold()  # keyed by env
         self._create_event_publishers()
         self._create_sensor_publishers()
         self._create_subscriptions()
@@ -430,12 +434,19 @@ class TwinNode(Node):
 
     def _emit(self, events):
         """Publishes events ((env, topic, value) from TwinArms) on each env's namespaces (and
-        records them under the first); refusals go through the rate limit and the log."""
+        records them under the first); refusals go through the rate limit and the log; the
+        operating_state that answers `home` through homed_hold."""
         for e_env, topic, value in events:
             if topic in ("error", "warning") and not str(value).startswith(self.arms.label(e_env) + ":"):
                 self._refuse(e_env, _kind_of(str(value)), str(value), level=topic)
                 continue
-            self._publish_event(e_env, topic, self._message(e_env, topic, value))
+            for out_topic, out_value in self.homed_hold.admit(e_env, topic, value):  # `home`'s answer may wait
+                self._publish_event(e_env, out_topic, self._message(e_env, out_topic, out_value))
+
+    def _state_readers_caught_up(self, env: int) -> bool:
+        """Each namespace of env: its state topics have as many readers as its operating_state."""
+        return all(readers_caught_up(states, events["operating_state"])
+                   for states, events in zip(self.sensor_pubs[env], self.event_pubs[env]))
 
     def _publish_event(self, env: int, topic: str, msg):
         for pubs in self.event_pubs[env]:
@@ -612,13 +623,21 @@ class TwinNode(Node):
         self._next_tf_ns = 0
         self.sensors.rewind()
 
+    def drop_held_answers(self):
+        """The arms were reset (not homed): an answer to `home` held back (homed_hold.py) is void."""
+        for hold in [self.homed_hold] + ([self.ecm.hold] + [m.hold for m in self.console.mtms] if self.cart else []):
+            hold.clear()
+
     def advance(self):
         """One tick: the arms and the engine one publish period on, then what it publishes."""
         started = time.perf_counter()
         try:
             events = self.arms.tick()
             stamp = self.stamp()
+            self.homed_hold.check(self._state_readers_caught_up)  # before the samples: their readers get them
             self._publish(stamp)
+            for env, topic, value in self.homed_hold.due(self.arms.period_ns):
+                self._publish_event(env, topic, self._message(env, topic, value))
             self._emit(events)
             self.sensors.offer(self.arms.sim_ns, stamp)
             if started >= self._next_diagnostics:
