@@ -313,7 +313,18 @@ class FusedUpdate:
             with torch.cuda.graph(self.graph):
                 self._steps()
 
+    def _check_layout(self) -> None:
+        """The kernels index the rollout as flat rows: its buffers (the learner's own, or the
+        engine rollout's views) must be dense."""
+        a = self.alg
+        for name in ("obs", "actions", "log_prob", "returns", "advantages"):
+            t = getattr(a, name)
+            if not t.is_contiguous() or t.shape[:2] != a.obs.shape[:2]:
+                raise ValueError(f"fused update: the learner's {name} must be a contiguous (rollout, envs, ...) "
+                                 f"tensor, got shape {tuple(t.shape)} strides {t.stride()}")
+
     def _table(self) -> torch.Tensor:
+        self._check_layout()
         return torch.tensor([[p.data_ptr(), o, p.numel()] for p, o in zip(self.params, self._offsets())],
                             dtype=torch.int64, device=self.alg.device)
 
