@@ -47,13 +47,12 @@ from __future__ import annotations
 
 import math
 import re
-import threading
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pytest
-from twin_fixtures import ScriptRun
+from twin_fixtures import OwnContextClient, ScriptRun
 
 pytestmark = pytest.mark.ros
 
@@ -104,25 +103,18 @@ ral.spin_and_execute(run)
 """
 
 
-class TwinWatch:
+class TwinWatch(OwnContextClient):
     """What the twin publishes (rclpy context of its own): everything on `error`, goal_reached,
     setpoint_js and setpoint_cp positions, in arrival order. Subscribes to no command topic, so
     that a script's check_connections still waits for the twin itself."""
 
     def __init__(self, domain: int):
-        import rclpy
         from geometry_msgs.msg import PoseStamped
-        from rclpy.context import Context
-        from rclpy.executors import SingleThreadedExecutor
         from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
         from sensor_msgs.msg import JointState
         from std_msgs.msg import Bool, String
 
-        self.rclpy = rclpy
-        self.context = Context()
-        rclpy.init(context=self.context, domain_id=domain)
-        self.node = rclpy.create_node("dvrk_scripts_watch", context=self.context)
-        self.cv = threading.Condition()
+        super().__init__(domain, "dvrk_scripts_watch")
         self.errors: list[str] = []
         self.goal_reached: list[bool] = []
         self.jp: list[list[float]] = []
@@ -148,15 +140,7 @@ class TwinWatch:
                                           keep(self.cp, lambda m: (m.pose.position.x, m.pose.position.y,
                                                                    m.pose.position.z)), periodic),
         ]
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self.running = True
-        self.thread = threading.Thread(target=self._spin, daemon=True)
-        self.thread.start()
-
-    def _spin(self):
-        while self.running and self.context.ok():
-            self.executor.spin_once(timeout_sec=0.05)
+        self.start()
 
     def mark(self) -> dict:
         with self.cv:
@@ -172,13 +156,6 @@ class TwinWatch:
         with self.cv:
             return {"goal_reached": self.goal_reached[mark["goal_reached"]:], "jp": self.jp[mark["jp"]:],
                     "cp": self.cp[mark["cp"]:], "errors": list(self.errors)}
-
-    def close(self):
-        self.running = False
-        self.thread.join(timeout=10)
-        self.executor.shutdown()
-        self.node.destroy_node()
-        self.rclpy.try_shutdown(context=self.context)
 
 
 def swept(values, index) -> float:

@@ -10,9 +10,8 @@ participant) of its own, which paces each step on the twin's /clock sample of it
 """
 from __future__ import annotations
 
-import threading
-
 import pytest
+from twin_fixtures import OwnContextClient
 
 pytestmark = pytest.mark.ros
 
@@ -21,15 +20,12 @@ STATE = ("measured_js", "setpoint_js", "measured_cp")  # setpoint_cp: the late o
 PERIOD_NS = 10_000_000  # the default scene's 100 Hz
 
 
-class Client:
+class Client(OwnContextClient):
     """Reads /PSM1/operating_state, /PSM1/status, /clock (and `state` topics), sends state commands,
     pauses and steps the twin; every arrival in one ordered log."""
 
     def __init__(self, domain: int, state=()):
-        import rclpy
         from crtk_msgs.msg import OperatingState, StringStamped
-        from rclpy.context import Context
-        from rclpy.executors import SingleThreadedExecutor
         from rclpy.qos import DurabilityPolicy, QoSProfile
         from rosgraph_msgs.msg import Clock
         from simulation_interfaces import srv
@@ -38,12 +34,9 @@ class Client:
 
         from cressim_ros.topics import CLOCK_QOS, TOPICS_BY_NAME, msg_class, qos
 
-        self.rclpy, self.StringStamped, self.Result = rclpy, StringStamped, Result
+        self.StringStamped, self.Result = StringStamped, Result
         self.msg_class, self.qos, self.specs = msg_class, qos, TOPICS_BY_NAME
-        self.context = Context()
-        rclpy.init(context=self.context, domain_id=domain)
-        self.node = rclpy.create_node("homing_client", context=self.context)
-        self.cv = threading.Condition()
+        super().__init__(domain, "homing_client")
         self.log = []  # (topic, value) in arrival order
         self.clocks = 0
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)  # as crtk's state_command
@@ -59,15 +52,7 @@ class Client:
         self.services = {name: self.node.create_client(kind, f"/{name}")
                          for name, kind in (("set_simulation_state", srv.SetSimulationState),
                                             ("step_simulation", srv.StepSimulation))}
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self.running = True
-        self.thread = threading.Thread(target=self._spin, daemon=True)
-        self.thread.start()
-
-    def _spin(self):
-        while self.running and self.context.ok():
-            self.executor.spin_once(timeout_sec=0.05)
+        self.start()
 
     def _arrived(self, topic, value):
         with self.cv:
@@ -135,13 +120,6 @@ class Client:
                 return
             self.step()
         raise AssertionError(f"homing never finished: {self.log[-20:]}")
-
-    def close(self):
-        self.running = False
-        self.thread.join(timeout=10)
-        self.executor.shutdown()
-        self.node.destroy_node()
-        self.rclpy.try_shutdown(context=self.context)
 
 
 @pytest.fixture

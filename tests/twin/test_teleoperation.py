@@ -17,12 +17,11 @@ timing; wall-clock limits only catch a hang.
 """
 from __future__ import annotations
 
-import threading
 import time
 
 import numpy as np
 import pytest
-from twin_fixtures import ScriptRun
+from twin_fixtures import OwnContextClient, ScriptRun
 
 from cressim.robots.ecm import ecm_forward_kinematics
 from cressim.robots.mtm import mtm_forward_kinematics
@@ -41,22 +40,16 @@ def _pose(m):
     return pose7_to_matrix(np.array([p.x, p.y, p.z, q.x, q.y, q.z, q.w]))
 
 
-class Surgeon:
+class Surgeon(OwnContextClient):
     """The operator's input devices and what they watch, in a context of their own."""
 
     def __init__(self, domain: int):
-        import rclpy
         from geometry_msgs.msg import PoseStamped
-        from rclpy.context import Context
-        from rclpy.executors import SingleThreadedExecutor
         from sensor_msgs.msg import JointState
         from std_msgs.msg import Bool
 
-        self.rclpy, self.PoseStamped, self.JointState, self.Bool = rclpy, PoseStamped, JointState, Bool
-        self.context = Context()
-        rclpy.init(context=self.context, domain_id=domain)
-        self.node = rclpy.create_node("surgeon", context=self.context)
-        self.cv = threading.Condition()
+        self.PoseStamped, self.JointState, self.Bool = PoseStamped, JointState, Bool
+        super().__init__(domain, "surgeon")
         self.servo_cp = 0
         self.latest, self.count = {}, {}
         pub = lambda kind, topic: self.node.create_publisher(kind, topic, 10)  # noqa: E731
@@ -81,15 +74,7 @@ class Surgeon:
         for topic in ("/PSM1/measured_cp", "/PSM1/local/measured_cp", "/ECM/local/measured_cp", "/MTMR/measured_cp",
                       "/MTMR/local/measured_cp"):
             self.node.create_subscription(PoseStamped, topic, lambda m, t=topic: self._keep(t, m), 10)
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self.running = True
-        self.thread = threading.Thread(target=self._spin, daemon=True)
-        self.thread.start()
-
-    def _spin(self):
-        while self.running and self.context.ok():
-            self.executor.spin_once(timeout_sec=0.05)
+        self.start()
 
     def _on_servo(self, msg):
         with self.cv:
@@ -159,13 +144,6 @@ class Surgeon:
                 calm, since = 0, servo
             last = None if T is None else T[:3, 3].copy()
         raise AssertionError(f"{topic} never settled\n{output()}")
-
-    def close(self):
-        self.running = False
-        self.thread.join(timeout=10)
-        self.executor.shutdown()
-        self.node.destroy_node()
-        self.rclpy.try_shutdown(context=self.context)
 
 
 def test_dvrk_teleoperation_follows_in_the_camera_frame_and_clutches(start_twin, ros_domain_id, clients, tmp_path):

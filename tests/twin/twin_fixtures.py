@@ -48,6 +48,42 @@ def spinning(node, client_name: str, executor_class=None):
         client.destroy_node()
 
 
+class OwnContextClient:
+    """A client node in an rclpy context (a DDS participant) of its own on `domain`, with a
+    condition for what its callbacks keep; `start()` spins it on a thread once the subclass has
+    made its endpoints, `close()` ends it."""
+
+    def __init__(self, domain: int, name: str):
+        import rclpy
+        from rclpy.context import Context
+
+        self.rclpy = rclpy
+        self.context = Context()
+        rclpy.init(context=self.context, domain_id=domain)
+        self.node = rclpy.create_node(name, context=self.context)
+        self.cv = threading.Condition()
+
+    def start(self):
+        from rclpy.executors import SingleThreadedExecutor
+
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self.running = True
+        self.thread = threading.Thread(target=self._spin, daemon=True)
+        self.thread.start()
+
+    def _spin(self):
+        while self.running and self.context.ok():
+            self.executor.spin_once(timeout_sec=0.05)
+
+    def close(self):
+        self.running = False
+        self.thread.join(timeout=10)
+        self.executor.shutdown()
+        self.node.destroy_node()
+        self.rclpy.try_shutdown(context=self.context)
+
+
 def module_twin(request, tmp_path_factory, domain, *params):
     twin = Twin(domain, tmp_path_factory.mktemp("twin") / "twin.log", *TEST_CAMERA, *params)
     request.addfinalizer(twin.stop)

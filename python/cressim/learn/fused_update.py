@@ -241,7 +241,8 @@ class FusedUpdate:
 
     def __init__(self, alg):
         self.alg = alg
-        (self.actor_norm, actor), (self.critic_norm, critic) = _layers(alg.actor), _layers(alg.critic)
+        # the critic's normaliser holds the same statistics as the actor's (both are updated alike)
+        (self.normalizer, actor), (_, critic) = _layers(alg.actor), _layers(alg.critic)
         self.actor_params = [p for l in actor for p in (l.weight, l.bias)] + [alg.log_std]
         self.critic_params = [p for l in critic for p in (l.weight, l.bias)]
         self.params = self.actor_params + self.critic_params
@@ -267,17 +268,15 @@ class FusedUpdate:
         a, c = self.alg, self.alg.cfg
         n, size = a.num_mini_batches, a._minibatch.numel()
         obs_n, act_n = a.obs.shape[-1], a.actions.shape[-1]
-        norm = self.actor_norm  # the critic's normaliser holds the same statistics (both are updated alike)
-        mean, var = (norm.mean, norm.var) if norm is not None else (self.adam, self.adam)
-        actor, critic = _layers(a.actor)[1], _layers(a.critic)[1]
+        norm = self.normalizer
+        mean, var = (norm.mean, norm.var) if norm is not None else (self.adam, self.adam)  # unread without one
         table = self.table
         prec = "ieee" if interpreted() else self.PRECISION
         for _ in range(c.epochs):
             for i in range(n):
                 _minibatch_grads[(self.blocks,)](
                     self.order, i * size, size, 1.0 / size, a.obs, a.actions, a.log_prob, a.returns, a.advantages,
-                    mean, var, *(t for l in actor for t in (l.weight, l.bias)), a.log_std,
-                    *(t for l in critic for t in (l.weight, l.bias)), self.partials, a._loss_sums, self.adam,
+                    mean, var, *self.params, self.partials, a._loss_sums, self.adam,
                     c.clip, c.value_coef, c.entropy_coef, NOBS=obs_n, NACT=act_n,
                     IP=max(16, triton.next_power_of_2(obs_n)), AP=max(16, triton.next_power_of_2(act_n)),
                     H=self.width, BLOCK=self.BLOCK, NORMALIZE=norm is not None, PREC=prec, ATOMIC=self.ATOMIC,

@@ -289,10 +289,11 @@ class TorchPPO:
         self._loss_sums.zero_()
         if self._fused:
             self._fused.run(order)
-        for _ in range(0 if self._fused else c.epochs):
-            for i in range(n):
-                self._minibatch.copy_(order[i * size:(i + 1) * size])
-                self._learn_step()
+        else:
+            for _ in range(c.epochs):
+                for i in range(n):
+                    self._minibatch.copy_(order[i * size:(i + 1) * size])
+                    self._learn_step()
         if c.obs_normalization:  # after the update: the rollout and its update saw the same statistics
             seen = self.obs[:self.step].flatten(0, 1)
             self.actor.normalizer.update(seen)
