@@ -186,6 +186,8 @@ ContextOptions options_from_environment() {
   o.validation = v && std::strcmp(v, "") != 0 && std::strcmp(v, "0") != 0;
   const char* d = std::getenv("CRESSIM_DEVICE");
   if (d) o.device = d;
+  const char* ps = std::getenv("CRESSIM_PIPELINE_STATISTICS");
+  o.pipeline_statistics = ps && std::strcmp(ps, "") != 0 && std::strcmp(ps, "0") != 0;
   return o;
 }
 
@@ -251,6 +253,17 @@ std::shared_ptr<Context> create_context(const ContextOptions& options) {
   ctx->external_semaphore_fd = has_device_extension(ctx->physical, VK_KHR_EXTERNAL_SEMAPHORE_FD_EXTENSION_NAME);
   if (ctx->external_memory_fd) extensions.push_back(VK_KHR_EXTERNAL_MEMORY_FD_EXTENSION_NAME);
   if (ctx->external_semaphore_fd) extensions.push_back(VK_KHR_EXTERNAL_SEMAPHORE_FD_EXTENSION_NAME);
+  VkPhysicalDevicePipelineExecutablePropertiesFeaturesKHR executable_info{
+      VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PIPELINE_EXECUTABLE_PROPERTIES_FEATURES_KHR};
+  ctx->pipeline_statistics = options.pipeline_statistics &&
+                             has_device_extension(ctx->physical, VK_KHR_PIPELINE_EXECUTABLE_PROPERTIES_EXTENSION_NAME);
+  if (options.pipeline_statistics && !ctx->pipeline_statistics)
+    std::fprintf(stderr, "cressim: %s reports no pipeline statistics (VK_KHR_pipeline_executable_properties)\n",
+                 ctx->info.name.c_str());
+  if (ctx->pipeline_statistics) {
+    extensions.push_back(VK_KHR_PIPELINE_EXECUTABLE_PROPERTIES_EXTENSION_NAME);
+    executable_info.pipelineExecutableInfo = VK_TRUE;
+  }
   // cameras of many envs render in one pass, each instance writing its layer from the vertex
   // shader (SPIR-V 1.3 needs the extension; Vulkan 1.2 then wants both features on)
   bool output_layer = false;
@@ -269,6 +282,7 @@ std::shared_ptr<Context> create_context(const ContextOptions& options) {
   VkPhysicalDeviceFeatures2 e2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
   e2.pNext = &e12;
   e12.pNext = &e13;
+  if (ctx->pipeline_statistics) e13.pNext = &executable_info;
   e12.timelineSemaphore = VK_TRUE;
   e12.scalarBlockLayout = f12.scalarBlockLayout;
   e12.hostQueryReset = f12.hostQueryReset;

@@ -22,6 +22,7 @@ struct DeviceInfo {
 struct ContextOptions {
   bool validation = false;  // VK_LAYER_KHRONOS_validation + a messenger that collects messages
   std::string device;       // index or name substring; empty: CRESSIM_DEVICE or the best device
+  bool pipeline_statistics = false;  // log each compute pipeline's compiled statistics (registers, ...)
 };
 
 struct Context {
@@ -42,6 +43,7 @@ struct Context {
   bool unified_memory = false;  // CPU/integrated device: device-local memory is host-visible
   bool external_memory_fd = false;
   bool external_semaphore_fd = false;
+  bool pipeline_statistics = false;  // VK_KHR_pipeline_executable_properties on and asked for
 
   // Validation messages (warnings and errors) collected since creation.
   std::mutex messages_mutex;
@@ -56,7 +58,9 @@ std::vector<DeviceInfo> list_devices();
 // Creates instance and device; the chosen device is logged once per process.
 std::shared_ptr<Context> create_context(const ContextOptions& options = {});
 
-// Environment switches: CRESSIM_VALIDATION=1, CRESSIM_DEVICE=<index|name substring>.
+// Environment switches: CRESSIM_VALIDATION=1, CRESSIM_DEVICE=<index|name substring>,
+// CRESSIM_PIPELINE_STATISTICS=1 (what the driver reports of each compiled compute pipeline, to
+// stderr: register counts and the like tell occupancy limits that GPU timings only hint at).
 ContextOptions options_from_environment();
 
 }  // namespace cressim::gpu

@@ -215,12 +215,24 @@ Renderer::Renderer(std::shared_ptr<gpu::Context> ctx, RenderModel model, uint64_
       b["out_depth"] = t.scene_depth ? t.scene_depth : compute_bound.at("unused_depth");
       b["out_segmentation"] = seg ? t.segmentation_out : compute_bound.at("unused_output");
       auto pass = compute::create_builtin_pass(ctx_, "render/raster_compute", b);
-      const uint32_t tiles_x = (grp.width + 63) / 64, tiles_y = (grp.height + 31) / 32;
+      // a workgroup per camera and tile. 64 x 32 tiles, halved (to 16 x 16) while the group count
+      // is below kRasterGroups: 32 cameras of 64 x 64 pixels were 64 groups, and the raster took
+      // one group's latency with most SMs idle (TargetCenter, benchmarks/README.md)
+      constexpr uint32_t kRasterGroups = 512;
+      uint32_t shift_x = 6, shift_y = 5;
+      const auto tiles = [&](uint32_t sx, uint32_t sy) {
+        return ((grp.width + (1u << sx) - 1) >> sx) * ((grp.height + (1u << sy) - 1) >> sy);
+      };
+      while (uint64_t(tiles(shift_x, shift_y)) * grp.layers < kRasterGroups && (shift_x > 4 || shift_y > 4))
+        --(shift_x >= shift_y ? shift_x : shift_y);
+      const uint32_t tiles_x = (grp.width + (1u << shift_x) - 1) >> shift_x;
       pass->set_constant_bits("width", &grp.width, 4);
       pass->set_constant_bits("height", &grp.height, 4);
       pass->set_constant_bits("tiles_x", &tiles_x, 4);
       pass->set_constant_bits("products", &products, 4);
-      pass->set_groups({tiles_x * tiles_y, grp.layers, 1});
+      pass->set_constant_bits("tile_shift_x", &shift_x, 4);
+      pass->set_constant_bits("tile_shift_y", &shift_y, 4);
+      pass->set_groups({tiles(shift_x, shift_y), grp.layers, 1});
       compute_passes_.push_back(pass);
       targets_.push_back(std::move(t));
       continue;

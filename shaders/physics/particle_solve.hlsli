@@ -38,9 +38,10 @@ void main(uint3 id : SV_DispatchThreadID) {
 StructuredBuffer<ParticleEnvRange> env_ranges;
 StructuredBuffer<uint2> env_colours;  // (first, count) of this family's records per env and colour
 groupshared float4 block_x[PARTICLE_BLOCK_CAPACITY];
-// 16 KiB of group memory a workgroup: 128 threads keep an SM's warps full where 64 would leave
-// half of them idle (the group memory, not the threads, limits the workgroups per SM)
-static const uint BLOCK_THREADS = 128;
+// 256 threads: a colour of SoftBodyPush's edges (up to 171 records) is one step for every thread,
+// and its solve took 3.5 instead of 4.2 ms a frame at 512 envs (H100; benchmarks/README.md, with
+// what else was tried: records and multipliers in group memory, the next colour's prefetched)
+static const uint BLOCK_THREADS = 256;
 
 [numthreads(BLOCK_THREADS, 1, 1)]
 void main(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {

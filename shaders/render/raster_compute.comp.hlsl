@@ -1,4 +1,5 @@
-// The compute rasterizer (CRESSIM_RASTER=compute): one workgroup per (camera, 64x32 tile).
+// The compute rasterizer (CRESSIM_RASTER=compute): one workgroup per (camera, tile); tiles are
+// 64x32 pixels, smaller (down to 16x16) where few small images would leave SMs idle.
 // Visibility in two sweeps over the env's triangles into groupshared buffers: the nearest
 // depth per pixel (atomic min of the float's bits, which order like the floats when positive),
 // then the id of the triangle at that depth; then each pixel shades its triangle (ray through
@@ -29,18 +30,24 @@ struct Params {
   uint height;
   uint tiles_x;
   uint products;  // CameraProduct bits: the outputs this group writes (others are bound to a stand-in)
+  uint tile_shift_x;  // a tile is 1 << tile_shift_x by 1 << tile_shift_y pixels (<= MAX_TILE): shifts,
+  uint tile_shift_y;  // not divisions, in the per-pixel index arithmetic
 };
 [[vk::push_constant]] ConstantBuffer<Params> pc;
 
-static const uint TILE_W = 64, TILE_H = 32, TILE = TILE_W * TILE_H, THREADS = 256;
+static const uint MAX_TILE = 64 * 32, THREADS = 256;
 static const uint BIG_AREA = 48;   // bounding boxes larger than this (pixels) are swept by the group
 static const uint MAX_BIG = 256;
 static const uint NONE = 0xffffffffu;
 
-groupshared uint zbuf[TILE];
-groupshared uint idbuf[TILE];
+groupshared uint zbuf[MAX_TILE];
+groupshared uint idbuf[MAX_TILE];
 groupshared uint big[MAX_BIG];
 groupshared uint big_count;
+
+int2 tile_size() {
+  return int2(1 << pc.tile_shift_x, 1 << pc.tile_shift_y);
+}
 
 struct Screen {       // a triangle in pixels, clipped at the near plane into at most two
   float3 p[4];        // x, y in pixels, z = 1 / depth
@@ -77,7 +84,7 @@ Screen setup(CameraData c, float3 v[3], int2 origin) {
     hi = max(hi, s.p[k].xy);
   }
   // pixels whose centres (x + 0.5) can be inside
-  const int2 tile_hi = min(origin + int2(TILE_W, TILE_H), int2(pc.width, pc.height));
+  const int2 tile_hi = min(origin + tile_size(), int2(pc.width, pc.height));
   s.box = int4(max(int2(ceil(lo - 0.5)), origin), min(int2(floor(hi - 0.5)) + 1, tile_hi));
   if (any(s.box.xy >= s.box.zw)) return s;
   s.n = n;
@@ -90,7 +97,7 @@ bool may_cover(RenderableData r, uint4 m, CameraData c, float4 eye_q, float3 eye
   // vertices from a buffer or particles: the mesh's radius does not bound them
   if ((r.maps.y & RENDER_FLAT_NORMALS) != 0 || (r.maps.w & RENDER_WORLD_VERTICES) != 0) return true;
   const float3 centre = quat_unrotate(eye_q, positions[r.ids.x].xyz - eye_p);
-  const int2 hi = min(origin + int2(TILE_W, TILE_H), int2(pc.width, pc.height));
+  const int2 hi = min(origin + tile_size(), int2(pc.width, pc.height));
   return sphere_in_view(c, centre, bounding_radius(asfloat(m.w), scales[r.ids.x].xyz), float2(origin), float2(hi));
 }
 
@@ -124,7 +131,7 @@ void cover(Screen s, int2 px, int2 origin, uint mode, uint id, float near, float
     if (w0 < 0 || w1 < 0 || w2 < 0) continue;
     const float z = 1.0 / (w0 * a.z + w1 * b.z + w2 * c.z);
     if (z < near || z > far) continue;
-    const uint local = uint(px.y - origin.y) * TILE_W + uint(px.x - origin.x);
+    const uint local = (uint(px.y - origin.y) << pc.tile_shift_x) + uint(px.x - origin.x);
     if (mode == 0) {
       uint previous;
       InterlockedMin(zbuf[local], asuint(z), previous);
@@ -139,14 +146,14 @@ void cover(Screen s, int2 px, int2 origin, uint mode, uint id, float near, float
 void main(uint3 group : SV_GroupID, uint tid : SV_GroupIndex) {
   const uint layer = group.y, camera = group_cameras[layer];
   const CameraData c = cameras[camera];
-  const int2 origin = int2((group.x % pc.tiles_x) * TILE_W, (group.x / pc.tiles_x) * TILE_H);
+  const int2 origin = int2(group.x % pc.tiles_x, group.x / pc.tiles_x) * tile_size();
   const uint eye_row = c.ids.x;
   const float4 eye_q = rotations[eye_row];
   const float3 eye_p = positions[eye_row].xyz;
   const uint2 list = env_renderables[c.ids.y];
   const float near = c.clip.x, far = c.clip.y;
 
-  for (uint i = tid; i < TILE; i += THREADS) {
+  for (uint i = tid; i < 1u << (pc.tile_shift_x + pc.tile_shift_y); i += THREADS) {
     zbuf[i] = NONE;
     idbuf[i] = NONE;
   }
@@ -200,8 +207,8 @@ void main(uint3 group : SV_GroupID, uint tid : SV_GroupIndex) {
   }
 
   // shading: the ray through each pixel centre meets its triangle (Moller-Trumbore)
-  for (uint i = tid; i < TILE; i += THREADS) {
-    const int2 px = origin + int2(i % TILE_W, i / TILE_W);
+  for (uint i = tid; i < 1u << (pc.tile_shift_x + pc.tile_shift_y); i += THREADS) {
+    const int2 px = origin + int2(i & ((1u << pc.tile_shift_x) - 1), i >> pc.tile_shift_x);
     if (px.x >= int(pc.width) || px.y >= int(pc.height)) continue;
     const uint at = (layer * pc.height + uint(px.y)) * pc.width + uint(px.x);
     const uint id = idbuf[i];

@@ -9,10 +9,10 @@ import cressim
 from .particle_scenes import lattice, positions, start, static, step
 
 
-def _soft_scene(envs=2):
+def _soft_scene(envs=2, cells=3):
     """A self-colliding soft cube dropped on the ground and a hanging thread, per env."""
     world = cressim.World(cressim.SceneLayout(envs))
-    mesh = cressim.TetMesh.box((0.1, 0.1, 0.1), (3, 3, 3))
+    mesh = cressim.TetMesh.box((0.1, 0.1, 0.1), (cells,) * 3)
     for env in range(envs):
         static(world, env, [cressim.Shape.plane()], "ground")
         cube = world.create_entity(env=env, name="cube")
@@ -25,11 +25,14 @@ def _soft_scene(envs=2):
     return world, mesh
 
 
-@pytest.mark.parametrize("frames", [30])
-def test_workgroup_solve_matches_per_colour_dispatches(make_engine, frames):
+@pytest.mark.parametrize("cells", [3, 9])
+def test_workgroup_solve_matches_per_colour_dispatches(make_engine, cells):
+    """cells 9: 1,000 particles an env (near the group memory's 1,024), with colours of more
+    records than the workgroup has threads."""
+    frames = 30 if cells == 3 else 10
     runs = {}
     for solver in ("dispatch", "workgroup"):
-        world, _ = _soft_scene()
+        world, _ = _soft_scene(cells=cells)
         engine = start(world, make_engine, substeps=2, particle_iterations=6, particle_solver=solver)
         before = positions(engine)
         step(engine, frames)

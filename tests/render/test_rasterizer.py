@@ -164,3 +164,17 @@ def test_camera_products_select_the_buffers(make_engine):
     assert np.array_equal(engine.buffer(full + "depth").read(), engine.buffer(depth + "depth").read())
     with pytest.raises(ValueError, match="Camera product 'normals' is not one of: rgb, depth, segmentation"):
         cressim.Camera(products=["normals"])
+
+
+def test_tile_size_leaves_the_image_unchanged(make_engine):
+    """The compute rasterizer shrinks its 64x32 tiles (down to 16x16) for few small images: one
+    128x128 camera is drawn in 16x16 tiles, 64 of them in 64x32 tiles; env 0 is drawn alike."""
+    def place(world, env, mesh):
+        ball(world, env, mesh, (0.05, -0.02, 0.8), 0.12)
+        ball(world, env, mesh, (-0.1, 0.05, 1.2), 0.3, color=(0.8, 0.3, 0.2, 1))
+
+    one, _ = scene(make_engine, 1, place)
+    many, _ = scene(make_engine, 64, place)
+    for a, b in zip(images(one), images(many)):
+        np.testing.assert_array_equal(a[0], b[0])
+    assert (images(one)[2][0] > 0).mean() > 0.2  # both balls cover a good part of the image
