@@ -8,6 +8,36 @@
 
 namespace cressim::gpu {
 
+namespace {
+
+// What the driver reports of a compiled pipeline (CRESSIM_PIPELINE_STATISTICS=1: created with
+// VK_PIPELINE_CREATE_CAPTURE_STATISTICS_BIT_KHR), a line to stderr.
+void log_statistics(Context& ctx, VkPipeline pipeline, const std::string& name) {
+  auto statistics = reinterpret_cast<PFN_vkGetPipelineExecutableStatisticsKHR>(
+      vkGetDeviceProcAddr(ctx.device, "vkGetPipelineExecutableStatisticsKHR"));
+  if (!statistics) return;
+  VkPipelineExecutableInfoKHR info{VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_INFO_KHR};
+  info.pipeline = pipeline;
+  uint32_t n = 0;
+  if (statistics(ctx.device, &info, &n, nullptr) != VK_SUCCESS) return;
+  std::vector<VkPipelineExecutableStatisticKHR> stats(n, {VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_STATISTIC_KHR});
+  if (statistics(ctx.device, &info, &n, stats.data()) != VK_SUCCESS) return;
+  std::string line = "cressim: pipeline " + name + ":";
+  for (const auto& s : stats) {
+    char value[64];
+    switch (s.format) {
+      case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_BOOL32_KHR: std::snprintf(value, sizeof value, "%u", s.value.b32); break;
+      case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_INT64_KHR: std::snprintf(value, sizeof value, "%" PRId64, s.value.i64); break;
+      case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_UINT64_KHR: std::snprintf(value, sizeof value, "%" PRIu64, s.value.u64); break;
+      default: std::snprintf(value, sizeof value, "%g", s.value.f64);
+    }
+    line += std::string(" ") + s.name + "=" + value + ";";
+  }
+  std::fprintf(stderr, "%s\n", line.c_str());
+}
+
+}  // namespace
+
 void create_layout_and_set(Context& ctx, ComputePipeline& p, VkShaderStageFlags stages) {
   std::vector<VkDescriptorSetLayoutBinding> bindings;
   for (const auto& b : p.reflection.bindings) {
@@ -73,30 +103,6 @@ ComputePipeline create_compute_pipeline(Context& ctx, const std::vector<uint32_t
         ("vkCreateComputePipelines " + name).c_str());
   if (ctx.pipeline_statistics) log_statistics(ctx, p.pipeline, name);
   return p;
-}
-
-void log_statistics(Context& ctx, VkPipeline pipeline, const std::string& name) {
-  auto statistics = reinterpret_cast<PFN_vkGetPipelineExecutableStatisticsKHR>(
-      vkGetDeviceProcAddr(ctx.device, "vkGetPipelineExecutableStatisticsKHR"));
-  if (!statistics) return;
-  VkPipelineExecutableInfoKHR info{VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_INFO_KHR};
-  info.pipeline = pipeline;
-  uint32_t n = 0;
-  if (statistics(ctx.device, &info, &n, nullptr) != VK_SUCCESS) return;
-  std::vector<VkPipelineExecutableStatisticKHR> stats(n, {VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_STATISTIC_KHR});
-  if (statistics(ctx.device, &info, &n, stats.data()) != VK_SUCCESS) return;
-  std::string line = "cressim: pipeline " + name + ":";
-  for (const auto& s : stats) {
-    char value[64];
-    switch (s.format) {
-      case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_BOOL32_KHR: std::snprintf(value, sizeof value, "%u", s.value.b32); break;
-      case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_INT64_KHR: std::snprintf(value, sizeof value, "%" PRId64, s.value.i64); break;
-      case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_UINT64_KHR: std::snprintf(value, sizeof value, "%" PRIu64, s.value.u64); break;
-      default: std::snprintf(value, sizeof value, "%g", s.value.f64);
-    }
-    line += std::string(" ") + s.name + "=" + value + ";";
-  }
-  std::fprintf(stderr, "%s\n", line.c_str());
 }
 
 void destroy_compute_pipeline(Context& ctx, ComputePipeline& p) {

@@ -30,10 +30,6 @@ ComputePipeline create_compute_pipeline(Context& ctx, const std::vector<uint32_t
                                         const std::string& name);
 void destroy_compute_pipeline(Context& ctx, ComputePipeline& p);
 
-// Logs what the driver reports of a compiled pipeline (CRESSIM_PIPELINE_STATISTICS=1: created
-// with VK_PIPELINE_CREATE_CAPTURE_STATISTICS_BIT_KHR) to stderr, a line per pipeline.
-void log_statistics(Context& ctx, VkPipeline pipeline, const std::string& name);
-
 // Points binding `binding` of the pipeline's set at `buffer` (whole range).
 void bind_buffer(Context& ctx, ComputePipeline& p, uint32_t binding, VkBuffer buffer);
 

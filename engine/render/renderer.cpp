@@ -220,19 +220,18 @@ Renderer::Renderer(std::shared_ptr<gpu::Context> ctx, RenderModel model, uint64_
       // one group's latency with most SMs idle (TargetCenter, benchmarks/README.md)
       constexpr uint32_t kRasterGroups = 512;
       uint32_t shift_x = 6, shift_y = 5;
-      const auto tiles = [&](uint32_t sx, uint32_t sy) {
-        return ((grp.width + (1u << sx) - 1) >> sx) * ((grp.height + (1u << sy) - 1) >> sy);
-      };
-      while (uint64_t(tiles(shift_x, shift_y)) * grp.layers < kRasterGroups && (shift_x > 4 || shift_y > 4))
+      const auto across = [](uint32_t pixels, uint32_t shift) { return (pixels + (1u << shift) - 1) >> shift; };
+      const auto tiles = [&] { return across(grp.width, shift_x) * across(grp.height, shift_y); };
+      while (uint64_t(tiles()) * grp.layers < kRasterGroups && (shift_x > 4 || shift_y > 4))
         --(shift_x >= shift_y ? shift_x : shift_y);
-      const uint32_t tiles_x = (grp.width + (1u << shift_x) - 1) >> shift_x;
+      const uint32_t tiles_x = across(grp.width, shift_x);
       pass->set_constant_bits("width", &grp.width, 4);
       pass->set_constant_bits("height", &grp.height, 4);
       pass->set_constant_bits("tiles_x", &tiles_x, 4);
       pass->set_constant_bits("products", &products, 4);
       pass->set_constant_bits("tile_shift_x", &shift_x, 4);
       pass->set_constant_bits("tile_shift_y", &shift_y, 4);
-      pass->set_groups({tiles(shift_x, shift_y), grp.layers, 1});
+      pass->set_groups({tiles(), grp.layers, 1});
       compute_passes_.push_back(pass);
       targets_.push_back(std::move(t));
       continue;

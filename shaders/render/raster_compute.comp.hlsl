@@ -49,6 +49,10 @@ int2 tile_size() {
   return int2(1 << pc.tile_shift_x, 1 << pc.tile_shift_y);
 }
 
+uint tile_pixels() {
+  return 1u << (pc.tile_shift_x + pc.tile_shift_y);
+}
+
 struct Screen {       // a triangle in pixels, clipped at the near plane into at most two
   float3 p[4];        // x, y in pixels, z = 1 / depth
   uint n;             // polygon vertices (0: culled, 3 or 4)
@@ -153,7 +157,7 @@ void main(uint3 group : SV_GroupID, uint tid : SV_GroupIndex) {
   const uint2 list = env_renderables[c.ids.y];
   const float near = c.clip.x, far = c.clip.y;
 
-  for (uint i = tid; i < 1u << (pc.tile_shift_x + pc.tile_shift_y); i += THREADS) {
+  for (uint i = tid; i < tile_pixels(); i += THREADS) {
     zbuf[i] = NONE;
     idbuf[i] = NONE;
   }
@@ -207,7 +211,7 @@ void main(uint3 group : SV_GroupID, uint tid : SV_GroupIndex) {
   }
 
   // shading: the ray through each pixel centre meets its triangle (Moller-Trumbore)
-  for (uint i = tid; i < 1u << (pc.tile_shift_x + pc.tile_shift_y); i += THREADS) {
+  for (uint i = tid; i < tile_pixels(); i += THREADS) {
     const int2 px = origin + int2(i & ((1u << pc.tile_shift_x) - 1), i >> pc.tile_shift_x);
     if (px.x >= int(pc.width) || px.y >= int(pc.height)) continue;
     const uint at = (layer * pc.height + uint(px.y)) * pc.width + uint(px.x);
