@@ -30,7 +30,9 @@ void main(uint3 id : SV_DispatchThreadID) {
   const uint n = evaluate(rec, x, C, g);
   const float dl = xpbd_delta(rec, n, C, g, w, lambdas[c]);
   lambdas[c] += dl;
-  for (uint k = 0; k < n; ++k) positions[ids[k]].xyz += w[k] * dl * g[k];
+  // whole float4 stores from the registers: a colour's records share no particle, and the
+  // read-modify-write of .xyz alone costs a load and three stores a particle
+  for (uint k = 0; k < n; ++k) positions[ids[k]] = float4(x[k] + w[k] * dl * g[k], w[k]);
 }
 
 #else
@@ -73,7 +75,7 @@ void main(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
         if (on) {
           const float dl = xpbd_delta(rec, n, C, g, w, lambda);
           lambdas[c] = lambda + dl;
-          for (uint m = 0; m < n; ++m) block_x[ids[m] - first].xyz += w[m] * dl * g[m];
+          for (uint m = 0; m < n; ++m) block_x[ids[m] - first] = float4(x[m] + w[m] * dl * g[m], w[m]);
         }
       }
       GroupMemoryBarrierWithGroupSync();
