@@ -3,6 +3,8 @@
 #include "gpu/context.h"
 #include "gpu/error.h"
 
+#include <chrono>
+
 namespace cressim::gpu {
 
 VkCommandBuffer allocate_command_buffer(Context& ctx) {
@@ -129,7 +131,21 @@ uint64_t submit(Context& ctx, Timeline& t, const std::vector<VkCommandBuffer>& c
   return ++t.value;
 }
 
+// How long a host wait polls the timeline before it sleeps in the driver. Waking from the
+// driver's sleep costs tens of microseconds, as much as a whole small frame's GPU time; polling
+// a GPU's timeline is a memory read. Not on a CPU device (lavapipe): there the poll would take a
+// core from the threads doing the frame's work.
+constexpr auto kPollBeforeSleep = std::chrono::microseconds(1000);
+
 void wait(Context& ctx, const Timeline& t, uint64_t value, const std::string& stage) {
+  if (ctx.properties.deviceType != VK_PHYSICAL_DEVICE_TYPE_CPU) {
+    const auto until = std::chrono::steady_clock::now() + kPollBeforeSleep;
+    uint64_t reached = 0;
+    do {
+      check(vkGetSemaphoreCounterValue(ctx.device, t.semaphore, &reached), "vkGetSemaphoreCounterValue", stage);
+      if (reached >= value) return;
+    } while (std::chrono::steady_clock::now() < until);
+  }
   VkSemaphoreWaitInfo wi{VK_STRUCTURE_TYPE_SEMAPHORE_WAIT_INFO};
   wi.semaphoreCount = 1;
   wi.pSemaphores = &t.semaphore;
