@@ -26,11 +26,14 @@ foreach(src ${CRESSIM_SHADERS})
     string(REGEX REPLACE "\\.hlsl$" "" name ${rel})
   endif()
   # positional constraint families (particle_solve.hlsli) and the elastic vertex solve also get a
-  # one-workgroup-per-env build
+  # one-workgroup-per-env build, one per group-memory size (particles an env): the engine takes
+  # the smallest that holds its largest env, since group memory sets how many share a multiprocessor
   set(variants "${name}|")
   file(STRINGS ${src} block_solve REGEX "#include \"particle_solve.hlsli\"|^#ifdef CRESSIM_BLOCK")
   if(block_solve)
-    list(APPEND variants "${name}.block|-DCRESSIM_BLOCK=1")
+    foreach(capacity 256 512 1024)
+      list(APPEND variants "${name}.block${capacity}|-DCRESSIM_BLOCK=${capacity}")
+    endforeach()
   endif()
   foreach(variant ${variants})
     string(REPLACE "|" ";" parts "${variant}")

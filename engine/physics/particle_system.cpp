@@ -11,7 +11,24 @@
 #include "gpu/embedded_shaders.h"
 
 namespace cressim::physics {
+
 namespace {
+
+// The `<shader>.blockN` build (cmake/shaders.cmake) with the least group memory that holds
+// `particles` an env, or "" where none does. Group memory sets how many workgroups share a
+// multiprocessor: SoftBodyPush's 343-particle envs in 1,024-particle groups ran three a
+// multiprocessor and took 8.9 instead of 6.0 ms a frame for their solves at 512 envs.
+std::string block_build(const std::vector<std::string>& shaders, const std::string& shader, uint32_t particles) {
+  const std::string prefix = shader + ".block";
+  std::string best;
+  unsigned long best_capacity = ~0ul;
+  for (const auto& name : shaders) {
+    if (name.size() <= prefix.size() || name.compare(0, prefix.size(), prefix) != 0) continue;
+    const unsigned long capacity = std::stoul(name.substr(prefix.size()));
+    if (capacity >= particles && capacity < best_capacity) best = name, best_capacity = capacity;
+  }
+  return best;
+}
 
 using compute::DType;
 using shader::float4;
@@ -255,7 +272,7 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   }
   for (uint32_t e = 0; e < uint32_t(ne); ++e)
     if (model_.env_ranges[e].range.y > largest_env_) largest_env_ = model_.env_ranges[e].range.y, largest_env_index_ = e;
-  // families built on particle_solve.hlsli have a one-workgroup-per-env build too (`.block`)
+  // families built on particle_solve.hlsli have one-workgroup-per-env builds too (`.blockN`)
   const auto shaders = gpu::embedded_shader_names();
   for (auto& s : model_.sets) {
     const auto c = int64_t(s.records.size());
@@ -309,10 +326,10 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
     all_.push_back(p);
     Family f{p, nullptr, &s};
     if (s.rows_per_record) moving_.push_back(p.get());  // the elastic solve's contacts
-    if (largest_env_ <= shader::PARTICLE_BLOCK_CAPACITY && std::count(shaders.begin(), shaders.end(), s.shader + ".block")) {
+    if (const std::string block = block_build(shaders, s.shader, largest_env_); !block.empty()) {
       b["env_colours"] = in("", "particles." + s.name + "_env_colours", s.env_colours,
                             {int64_t(s.env_colours.size() / 2), 2}, DType::UINT32);
-      f.per_env = compute::create_builtin_pass(ctx, s.shader + ".block", b);
+      f.per_env = compute::create_builtin_pass(ctx, block, b);
       f.per_env->groups = {uint32_t(ne), 1, 1};
       all_.push_back(f.per_env);
       if (s.rows_per_record) moving_.push_back(f.per_env.get());

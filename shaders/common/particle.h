@@ -13,7 +13,8 @@ static const uint PARTICLE_FLUID = 2;   // position-based fluids
 static const uint PARTICLE_STRAND = 3;  // threads and cables
 
 // phase.w flags
-// the most particles one env may have for the one-workgroup-per-env constraint solve (group memory)
+// the most particles one env may have for the one-workgroup-per-env constraint solve (group memory):
+// the largest of the `.blockN` builds in cmake/shaders.cmake
 static const uint PARTICLE_BLOCK_CAPACITY = 1024;
 // Thread-group width of the per-env reductions (health, contact forces on bodies): one group an
 // env, its threads striding over the env's particles. A thread an env looping over them all was

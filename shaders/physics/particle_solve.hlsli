@@ -4,8 +4,8 @@
 // (value and gradients at its particles' positions x; returns how many particles it has) and
 // includes this file after it. cmake/shaders.cmake builds it twice:
 // - by default one dispatch per colour: a thread per constraint, straight on `positions`;
-// - with CRESSIM_BLOCK (the `.block` pass) one workgroup per env: the env's particles go to group
-//   memory, every colour is projected in turn (a group barrier between colours) pc.item_offset
+// - with CRESSIM_BLOCK = N (the `.blockN` passes) one workgroup per env of at most N particles: the
+//   env's particles go to group memory, every colour is projected in turn (a group barrier between colours) pc.item_offset
 //   times over, then written back. That is one dispatch where the first needs colours x
 //   passes, and dispatches, not arithmetic, bound small soft bodies in many envs.
 // Both skip cut records (control.particle_<family>_cut).
@@ -39,7 +39,7 @@ void main(uint3 id : SV_DispatchThreadID) {
 
 StructuredBuffer<ParticleEnvRange> env_ranges;
 StructuredBuffer<uint2> env_colours;  // (first, count) of this family's records per env and colour
-groupshared float4 block_x[PARTICLE_BLOCK_CAPACITY];
+groupshared float4 block_x[CRESSIM_BLOCK];
 // 256 threads: a colour of SoftBodyPush's edges (up to 171 records) is one step for every thread,
 // and its solve took 3.5 instead of 4.2 ms a frame at 512 envs (H100; benchmarks/README.md, with
 // what else was tried: records and multipliers in group memory, the next colour's prefetched)

@@ -19,7 +19,7 @@
 // projected after the solve instead made a resting 5 kPa block 2.7 times too soft and a
 // frictionless one spread without end. Dynamic bodies share their contacts in the gather.
 // Two builds (cmake/shaders.cmake): by default a thread per particle of one colour, a dispatch per
-// colour; with CRESSIM_BLOCK one workgroup per env that loads the env's particles into group
+// colour; with CRESSIM_BLOCK = N one workgroup per env (of at most N particles) that loads the env's particles into group
 // memory and solves every colour in turn, `item_offset` times over (a group barrier between
 // colours): one dispatch where the first needs colours x iterations, and for small bodies in many
 // envs the dispatches, not the arithmetic, are the cost.
@@ -56,7 +56,7 @@ StructuredBuffer<ParticleAttachment> attachments;
 #ifdef CRESSIM_BLOCK
 StructuredBuffer<ParticleEnvRange> env_ranges;
 StructuredBuffer<uint2> env_colours;  // (first, count) into `vertices` per env and colour
-groupshared float4 block_x[PARTICLE_BLOCK_CAPACITY];
+groupshared float4 block_x[CRESSIM_BLOCK];
 static uint block_first;  // the env's first particle
 float4 load_x(uint i) { return block_x[i - block_first]; }
 void store_x(uint i, float3 x) { block_x[i - block_first].xyz = x; }

@@ -25,17 +25,24 @@ def _soft_scene(envs=2, cells=3):
     return world, mesh
 
 
-@pytest.mark.parametrize("cells", [3, 9])
-def test_workgroup_solve_matches_per_colour_dispatches(make_engine, cells):
-    """cells 9: 1,000 particles an env (near the group memory's 1,024), with colours of more
-    records than the workgroup has threads."""
+@pytest.mark.parametrize("cells, build", [(3, 256), (6, 512), (9, 1024)])
+def test_workgroup_solve_matches_per_colour_dispatches(make_engine, cells, build):
+    """Each group-memory size of the workgroup build, taken as the smallest that holds an env (cube
+    and thread: 72, 351 and 1,008 particles); cells 9 has colours of more records than the
+    workgroup has threads."""
     frames = 30 if cells == 3 else 10
     runs = {}
     for solver in ("dispatch", "workgroup"):
         world, _ = _soft_scene(cells=cells)
         engine = start(world, make_engine, substeps=2, particle_iterations=6, particle_solver=solver)
         before = positions(engine)
-        step(engine, frames)
+        engine.profiling = engine.profile_passes = True
+        step(engine, 1)
+        engine.profiling = engine.profile_passes = False
+        solves = {name for _, name, _ in engine.last_pass_timings if "particle_volume" in name}
+        assert solves == ({f"physics/particle_volume.block{build}"} if solver == "workgroup" else
+                          {"physics/particle_volume"}), solves
+        step(engine, frames - 1)
         runs[solver] = positions(engine)
     assert np.abs(runs["dispatch"] - before).max() > 0.05  # the cube fell and the thread swung
     # same colours in the same order; only floating-point contraction may differ between the builds
