@@ -11,7 +11,6 @@
 #include "gpu/embedded_shaders.h"
 
 namespace cressim::physics {
-
 namespace {
 
 // The `<shader>.blockN` build (cmake/shaders.cmake) with the least group memory that holds

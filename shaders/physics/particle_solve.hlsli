@@ -2,12 +2,13 @@
 // family file defines
 //   uint evaluate(ParticleConstraint rec, float3 x[4], out float C, out float3 g[4])
 // (value and gradients at its particles' positions x; returns how many particles it has) and
-// includes this file after it. cmake/shaders.cmake builds it twice:
+// includes this file after it. cmake/shaders.cmake builds it two ways:
 // - by default one dispatch per colour: a thread per constraint, straight on `positions`;
-// - with CRESSIM_BLOCK = N (the `.blockN` passes) one workgroup per env of at most N particles: the
-//   env's particles go to group memory, every colour is projected in turn (a group barrier between colours) pc.item_offset
-//   times over, then written back. That is one dispatch where the first needs colours x
-//   passes, and dispatches, not arithmetic, bound small soft bodies in many envs.
+// - with CRESSIM_BLOCK = N (the `.blockN` passes) one workgroup per env of at most N particles:
+//   the env's particles go to group memory, every colour is projected in turn (a group barrier
+//   between colours) pc.item_offset times over, then written back. That is one dispatch where the
+//   first needs colours x passes, and dispatches, not arithmetic, bound small soft bodies in
+//   many envs.
 // Both skip cut records (control.particle_<family>_cut).
 
 #ifndef CRESSIM_BLOCK

@@ -18,11 +18,11 @@
 // pressed on a surface is at the energy's minimum with the contact force in the balance. Contacts
 // projected after the solve instead made a resting 5 kPa block 2.7 times too soft and a
 // frictionless one spread without end. Dynamic bodies share their contacts in the gather.
-// Two builds (cmake/shaders.cmake): by default a thread per particle of one colour, a dispatch per
-// colour; with CRESSIM_BLOCK = N one workgroup per env (of at most N particles) that loads the env's particles into group
-// memory and solves every colour in turn, `item_offset` times over (a group barrier between
-// colours): one dispatch where the first needs colours x iterations, and for small bodies in many
-// envs the dispatches, not the arithmetic, are the cost.
+// Two kinds of build (cmake/shaders.cmake): by default a thread per particle of one colour, a
+// dispatch per colour; with CRESSIM_BLOCK = N one workgroup per env (of at most N particles) that
+// loads the env's particles into group memory and solves every colour in turn, `item_offset` times
+// over (a group barrier between colours): one dispatch where the first needs colours x
+// iterations, and for small bodies in many envs the dispatches, not the arithmetic, are the cost.
 #include "cressim/layout.h"
 #include "cressim/particle.h"
 #include "cressim/quat.h"
