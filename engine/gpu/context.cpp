@@ -180,14 +180,18 @@ Context::~Context() {
   // the instance is shared (shared_instance) and outlives every context
 }
 
+// an on/off environment switch: on when set to anything but "" or "0"
+static bool switched_on(const char* name) {
+  const char* v = std::getenv(name);
+  return v && std::strcmp(v, "") != 0 && std::strcmp(v, "0") != 0;
+}
+
 ContextOptions options_from_environment() {
   ContextOptions o;
-  const char* v = std::getenv("CRESSIM_VALIDATION");
-  o.validation = v && std::strcmp(v, "") != 0 && std::strcmp(v, "0") != 0;
+  o.validation = switched_on("CRESSIM_VALIDATION");
   const char* d = std::getenv("CRESSIM_DEVICE");
   if (d) o.device = d;
-  const char* ps = std::getenv("CRESSIM_PIPELINE_STATISTICS");
-  o.pipeline_statistics = ps && std::strcmp(ps, "") != 0 && std::strcmp(ps, "0") != 0;
+  o.pipeline_statistics = switched_on("CRESSIM_PIPELINE_STATISTICS");
   return o;
 }
 

@@ -224,10 +224,8 @@ Renderer::Renderer(std::shared_ptr<gpu::Context> ctx, RenderModel model, uint64_
       const auto tiles = [&] { return across(grp.width, shift_x) * across(grp.height, shift_y); };
       while (uint64_t(tiles()) * grp.layers < kRasterGroups && (shift_x > 4 || shift_y > 4))
         --(shift_x >= shift_y ? shift_x : shift_y);
-      const uint32_t tiles_x = across(grp.width, shift_x);
       pass->set_constant_bits("width", &grp.width, 4);
       pass->set_constant_bits("height", &grp.height, 4);
-      pass->set_constant_bits("tiles_x", &tiles_x, 4);
       pass->set_constant_bits("products", &products, 4);
       pass->set_constant_bits("tile_shift_x", &shift_x, 4);
       pass->set_constant_bits("tile_shift_y", &shift_y, 4);

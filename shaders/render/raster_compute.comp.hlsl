@@ -28,7 +28,6 @@
 struct Params {
   uint width;
   uint height;
-  uint tiles_x;
   uint products;  // CameraProduct bits: the outputs this group writes (others are bound to a stand-in)
   uint tile_shift_x;  // a tile is 1 << tile_shift_x by 1 << tile_shift_y pixels (<= MAX_TILE): shifts,
   uint tile_shift_y;  // not divisions, in the per-pixel index arithmetic
@@ -150,7 +149,8 @@ void cover(Screen s, int2 px, int2 origin, uint mode, uint id, float near, float
 void main(uint3 group : SV_GroupID, uint tid : SV_GroupIndex) {
   const uint layer = group.y, camera = group_cameras[layer];
   const CameraData c = cameras[camera];
-  const int2 origin = int2(group.x % pc.tiles_x, group.x / pc.tiles_x) * tile_size();
+  const uint tiles_x = (pc.width + (1u << pc.tile_shift_x) - 1) >> pc.tile_shift_x;
+  const int2 origin = int2(group.x % tiles_x, group.x / tiles_x) * tile_size();
   const uint eye_row = c.ids.x;
   const float4 eye_q = rotations[eye_row];
   const float3 eye_p = positions[eye_row].xyz;
