@@ -254,6 +254,12 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
 
   // passes
   integrate_ = pass("physics/particle_integrate", uint64_t(n));
+  // the neighbour lists are built by PARTICLE_LIST_LANES threads a particle, adjacent lanes of one
+  // subgroup (particle_neighbor_list.comp.hlsl)
+  if (grid && ctx->subgroup_size < shader::PARTICLE_LIST_LANES)
+    throw std::runtime_error("particles: the device's subgroups hold " + std::to_string(ctx->subgroup_size) +
+                             " invocations; the neighbour-list build needs at least " +
+                             std::to_string(shader::PARTICLE_LIST_LANES));
   if (grid) {
     grid_count_ = pass("physics/particle_grid_count", uint64_t(n));
     scan_local_ = pass("physics/particle_scan_local", table_size_);
@@ -261,7 +267,7 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
     scan_add_ = pass("physics/particle_scan_add", table_size_);
     scatter_ = pass("physics/particle_grid_scatter", uint64_t(n));
     sort_ = pass("physics/particle_grid_sort", table_size_);
-    neighbor_list_ = pass("physics/particle_neighbor_list", uint64_t(n));
+    neighbor_list_ = pass("physics/particle_neighbor_list", uint64_t(n) * shader::PARTICLE_LIST_LANES);
     neighbors_ = pass("physics/particle_neighbors", uint64_t(n));
   }
   if (model_.has_fluid) {

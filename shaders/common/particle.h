@@ -21,8 +21,13 @@ static const uint PARTICLE_BLOCK_CAPACITY = 1024;
 // the slowest pass of small-env tasks (0.22 ms of 0.59 for 32 envs of 343 particles on an H100).
 static const uint PARTICLE_ENV_GROUP = 128;
 
-// neighbour list entries per particle (particles.neighbor_lists), taken once per substep
+// neighbour list entries per particle (particles.neighbor_lists), taken once per substep; an
+// entry is the neighbour's index with PARTICLE_NEIGHBOR_FLUID set for a fluid particle (its kind
+// is what most readers branch on first, and one load fewer a neighbour)
 static const uint PARTICLE_MAX_NEIGHBORS = 64;
+static const uint PARTICLE_NEIGHBOR_FLUID = 0x80000000u;
+// threads a particle building its neighbour list (particle_neighbor_list.comp.hlsl); a power of two
+static const uint PARTICLE_LIST_LANES = 4;
 
 static const uint PARTICLE_ACTIVE = 1;        // inactive slots (fluid budget) neither move nor collide
 static const uint PARTICLE_SELF_COLLIDE = 2;  // collides with particles of its own object

@@ -32,9 +32,8 @@ void main(uint3 id : SV_DispatchThreadID) {
   float3 grad_i;
   fluid_boundary(xi, ph.z, o.material.x, particle_mass(positions[i]), K, density, grad_i);
   grad_i /= rho0;
-  FOR_EACH_NEIGHBOR(i, j, {
-    if (phases[j].x == PARTICLE_FLUID) {
-      const float4 xj = positions[j];
+  FOR_EACH_NEIGHBOR(i, j, xj, j_fluid, 1, {
+    if (j_fluid) {
       const float3 r = xi - xj.xyz;
       const float m = particle_mass(xj);
       density += m * spiky(K, dot(r, r));

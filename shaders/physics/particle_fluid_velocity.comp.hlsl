@@ -28,14 +28,17 @@ void main(uint3 id : SV_DispatchThreadID) {
   const float3 xi = positions[i].xyz, vi = velocity_copies[i].xyz, omega = vorticities[i].xyz, ni = normals[i].xyz;
   const float rho_i = max(densities[i], 1e-6);
   float3 xsph = float3(0, 0, 0), eta = float3(0, 0, 0), accel = float3(0, 0, 0);
-  FOR_EACH_NEIGHBOR(i, j, {
-    if (j != i && phases[j].x == PARTICLE_FLUID) {
-      const float3 r = xi - positions[j].xyz;
-      const float len = length(r), mj = particle_mass(positions[j]), rho_j = max(densities[j], 1e-6);
-      xsph += (mj / rho_j) * (velocity_copies[j].xyz - vi) * poly6(K, len * len);
-      eta += (mj / rho_j) * (length(vorticities[j].xyz) - length(omega)) * spiky_gradient(K, r);
+  FOR_EACH_NEIGHBOR(i, j, xj, j_fluid, 4, {
+    // the neighbour's fields, loaded before any branch: with the batch's other neighbours
+    const float rho_j = max(densities[j], 1e-6);
+    const float3 v_j = velocity_copies[j].xyz, omega_j = vorticities[j].xyz, n_j = normals[j].xyz;
+    if (j != i && j_fluid) {
+      const float3 r = xi - xj.xyz;
+      const float len = length(r), mj = particle_mass(xj);
+      xsph += (mj / rho_j) * (v_j - vi) * poly6(K, len * len);
+      eta += (mj / rho_j) * (length(omega_j) - length(omega)) * spiky_gradient(K, r);
       const float k = 2 * rho0 / (rho_i + rho_j);
-      if (len > 1e-9) accel += k * (-o.fluid.y * mj * cohesion_spline(K, len) * (r / len) - o.fluid.z * (ni - normals[j].xyz));
+      if (len > 1e-9) accel += k * (-o.fluid.y * mj * cohesion_spline(K, len) * (r / len) - o.fluid.z * (ni - n_j));
     }
   })
   float3 v = vi + o.fluid.x * xsph + dt * accel;

@@ -27,11 +27,13 @@ void main(uint3 id : SV_DispatchThreadID) {
   const Kernel K = make_kernel(objects[ph.y].material.x);
   const float3 xi = positions[i].xyz, vi = velocities[i].xyz;
   float3 omega = float3(0, 0, 0), n = float3(0, 0, 0);
-  FOR_EACH_NEIGHBOR(i, j, {
-    if (j != i && phases[j].x == PARTICLE_FLUID) {
-      const float3 g = spiky_gradient(K, xi - positions[j].xyz);
-      const float vj = particle_mass(positions[j]) / max(densities[j], 1e-6);
-      omega += vj * cross(g, velocities[j].xyz - vi);
+  FOR_EACH_NEIGHBOR(i, j, xj, j_fluid, 4, {
+    const float rho_j = densities[j];
+    const float3 v_j = velocities[j].xyz;
+    if (j != i && j_fluid) {
+      const float3 g = spiky_gradient(K, xi - xj.xyz);
+      const float vj = particle_mass(xj) / max(rho_j, 1e-6);
+      omega += vj * cross(g, v_j - vi);
       n += vj * g;
     }
   })

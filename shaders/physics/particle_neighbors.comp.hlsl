@@ -37,12 +37,11 @@ void main(uint3 id : SV_DispatchThreadID) {
   const float rho0 = oi.material.w, lambda_i = fluid ? fluid_lambdas[i] : 0;
   float3 density_delta = float3(0, 0, 0), contact = float3(0, 0, 0);
   float contacts = 0;
-  FOR_EACH_NEIGHBOR(i, j, {
+  FOR_EACH_NEIGHBOR(i, j, xj, j_fluid, 1, {
     if (j != i) {
-      const uint4 pj = phases[j];
-      const float4 xj = positions[j];
       const float3 r = xi.xyz - xj.xyz;
-      if (fluid && pj.x == PARTICLE_FLUID) {
+      const uint4 pj = fluid && j_fluid ? uint4(0, 0, 0, 0) : phases[j];  // the kind is in the entry
+      if (fluid && j_fluid) {
         density_delta += particle_mass(xj) * (lambda_i + fluid_lambdas[j]) * spiky_gradient(K, r);
       } else if ((pj.y != ph.y || ((ph.w & PARTICLE_SELF_COLLIDE) != 0 &&
                                    // a strand's own neighbours along it overlap by construction
