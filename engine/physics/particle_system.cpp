@@ -110,11 +110,13 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   scratch("prev_positions", "particles.prev_positions", {n, 4}, DType::FLOAT32);
   scratch("deltas", "particles.deltas", {n, 4}, DType::FLOAT32);
   scratch("fluid_lambdas", "particles.fluid_lambdas", {n}, DType::FLOAT32);
+  scratch("wall_gradients", "particles.wall_gradients", {model_.has_fluid ? n : 1, 4}, DType::FLOAT32);
   scratch("vorticities", "particles.vorticities", {n, 4}, DType::FLOAT32);
   scratch("normals", "particles.normals", {n, 4}, DType::FLOAT32);
   scratch("velocity_copies", "particles.velocity_copies", {n, 4}, DType::FLOAT32);
   scratch("rigid_pushes", "particles.rigid_pushes", {n, 4}, DType::FLOAT32);
   scratch("rigid_contacts", "particles.rigid_contacts", {n, 4}, DType::FLOAT32);
+  scratch("collider_near", "particles.collider_near", {has_rigid_ ? n : 1}, DType::UINT32);
   // out: the force each particle exerts on a body (N, world, frame average; w body + 1, 0: none)
   in("rigid_forces", "particles.rigid_forces", std::vector<float4>(size_t(n), float4{0, 0, 0, 0}), {n, 4},
      DType::FLOAT32, exportable);
@@ -347,6 +349,7 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
     per_substep_clears_.push_back(lb->storage->buffer.buffer);
   }
   gather_ = pass("physics/particle_gather", uint64_t(n));
+  if (has_rigid_) collider_near_ = pass("physics/particle_collider_near", uint64_t(n));
   if (na > 0) attach_ = pass("physics/particle_attach", uint64_t(na));
   velocity_ = pass("physics/particle_velocity", uint64_t(n));
   if (elastic) {
@@ -355,7 +358,7 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   }
   // two-way coupling, where an env has dynamic bodies for particles to push
   if (has_rigid_ && dynamic_bodies) rigid_push_ = pass("physics/particle_rigid_push", uint64_t(ne));
-  for (auto* p : {gather_.get(), attach_.get(), fluid_lambda_.get(), neighbors_.get(), rigid_push_.get()})
+  for (auto* p : {collider_near_.get(), gather_.get(), attach_.get(), fluid_lambda_.get(), rigid_push_.get()})
     if (p) moving_.push_back(p);
   // and the load of the tissue a dynamic body holds
   if (has_rigid_ && dynamic_bodies && elastic && na > 0) rigid_hold_ = pass("physics/particle_rigid_hold", uint64_t(ne));
@@ -539,6 +542,7 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
     for (auto* p : moving_) std::memcpy(p->constants.data() + offsetof(shader::ParticleConstants, grid) + 4, &done, 4);
     for (VkBuffer b : per_substep_clears_) vkCmdFillBuffer(cmd, b, 0, VK_WHOLE_SIZE, 0);
     run(integrate_);
+    run(collider_near_);
     run(orient_integrate_);
     run(tendon_force_);
     run(needle_detect_);

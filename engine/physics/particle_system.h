@@ -59,7 +59,7 @@ class ParticleSystem {
   std::vector<VkBuffer> per_substep_clears_;  // zeroed at each substep start (grid counters, lambdas)
   VkBuffer frame_clear_ = VK_NULL_HANDLE;     // zeroed at each frame start (particle forces on bodies)
   std::vector<std::shared_ptr<compute::ComputePass>> all_;
-  std::shared_ptr<compute::ComputePass> emit_, integrate_, orient_integrate_, orient_velocity_, grid_count_, scan_local_, scan_blocks_, scan_add_, scatter_, sort_, neighbor_list_,
+  std::shared_ptr<compute::ComputePass> emit_, integrate_, collider_near_, orient_integrate_, orient_velocity_, grid_count_, scan_local_, scan_blocks_, scan_add_, scatter_, sort_, neighbor_list_,
       fluid_lambda_, neighbors_, gather_, rigid_push_, rigid_hold_, rigid_forces_, heat_cover_, heat_flow_, heat_apply_, coagulate_, coagulate_reset_, attach_, support_, velocity_, vorticity_,
       fluid_velocity_, tendon_, tendon_force_, needle_detect_, needle_solve_, needle_reset_, needle_load_,
       health_, reset_, remove_;

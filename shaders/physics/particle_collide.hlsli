@@ -43,6 +43,29 @@ ColliderPose collider_pose(ColliderModel c) {
 // particles meet the collider (its group lacks COLLIDER_NO_PARTICLES)
 bool meets_particles(ColliderModel c) { return (c.ids.z & COLLIDER_NO_PARTICLES) == 0; }
 
+// visits the colliders cm of env `env` near particle i this substep (particle_collider_near;
+// expects `collider_near` declared by the including kernel); `continue` in BODY goes to the next
+#define FOR_EACH_NEAR_COLLIDER(i, env, cm, BODY)                                               \
+  {                                                                                            \
+    const EnvRigidRange range_ = env_rigid_ranges[env];                                        \
+    const uint first_ = range_.bodies.z, end_ = first_ + range_.bodies.w;                      \
+    uint near_ = collider_near[i], next_ = first_ + 32;                                        \
+    while (true) {                                                                             \
+      uint c_;                                                                                 \
+      if (near_ != 0) {                                                                        \
+        c_ = first_ + firstbitlow(near_);                                                      \
+        near_ &= near_ - 1;                                                                    \
+      } else if (next_ < end_) {                                                               \
+        c_ = next_++;                                                                          \
+      } else {                                                                                 \
+        break;                                                                                 \
+      }                                                                                        \
+      const ColliderModel cm = colliders[c_];                                                  \
+      if (!meets_particles(cm)) continue;                                                      \
+      BODY                                                                                     \
+    }                                                                                          \
+  }
+
 float3 closest_on_segment(float3 p, float3 s0, float3 s1) {
   const float3 d = s1 - s0;
   const float t = saturate(dot(p - s0, d) / max(dot(d, d), 1e-12));

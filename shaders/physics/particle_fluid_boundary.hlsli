@@ -6,7 +6,7 @@
 // depths d + r + 2 r k behind it, each the nine lattice sites under the particle that fall inside
 // the kernel. A particle touching a flat wall (d = r) on the rest lattice then reads exactly the
 // rest density; corners count the overlap of two walls twice (a few per cent, at the corner only).
-// Expects particle_fluid.hlsli, particle_collide.hlsli and its buffers, and env_rigid_ranges.
+// Expects particle_fluid.hlsli, particle_collide.hlsli and its buffers, and collider_near.
 
 // density of the lattice behind a wall at distance d (centre to surface) and its derivative
 // along the wall normal, taken with the spiky gradient as the fluid's own corrections are
@@ -25,21 +25,18 @@ void wall_layers(Kernel K, float r, float m, float d, out float density, out flo
   }
 }
 
-// every collider of the env within the kernel's reach: density and its gradient at x
-void fluid_boundary(float3 x, uint env, float r, float m, Kernel K, out float density, out float3 gradient) {
+// every collider near particle i within the kernel's reach: density and its gradient at x
+void fluid_boundary(uint i, float3 x, uint env, float r, float m, Kernel K, out float density, out float3 gradient) {
   density = 0;
   gradient = float3(0, 0, 0);
   if (pc.has_rigid == 0) return;
   const float reach = K.h - r;  // beyond it the first layer (at d + r) is out of the kernel
-  const EnvRigidRange er = env_rigid_ranges[env];
-  for (uint c = er.bodies.z; c < er.bodies.z + er.bodies.w; ++c) {
-    const ColliderModel cm = colliders[c];
-    if (!meets_particles(cm)) continue;
+  FOR_EACH_NEAR_COLLIDER(i, env, cm, {
     float3 n;
     float depth, rho, slope;
     if (!sphere_penetration(x, reach, cm, collider_pose(cm), n, depth)) continue;
     wall_layers(K, r, m, max(reach - depth, 0.0), rho, slope);
     density += rho;
     gradient += slope * n;
-  }
+  })
 }

@@ -12,6 +12,8 @@ StructuredBuffer<uint4> phases;
 StructuredBuffer<float4> positions;
 RWStructuredBuffer<float> densities;
 RWStructuredBuffer<float> fluid_lambdas;
+StructuredBuffer<uint> collider_near;
+RWStructuredBuffer<float4> wall_gradients;  // for particle_neighbors, at these positions
 
 #include "particle_neighbor_list.hlsli"
 #include "particle_fluid.hlsli"
@@ -30,7 +32,8 @@ void main(uint3 id : SV_DispatchThreadID) {
   const float3 xi = positions[i].xyz;
   float density, sum_squares = 0;
   float3 grad_i;
-  fluid_boundary(xi, ph.z, o.material.x, particle_mass(positions[i]), K, density, grad_i);
+  fluid_boundary(i, xi, ph.z, o.material.x, particle_mass(positions[i]), K, density, grad_i);
+  wall_gradients[i] = float4(grad_i, 0);
   grad_i /= rho0;
   FOR_EACH_NEIGHBOR(i, j, xj, j_fluid, 1, {
     if (j_fluid) {

@@ -1,10 +1,11 @@
 // Per iteration, after the constraint families: every particle takes its neighbour delta (fluid
-// density, particle contacts), then is pushed out of the rigid colliders of its env with Coulomb
-// friction against the collider's motion over the substep. Against a dynamic body the overlap is
-// shared by inverse mass (the body's at the contact point, its mass split among the particles
-// that last pushed it: particle_rigid_push.comp.hlsl); the body's share is left in
-// rigid_pushes for particle_rigid_push (two-way coupling). The force on any body is summed per
-// particle over the frame in rigid_forces (particle_rigid_forces adds them up per body).
+// density, particle contacts), then is pushed out of the rigid colliders of its env near it this
+// substep (particle_collider_near) with Coulomb friction against the collider's motion over the
+// substep. Against a dynamic body the overlap is shared by inverse mass (the body's at the
+// contact point, its mass split among the particles that last pushed it:
+// particle_rigid_push.comp.hlsl); the body's share is left in rigid_pushes for
+// particle_rigid_push (two-way coupling). The force on any body is summed per particle over the
+// frame in rigid_forces (particle_rigid_forces adds them up per body).
 #include "cressim/layout.h"
 #include "cressim/particle.h"
 #include "cressim/quat.h"
@@ -17,6 +18,7 @@ StructuredBuffer<float4> deltas;
 StructuredBuffer<float4> prev_positions;
 StructuredBuffer<BodyModel> bodies;
 StructuredBuffer<uint> body_contact_counts;  // particle_rigid_push: particles sharing a body's mass
+StructuredBuffer<uint> collider_near;
 RWStructuredBuffer<float4> positions;
 RWStructuredBuffer<float4> rigid_pushes;   // xyz impulse-like correction on the body, w body + 1 (0: none)
 RWStructuredBuffer<float4> rigid_contacts; // xyz contact point
@@ -36,12 +38,9 @@ void main(uint3 id : SV_DispatchThreadID) {
   if (pc.has_rigid != 0) {
     const ParticleObject o = objects[ph.y];
     const float r = o.material.x, h = pc.gravity.w;
-    const EnvRigidRange er = env_rigid_ranges[ph.z];
     const float3 x0 = prev_positions[i].xyz;
     rigid_pushes[i] = float4(0, 0, 0, 0);
-    for (uint c = er.bodies.z; c < er.bodies.z + er.bodies.w; ++c) {
-      const ColliderModel cm = colliders[c];
-      if (!meets_particles(cm)) continue;
+    FOR_EACH_NEAR_COLLIDER(i, ph.z, cm, {
       const ColliderPose s = collider_pose(cm);
       float3 n;
       float depth;
@@ -71,7 +70,7 @@ void main(uint3 id : SV_DispatchThreadID) {
         const float3 momentum = correction / ((x.w + wb) * h);
         rigid_forces[i] = float4(rigid_forces[i].xyz - momentum / (h * pc.grid.w), float(b + 1));
       }
-    }
+    })
   }
   positions[i] = x;
 }

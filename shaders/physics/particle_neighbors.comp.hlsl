@@ -3,23 +3,21 @@
 // contacts (overlap of radii, split by inverse mass, averaged over the particle's contacts)
 // between particles of different objects, or of one self-colliding object. Each particle
 // writes only its own delta. A fluid particle near rigid walls also takes its own multiplier's
-// share along the walls' density gradient (the walls do not move).
+// share along the walls' density gradient (the walls do not move), as particle_fluid_lambda left
+// it in wall_gradients: the fluid has not moved since.
 #include "cressim/layout.h"
 #include "cressim/particle.h"
-#include "cressim/quat.h"
-#include "cressim/rigid.h"
 
 [[vk::push_constant]] ConstantBuffer<ParticleConstants> pc;
 StructuredBuffer<ParticleObject> objects;
 StructuredBuffer<uint4> phases;
 StructuredBuffer<float4> positions;
 StructuredBuffer<float> fluid_lambdas;
+StructuredBuffer<float4> wall_gradients;
 RWStructuredBuffer<float4> deltas;
 
 #include "particle_neighbor_list.hlsli"
 #include "particle_fluid.hlsli"
-#include "particle_collide.hlsli"
-#include "particle_fluid_boundary.hlsli"
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
 void main(uint3 id : SV_DispatchThreadID) {
@@ -57,12 +55,7 @@ void main(uint3 id : SV_DispatchThreadID) {
       }
     }
   })
-  if (fluid && lambda_i != 0) {
-    float wall_density;
-    float3 wall_gradient;
-    fluid_boundary(xi.xyz, ph.z, oi.material.x, particle_mass(xi), K, wall_density, wall_gradient);
-    density_delta += lambda_i * wall_gradient;
-  }
+  if (fluid && lambda_i != 0) density_delta += lambda_i * wall_gradients[i].xyz;
   float3 delta = density_delta / max(rho0, 1e-9);
   if (contacts > 0) delta += contact / contacts;
   deltas[i] = float4(delta, 0);

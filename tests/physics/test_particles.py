@@ -81,6 +81,24 @@ def test_settled_fluid_column_keeps_rest_density_and_stays_in(make_engine):
     assert abs(density[inner].mean() / 1000 - 1) < 0.01
 
 
+def test_particles_meet_colliders_past_the_first_32_of_their_env(make_engine):
+    # particle_collider_near keeps a bit for each of an env's first 32 colliders (the ones near a
+    # particle this substep); any beyond are visited every time. Here the floor is the 41st.
+    r = 0.025
+    world = cressim.World(cressim.SceneLayout(1))
+    far = [cressim.Shape.sphere(0.01, position=(5 + 0.1 * k, 5, 5)) for k in range(40)]
+    static(world, 0, far + [cressim.Shape.plane()])
+    water = world.create_entity(env=0, name="water")
+    water.add(cressim.Transform())
+    water.add(cressim.Fluid(lattice((3, 3, 3), 2 * r, (0, 0, 0.1)), radius=r, rest_density=1000))
+    engine = start(world, make_engine, dt=1 / 240, substeps=1, particle_iterations=4)
+    step(engine, 120)
+    p = positions(engine)
+    assert np.all(np.isfinite(p))
+    assert p[:, 2].min() > 0.5 * r  # on the floor, not through it
+    assert p[:, 2].max() < 0.1  # and settled there
+
+
 def _catenary(span, length):
     """a of y = a cosh(x / a) through (+-span/2) with arc length `length` (bisection)."""
     lo, hi = 1e-3, 100.0
