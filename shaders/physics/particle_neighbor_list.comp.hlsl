@@ -1,14 +1,13 @@
 // Neighbour grid, step 5: each active particle lists the particles within the grid's reach
 // (the cell size: the widest fluid kernel or contact) plus a 5 % skin for what moves into
-// reach during the iterations, at most PARTICLE_MAX_NEIGHBORS in walk order, each marked
-// with its kind. Walking 27 cells
-// per iteration pass cost several times the list (a fluid cell holds 8 particles, a particle
-// about 40 neighbours).
+// reach during the iterations, at most PARTICLE_MAX_NEIGHBORS in walk order, each marked with
+// its kind. Walking 27 cells per iteration pass cost several times the list (a fluid cell holds
+// 8 particles, a particle about 40 neighbours).
 // PARTICLE_LIST_LANES adjacent threads (lanes of one subgroup, in order: the engine checks the
 // subgroup is wide enough) share a particle: they test a cell's candidates that many at a time
 // and a ballot gives each accepted one its slot, so the list keeps the walk's order. One thread
 // a particle left the walk's chain of dependent loads (bucket, candidate, its cell and position)
-// bare: 0.79 ms of FluidPour's frame at 128 envs on an H100, 0.60 ms with 4 lanes. The passes
+// bare: 0.79 ms of FluidPour's frame at 128 envs on an H100, 0.67 ms with 4 lanes. The passes
 // that read the lists stay at one thread a particle: split over lanes they were slower.
 #include "cressim/layout.h"
 #include "cressim/particle.h"
