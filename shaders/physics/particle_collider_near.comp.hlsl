@@ -4,7 +4,7 @@
 // cost FluidPour's frame about 0.4 of its 2.9 ms at 128 envs (an H100), with a dozen walls an
 // env and most particles far from most of them.
 // A collider is near when it comes within the particle's reach (its radius; a fluid particle's
-// kernel less its radius, for the wall density) plus a cell of the neighbour grid, the motion the
+// wall_reach, for the wall density) plus a cell of the neighbour grid, the motion the
 // iterations may add, at its pose at the end of the substep (the one every pass uses).
 #include "cressim/layout.h"
 #include "cressim/particle.h"
@@ -18,6 +18,7 @@ StructuredBuffer<float4> positions;
 RWStructuredBuffer<uint> collider_near;
 
 #include "particle_collide.hlsli"
+#include "particle_fluid.hlsli"
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
 void main(uint3 id : SV_DispatchThreadID) {
@@ -28,7 +29,7 @@ void main(uint3 id : SV_DispatchThreadID) {
   if ((ph.w & PARTICLE_ACTIVE) != 0) {
     const float3 x = positions[i].xyz;
     const float r = objects[ph.y].material.x;
-    const float reach = (ph.x == PARTICLE_FLUID ? 3 * r : r) + pc.grid.x;
+    const float reach = (ph.x == PARTICLE_FLUID ? wall_reach(make_kernel(r), r) : r) + pc.grid.x;
     const EnvRigidRange range = env_rigid_ranges[ph.z];
     const uint first = range.bodies.z, end = first + min(range.bodies.w, 32u);
     for (uint c = first; c < end; ++c) {

@@ -51,3 +51,7 @@ float cohesion_spline(Kernel k, float r) {
 
 // mass of a particle (w is its inverse)
 float particle_mass(float4 x) { return x.w > 0 ? 1.0 / x.w : 0; }
+
+// how near a wall (centre to surface) adds density to a fluid particle of radius r: beyond it the
+// first lattice layer behind the wall (at d + r) is out of the kernel
+float wall_reach(Kernel K, float r) { return K.h - r; }

@@ -30,7 +30,7 @@ void fluid_boundary(uint i, float3 x, uint env, float r, float m, Kernel K, out 
   density = 0;
   gradient = float3(0, 0, 0);
   if (pc.has_rigid == 0) return;
-  const float reach = K.h - r;  // beyond it the first layer (at d + r) is out of the kernel
+  const float reach = wall_reach(K, r);
   FOR_EACH_NEAR_COLLIDER(i, env, cm, {
     float3 n;
     float depth, rho, slope;
