@@ -78,7 +78,9 @@ def drive(policy_path: str, target, hold: float, arm_name: str = "PSM1") -> dict
     result = {}
 
     def run():
-        psm = dvrk.psm(ral, arm_name)
+        # a reading may be seconds old on a loaded CPU-only machine (the twin's ticks then take
+        # seconds; a make test beside two busy processes saw 5 s), past the client's default 5 s
+        psm = dvrk.psm(ral, arm_name, connection_timeout=60.0)
         ral.check_connections(60.0)
         if not (psm.enable(60.0) and psm.home(60.0)):
             raise SystemExit(f"! enable/home failed: {psm.operating_state()}")
