@@ -33,6 +33,38 @@ using compute::DType;
 using shader::float4;
 using shader::uint4;
 
+// The workgroup solve's copy of a family's records (PARTICLE_BLOCK_NONE in cressim/particle.h
+// says the layout): each record's particles as indices into the env whose slice of
+// `env_colours` holds it, and its rest value and compliance as authored (particle_block_pack
+// refreshes those each frame).
+std::vector<uint4> block_records(const ConstraintSet& s, const std::vector<shader::ParticleEnvRange>& envs) {
+  std::vector<uint4> rows(s.records.size(), uint4{shader::PARTICLE_BLOCK_NONE * 0x10001u, shader::PARTICLE_BLOCK_NONE * 0x10001u, 0, 0});
+  const size_t colours = s.colour_count.size();
+  for (size_t e = 0; e < envs.size(); ++e) {
+    const uint32_t first = envs[e].range.x, count = envs[e].range.y;
+    for (size_t k = 0; k < colours; ++k) {
+      const uint32_t begin = s.env_colours[2 * (e * colours + k)], n = s.env_colours[2 * (e * colours + k) + 1];
+      for (uint32_t c = begin; c < begin + n; ++c) {
+        const auto& rec = s.records[c];
+        const uint32_t ids[4] = {rec.particles.x, rec.particles.y, rec.particles.z, rec.particles.w};
+        uint32_t local[4];
+        for (int m = 0; m < 4; ++m) {
+          if (ids[m] == shader::CRESSIM_NONE) { local[m] = shader::PARTICLE_BLOCK_NONE; continue; }
+          if (ids[m] < first || ids[m] - first >= count)
+            throw std::logic_error("particle family '" + s.name + "': record " + std::to_string(c) + " of env " +
+                                   std::to_string(e) + " has particle " + std::to_string(ids[m]) + " outside the env");
+          local[m] = ids[m] - first;
+        }
+        float params[2] = {rec.params.x, rec.params.y};
+        uint32_t bits[2];
+        std::memcpy(bits, params, sizeof(bits));
+        rows[c] = uint4{local[0] | local[1] << 16, local[2] | local[3] << 16, bits[0], bits[1]};
+      }
+    }
+  }
+  return rows;
+}
+
 constexpr uint32_t kScanBlock = 256;  // particle_scan_*.comp.hlsl group size
 constexpr uint32_t kGroup = shader::CRESSIM_GROUP_SIZE;
 
@@ -331,11 +363,18 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
     }
     auto p = compute::create_builtin_pass(ctx, s.shader, b);
     all_.push_back(p);
-    Family f{p, nullptr, &s};
+    Family f{p, nullptr, nullptr, &s};
     if (s.rows_per_record) moving_.push_back(p.get());  // the elastic solve's contacts
     if (const std::string block = block_build(shaders, s.shader, largest_env_); !block.empty()) {
       b["env_colours"] = in("", "particles." + s.name + "_env_colours", s.env_colours,
                             {int64_t(s.env_colours.size() / 2), 2}, DType::UINT32);
+      if (s.vertices.empty()) {  // particle_solve.hlsli's 16-byte records (PARTICLE_BLOCK_NONE in cressim/particle.h)
+        b["block_records"] = in("", "particles." + s.name + "_block_records", block_records(s, model_.env_ranges), {c, 4},
+                                DType::UINT32);
+        f.pack = compute::create_builtin_pass(ctx, "physics/particle_block_pack", b);
+        f.pack->set_threads({uint64_t(c), 1, 1});
+        all_.push_back(f.pack);
+      }
       f.per_env = compute::create_builtin_pass(ctx, block, b);
       f.per_env->groups = {uint32_t(ne), 1, 1};
       all_.push_back(f.per_env);
@@ -510,6 +549,8 @@ void ParticleSystem::set_constants(const PhysicsSettings& s) {
     c.item_count = p == scan_blocks_ ? blocks_ : (p == emit_ || p == reset_) ? uint32_t(model_.objects.size()) : 0;
     for (auto& [r, records] : cut_resets_)
       if (p == r) c.item_count = records;
+    for (auto& f : families_)
+      if (p == f.pack) c.item_count = uint32_t(f.set->records.size());
     if (p == heat_flow_) c.item_count = heat_flow_items_;
     if (p == coagulate_ || p == coagulate_reset_) c.item_count = coagulate_items_;
     if (p == coagulate_reset_) c.item_offset = 1;  // write every tet
@@ -532,6 +573,10 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
   const uint32_t substeps = settings_.particle_substep_count();
   run(remove_);
   run(emit_);
+  bool packed = false;
+  for (auto& f : families_)
+    if (f.pack && workgroup_solve(f)) f.pack->record(cmd), packed = true;
+  if (packed) gpu::compute_barrier(cmd);
   if (rigid_forces_) {
     vkCmdFillBuffer(cmd, frame_clear_, 0, VK_WHOLE_SIZE, 0);
     gpu::compute_barrier(cmd);

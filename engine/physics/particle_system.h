@@ -66,7 +66,8 @@ class ParticleSystem {
   // a non-empty constraint set: its pass dispatched once per colour, and for positional
   // families whose envs fit in group memory the one-workgroup-per-env pass
   struct Family {
-    std::shared_ptr<compute::ComputePass> per_colour, per_env;
+    // per_env's records refreshed each frame (particle_block_pack), for families on particle_solve.hlsli
+    std::shared_ptr<compute::ComputePass> per_colour, per_env, pack;
     const ConstraintSet* set;
   };
   bool workgroup_solve(const Family& f) const;  // this family's schedule under the settings

@@ -12,10 +12,14 @@ static const uint PARTICLE_SOLID = 1;   // soft bodies (tetrahedral or meshfree)
 static const uint PARTICLE_FLUID = 2;   // position-based fluids
 static const uint PARTICLE_STRAND = 3;  // threads and cables
 
-// phase.w flags
 // the most particles one env may have for the one-workgroup-per-env constraint solve (group memory):
 // the largest of the `.blockN` builds in cmake/shaders.cmake
 static const uint PARTICLE_BLOCK_CAPACITY = 1024;
+// That solve's copy of a record (particles.<family>_block_records, a uint4 each): x and y the
+// record's particles as indices into its env (16 bits each, low half first; PARTICLE_BLOCK_NONE
+// where unused), set by the engine; z the rest value and w the compliance (negative while the
+// record is cut), copied from the record each frame by particle_block_pack.
+static const uint PARTICLE_BLOCK_NONE = 0xFFFF;
 // Thread-group width of the per-env reductions (health, contact forces on bodies): one group an
 // env, its threads striding over the env's particles. A thread an env looping over them all was
 // the slowest pass of small-env tasks (0.22 ms of 0.59 for 32 envs of 343 particles on an H100).
@@ -29,6 +33,7 @@ static const uint PARTICLE_NEIGHBOR_FLUID = 0x80000000u;
 // threads a particle building its neighbour list (particle_neighbor_list.comp.hlsl); a power of two
 static const uint PARTICLE_LIST_LANES = 4;
 
+// phase.w flags
 static const uint PARTICLE_ACTIVE = 1;        // inactive slots (fluid budget) neither move nor collide
 static const uint PARTICLE_SELF_COLLIDE = 2;  // collides with particles of its own object
 static const uint PARTICLE_ELASTIC = 4;       // moved by an elastic energy (particle_tet): integrated without gravity

@@ -2,6 +2,7 @@
 // neighbours, per unit segment length: C = (|x1 - (x0 + x2) / 2| - rest) / segment, rest 0. For
 // small angles this is the discrete curvature times segment / 2, so bend compliance acts like a
 // rod's inverse bending stiffness.
+#define CRESSIM_RECORD_ZW  // the segment length
 #include "particle_constraint.hlsli"
 
 uint evaluate(ParticleConstraint rec, float3 x[4], out float C, out float3 g[4]) {

@@ -8,8 +8,11 @@
 //   the env's particles go to group memory, every colour is projected in turn (a group barrier
 //   between colours) pc.item_offset times over, then written back. That is one dispatch where the
 //   first needs colours x passes, and dispatches, not arithmetic, bound small soft bodies in
-//   many envs.
-// Both skip cut records (control.particle_<family>_cut).
+//   many envs. It reads its records from `block_records`, 16 bytes each (particle_block_pack):
+//   with the whole record and its cut flag (36 bytes), SoftBodyPush's 512 envs read 65 MB a
+//   pass with the multipliers, more than the H100's 50 MB L2: every colour step waited on memory.
+// Both skip cut records (control.particle_<family>_cut). A family whose evaluate() reads
+// params.zw defines CRESSIM_RECORD_ZW first: the block build then loads them from the record.
 
 #ifndef CRESSIM_BLOCK
 
@@ -40,6 +43,7 @@ void main(uint3 id : SV_DispatchThreadID) {
 
 StructuredBuffer<ParticleEnvRange> env_ranges;
 StructuredBuffer<uint2> env_colours;  // (first, count) of this family's records per env and colour
+StructuredBuffer<uint4> block_records;  // laid out as PARTICLE_BLOCK_NONE in cressim/particle.h says
 groupshared float4 block_x[CRESSIM_BLOCK];
 // 256 threads: a colour of SoftBodyPush's edges (up to 171 records) is one step for every thread,
 // and its solve took 3.5 instead of 4.2 ms a frame at 512 envs (H100; benchmarks/README.md, with
@@ -57,26 +61,30 @@ void main(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
       const uint2 r = env_colours[env * colours + k];
       for (uint j = lane; j < r.y; j += BLOCK_THREADS) {
         const uint c = r.x + j;
-        // the flag, record and multiplier loaded together: testing the flag first puts a whole
-        // memory round trip in front of every projection
-        const bool on = cut[c] == 0;
-        const ParticleConstraint rec = constraints[c];
+        // record and multiplier loaded together: the cut flag is in the record's compliance
+        const uint4 packed = block_records[c];
         const float lambda = lambdas[c];
-        const uint ids[4] = {rec.particles.x, rec.particles.y, rec.particles.z, rec.particles.w};
+        const uint ids[4] = {packed.x & 0xFFFF, packed.x >> 16, packed.y & 0xFFFF, packed.y >> 16};
+        ParticleConstraint rec;
+        rec.particles = uint4(0, 0, 0, 0);  // evaluate() reads positions, not indices
+        rec.params = float4(asfloat(packed.z), asfloat(packed.w), 0, 0);
+#ifdef CRESSIM_RECORD_ZW
+        rec.params.zw = constraints[c].params.zw;
+#endif
         float3 x[4];
         float w[4];
         for (uint m = 0; m < 4; ++m) {
-          const float4 p = ids[m] == CRESSIM_NONE ? float4(0, 0, 0, 0) : block_x[ids[m] - first];
+          const float4 p = ids[m] == PARTICLE_BLOCK_NONE ? float4(0, 0, 0, 0) : block_x[ids[m]];
           x[m] = p.xyz;
           w[m] = p.w;
         }
         float C;
         float3 g[4];
         const uint n = evaluate(rec, x, C, g);
-        if (on) {
+        if (rec.params.y >= 0) {
           const float dl = xpbd_delta(rec, n, C, g, w, lambda);
           lambdas[c] = lambda + dl;
-          for (uint m = 0; m < n; ++m) block_x[ids[m] - first] = float4(x[m] + w[m] * dl * g[m], w[m]);
+          for (uint m = 0; m < n; ++m) block_x[ids[m]] = float4(x[m] + w[m] * dl * g[m], w[m]);
         }
       }
       GroupMemoryBarrierWithGroupSync();
