@@ -29,7 +29,12 @@ foreach(src ${CRESSIM_SHADERS})
   # one-workgroup-per-env build, one per group-memory size (particles an env): the engine takes
   # the smallest that holds its largest env, since group memory sets how many share a multiprocessor
   set(variants "${name}|")
-  file(STRINGS ${src} block_solve REGEX "#include \"particle_solve.hlsli\"|^#ifdef CRESSIM_BLOCK")
+  file(STRINGS ${src} block_solve REGEX "#include \"particle_solve.hlsli\"|^#ifdef CRESSIM_BLOCK|^#ifndef CRESSIM_BLOCK")
+  # a kernel that exists only per env (particle_iterations) stops a build without CRESSIM_BLOCK
+  file(STRINGS ${src} block_only REGEX "^#error .* CRESSIM_BLOCK only")
+  if(block_only)
+    set(variants "")
+  endif()
   if(block_solve)
     foreach(capacity 256 512 1024)
       list(APPEND variants "${name}.block${capacity}|-DCRESSIM_BLOCK=${capacity}")

@@ -33,6 +33,12 @@ using compute::DType;
 using shader::float4;
 using shader::uint4;
 
+// a pass's item_offset and item_count (ParticleConstants), set as it is recorded
+void put(compute::ComputePass& p, uint32_t offset, uint32_t count) {
+  std::memcpy(p.constants.data() + offsetof(shader::ParticleConstants, item_offset), &offset, 4);
+  std::memcpy(p.constants.data() + offsetof(shader::ParticleConstants, item_count), &count, 4);
+}
+
 // The workgroup solve's copy of a family's records (PARTICLE_BLOCK_NONE in cressim/particle.h
 // says the layout): each record's particles as indices into the env whose slice of
 // `env_colours` holds it, and its rest value and compliance as authored (particle_block_pack
@@ -429,6 +435,34 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   }
   if (model_.has_emitters) emit_ = pass("physics/particle_emit", uint64_t(no));
   if (model_.has_fluid) remove_ = pass("physics/particle_remove", uint64_t(n));
+  // a substep's iterations in one workgroup per env, where they hold nothing but the distance and
+  // volume families, particle contacts, colliders and attachments (particle_iterations.comp.hlsl)
+  const std::string fused = block_build(shaders, "physics/particle_iterations", largest_env_);
+  bool position_families_only = !families_.empty();
+  for (auto& f : families_) position_families_only &= f.set->name == "distance" || f.set->name == "volume";
+  if (!fused.empty() && position_families_only && neighbors_ && !model_.has_fluid && !needle_solve_ && !tendon_ &&
+      !rigid_push_) {
+    auto b = bindings_;
+    const auto unused = in("", "particles.iteration_unused", std::vector<uint32_t>(4, 0u), {1, 4}, DType::UINT32);
+    std::vector<uint32_t> colours(4, 0u);
+    const char* slots[] = {"distance", "volume"};
+    for (size_t k = 0; k < 2; ++k) {
+      const std::string name = slots[k];
+      for (const char* field : {"_records", "_lambdas", "_colours"}) b[name + field] = unused;
+      for (auto& f : families_)
+        if (f.set->name == name) {
+          b[name + "_records"] = internal.at("particles." + name + "_block_records");
+          b[name + "_lambdas"] = internal.at("particles." + name + "_lambdas");
+          b[name + "_colours"] = internal.at("particles." + name + "_env_colours");
+          colours[k] = uint32_t(f.set->colour_count.size());
+        }
+    }
+    b["family_colours"] = in("", "particles.iteration_family_colours", colours, {1, 4}, DType::UINT32);
+    iterations_ = compute::create_builtin_pass(ctx, fused, b);
+    iterations_->groups = {uint32_t(ne), 1, 1};
+    all_.push_back(iterations_);
+    moving_.push_back(iterations_.get());
+  }
   set_settings(settings);
 }
 
@@ -485,10 +519,6 @@ bool ParticleSystem::workgroup_solve(const Family& f) const {
 
 // every constraint family `passes` times over (Gauss-Seidel between colours and families)
 void ParticleSystem::record_families(VkCommandBuffer cmd, uint32_t passes) const {
-  auto put = [](compute::ComputePass& p, uint32_t offset, uint32_t count) {
-    std::memcpy(p.constants.data() + offsetof(shader::ParticleConstants, item_offset), &offset, 4);
-    std::memcpy(p.constants.data() + offsetof(shader::ParticleConstants, item_count), &count, 4);
-  };
   for (auto& f : families_) {
     if (f.per_env && workgroup_solve(f)) {
       const bool vertices = !f.set->vertices.empty();
@@ -598,7 +628,10 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
     // contact iteration k follows the families' iterations up to floor((k + 1) I / C)
     const uint32_t iterations = settings_.particle_iterations;
     const uint32_t contacts = settings_.particle_contact_iterations ? settings_.particle_contact_iterations : iterations;
-    for (uint32_t k = 0; k < contacts; ++k) {
+    if (iterations_ && settings_.particle_solver != "dispatch") {  // all of them in one dispatch
+      put(*iterations_, iterations, contacts);
+      run(iterations_);
+    } else for (uint32_t k = 0; k < contacts; ++k) {
       run(fluid_lambda_);
       const uint32_t passes = (k + 1) * iterations / contacts - k * iterations / contacts;
       // punctures before the families: the elastic solve holds the tissue where they pin it, and a

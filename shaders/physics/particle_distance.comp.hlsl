@@ -1,17 +1,5 @@
-// Distance constraints (tet edges, meshfree neighbours, strand segments): C = |xi - xj| / L - 1.
+// The distance family's passes (particle_solve.hlsli); its constraint is in particle_distance.hlsli.
 #include "particle_constraint.hlsli"
-
-uint evaluate(ParticleConstraint rec, float3 x[4], out float C, out float3 g[4]) {
-  const float3 d = x[0] - x[1];
-  const float len = length(d), rest = rec.params.x;
-  g[0] = float3(0, 0, 0);
-  g[1] = g[2] = g[3] = g[0];
-  if (len > 1e-9) {
-    g[0] = d / (len * rest);
-    g[1] = -g[0];
-  }
-  C = len / rest - 1;
-  return 2;
-}
-
+#include "particle_distance.hlsli"
+#define evaluate evaluate_distance
 #include "particle_solve.hlsli"

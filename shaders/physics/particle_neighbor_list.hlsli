@@ -1,11 +1,15 @@
 // Each particle's neighbours, listed once per substep by particle_neighbor_list (the grid walk,
 // in its deterministic order); the iteration passes read the list instead of walking 27 cells.
 // Entry k of particle i is at k * particle_count + i so that a warp's reads are contiguous.
-// Expects `positions` declared by the including kernel.
+// Expects `positions` declared by the including kernel, or NEIGHBOR_POSITION(j) defined first
+// (particle_iterations reads the env's particles from group memory).
+#ifndef NEIGHBOR_POSITION
+#define NEIGHBOR_POSITION(j) positions[j]
+#endif
 StructuredBuffer<uint> neighbor_counts;
 StructuredBuffer<uint> neighbor_lists;
 
-// visits particle i's neighbours j (i itself included) with xj = positions[j] and j_fluid its
+// visits particle i's neighbours j (i itself included) with xj their position and j_fluid its
 // kind, `batch` at a time: their entries and positions are loaded together. A pass that reads
 // several fields of each neighbour gains from batches of 4 if BODY loads them before any branch
 // (the fluid velocity passes, 0.42 -> 0.34 ms of FluidPour's frame at 128 envs on an H100); the
@@ -21,7 +25,7 @@ StructuredBuffer<uint> neighbor_lists;
       [unroll] for (uint u_ = 0; u_ < (batch); ++u_)                                                 \
         entry_[u_] = neighbor_lists[min(k_ + u_, count_ - 1) * pc.particle_count + (i)];            \
       [unroll] for (uint u_ = 0; u_ < (batch); ++u_)                                                 \
-        x_[u_] = positions[entry_[u_] & ~PARTICLE_NEIGHBOR_FLUID];                                   \
+        x_[u_] = NEIGHBOR_POSITION(entry_[u_] & ~PARTICLE_NEIGHBOR_FLUID);                           \
       [unroll] for (uint u_ = 0; u_ < (batch); ++u_) {                                               \
         if (k_ + u_ < count_) {                                                                      \
           const uint j = entry_[u_] & ~PARTICLE_NEIGHBOR_FLUID;                                      \

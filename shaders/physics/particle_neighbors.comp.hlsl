@@ -18,6 +18,7 @@ RWStructuredBuffer<float4> deltas;
 
 #include "particle_neighbor_list.hlsli"
 #include "particle_fluid.hlsli"
+#include "particle_contact.hlsli"
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
 void main(uint3 id : SV_DispatchThreadID) {
@@ -41,17 +42,8 @@ void main(uint3 id : SV_DispatchThreadID) {
       const uint4 pj = fluid && j_fluid ? uint4(0, 0, 0, 0) : phases[j];  // the kind is in the entry
       if (fluid && j_fluid) {
         density_delta += particle_mass(xj) * (lambda_i + fluid_lambdas[j]) * spiky_gradient(K, r);
-      } else if ((pj.y != ph.y || ((ph.w & PARTICLE_SELF_COLLIDE) != 0 &&
-                                   // a strand's own neighbours along it overlap by construction
-                                   !(ph.x == PARTICLE_STRAND && abs(int(j) - int(i)) <= 2))) &&
-                 // a suture thread runs through the tissue it is sewn into
-                 !(((ph.w | pj.w) & PARTICLE_NO_SOFT_CONTACT) != 0 && (ph.x == PARTICLE_SOLID || pj.x == PARTICLE_SOLID))) {
-        const float reach = oi.material.x + objects[pj.y].material.x, d = length(r);
-        const float w = xi.w + xj.w;
-        if (d < reach && d > 1e-9 && w > 0) {
-          contact += (reach - d) * (xi.w / w) * (r / d);
-          contacts += 1;
-        }
+      } else if (particles_collide(i, ph, j, pj)) {
+        add_contact(r, oi.material.x + objects[pj.y].material.x, xi.w, xj.w, contact, contacts);
       }
     }
   })

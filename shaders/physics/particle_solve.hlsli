@@ -1,8 +1,9 @@
 // Entry points of a positional constraint family (one that moves particle positions only). The
-// family file defines
-//   uint evaluate(ParticleConstraint rec, float3 x[4], out float C, out float3 g[4])
-// (value and gradients at its particles' positions x; returns how many particles it has) and
-// includes this file after it. cmake/shaders.cmake builds it two ways:
+// family's constraint is in particle_<family>.hlsli:
+//   uint evaluate_<family>(ParticleConstraint rec, float3 x[4], out float C, out float3 g[4])
+// (value and gradients at its particles' positions x; returns how many particles it has). Its
+// pass file includes that, defines `evaluate` as it and includes this file after it.
+// cmake/shaders.cmake builds it two ways:
 // - by default one dispatch per colour: a thread per constraint, straight on `positions`;
 // - with CRESSIM_BLOCK = N (the `.blockN` passes) one workgroup per env of at most N particles:
 //   the env's particles go to group memory, every colour is projected in turn (a group barrier
@@ -41,55 +42,29 @@ void main(uint3 id : SV_DispatchThreadID) {
 
 #else
 
+#include "particle_block.hlsli"
 StructuredBuffer<ParticleEnvRange> env_ranges;
 StructuredBuffer<uint2> env_colours;  // (first, count) of this family's records per env and colour
-StructuredBuffer<uint4> block_records;  // laid out as PARTICLE_BLOCK_NONE in cressim/particle.h says
+StructuredBuffer<uint4> block_records;
 groupshared float4 block_x[CRESSIM_BLOCK];
 // 256 threads: a colour of SoftBodyPush's edges (up to 171 records) is one step for every thread,
 // and its solve took 3.5 instead of 4.2 ms a frame at 512 envs (H100; benchmarks/README.md, with
 // what else was tried: records and multipliers in group memory, the next colour's prefetched)
 static const uint BLOCK_THREADS = 256;
+#ifdef CRESSIM_RECORD_ZW
+#define RECORD_ZW(c) constraints[c].params.zw
+#else
+#define RECORD_ZW BLOCK_NO_ZW
+#endif
 
 [numthreads(BLOCK_THREADS, 1, 1)]
 void main(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
-  const uint env = group.x, lane = thread.x, colours = pc.item_count;
+  const uint env = group.x, lane = thread.x;
   const uint first = env_ranges[env].range.x, count = env_ranges[env].range.y;
   for (uint i = lane; i < count; i += BLOCK_THREADS) block_x[i] = positions[first + i];
   GroupMemoryBarrierWithGroupSync();
-  for (uint pass = 0; pass < pc.item_offset; ++pass) {
-    for (uint k = 0; k < colours; ++k) {
-      const uint2 r = env_colours[env * colours + k];
-      for (uint j = lane; j < r.y; j += BLOCK_THREADS) {
-        const uint c = r.x + j;
-        // record and multiplier loaded together: the cut flag is in the record's compliance
-        const uint4 packed = block_records[c];
-        const float lambda = lambdas[c];
-        const uint ids[4] = {packed.x & 0xFFFF, packed.x >> 16, packed.y & 0xFFFF, packed.y >> 16};
-        ParticleConstraint rec;
-        rec.particles = uint4(0, 0, 0, 0);  // evaluate() reads positions, not indices
-        rec.params = float4(asfloat(packed.z), asfloat(packed.w), 0, 0);
-#ifdef CRESSIM_RECORD_ZW
-        rec.params.zw = constraints[c].params.zw;
-#endif
-        float3 x[4];
-        float w[4];
-        for (uint m = 0; m < 4; ++m) {
-          const float4 p = ids[m] == PARTICLE_BLOCK_NONE ? float4(0, 0, 0, 0) : block_x[ids[m]];
-          x[m] = p.xyz;
-          w[m] = p.w;
-        }
-        float C;
-        float3 g[4];
-        const uint n = evaluate(rec, x, C, g);
-        if (rec.params.y >= 0) {
-          const float dl = xpbd_delta(rec, n, C, g, w, lambda);
-          lambdas[c] = lambda + dl;
-          for (uint m = 0; m < n; ++m) block_x[ids[m]] = float4(x[m] + w[m] * dl * g[m], w[m]);
-        }
-      }
-      GroupMemoryBarrierWithGroupSync();
-    }
-  }
+  BLOCK_SOLVE_COLOURS(evaluate, block_records, lambdas, env_colours, RECORD_ZW, env, pc.item_count, pc.item_offset,
+                      lane, BLOCK_THREADS)
   for (uint i = lane; i < count; i += BLOCK_THREADS) positions[first + i] = block_x[i];
 }
 

@@ -49,6 +49,75 @@ def test_workgroup_solve_matches_per_colour_dispatches(make_engine, cells, build
     np.testing.assert_allclose(runs["workgroup"], runs["dispatch"], atol=1e-5)
 
 
+def _pushed_cube(envs=2):
+    """SoftBodyPush in small, per env: a self-colliding soft cube on a ground box and a kinematic
+    capsule that will push it. Nothing else acts between two iterations, so the workgroup schedule
+    runs a substep's iterations, contacts and colliders in one dispatch (particle_iterations)."""
+    world = cressim.World(cressim.SceneLayout(envs))
+    mesh = cressim.TetMesh.box((0.05, 0.05, 0.05), (3, 3, 3))
+    pushers = []
+    for env in range(envs):
+        static(world, env, [cressim.Shape.box((0.5, 0.5, 0.05), position=(0, 0, -0.05))], "ground")
+        cube = world.create_entity(env=env, name="cube")
+        cube.add(cressim.Transform(position=(0.01 * env, 0, 0.08)))
+        cube.add(cressim.SoftBody(mesh, radius=0.02, mass=0.01, distance_compliance=1e-3, volume_compliance=1e-3,
+                                  damping=0.5, self_collision=True))
+        pusher = world.create_entity(env=env, name="pusher")
+        pusher.add(cressim.Transform(position=(-0.12, 0, 0.06)))
+        pusher.add(cressim.RigidBody(kinematic=True))
+        pusher.add(cressim.Collider([cressim.Shape.capsule(0.03, 0.05)]))
+        pushers.append(pusher)
+    return world, mesh, pushers
+
+
+def test_a_substeps_iterations_in_one_workgroup_match_the_passes(make_engine):
+    """The pushed cube in both schedules: per-colour dispatches and the one-dispatch-a-substep
+    build (particle_iterations.block256), with 4 contact iterations in 8 (the families' passes
+    between them), a particle held by env 1's pusher, a cut made mid-run in env 0, and the force on
+    each pusher."""
+    runs = {}
+    for solver in ("dispatch", "workgroup"):
+        world, mesh, pushers = _pushed_cube()
+        engine = start(world, make_engine, substeps=2, particle_iterations=8, particle_contact_iterations=4,
+                       particle_solver=solver)
+        before = positions(engine)
+        engine.profiling = engine.profile_passes = True
+        step(engine, 1)
+        engine.profiling = engine.profile_passes = False
+        names = {name for _, name, _ in engine.last_pass_timings}
+        fused = {name for name in names if "particle_iterations" in name}
+        assert fused == ({"physics/particle_iterations.block256"} if solver == "workgroup" else set()), names
+        if solver == "workgroup":  # nothing of the iterations left outside it
+            assert not {n for n in names if "volume" in n or "distance" in n or n.endswith(("neighbors", "gather", "attach"))}, names
+        forces = []
+        for f in range(40):
+            if f == 20:  # the edges crossing the cube's middle plane, in env 0
+                rec = engine.buffer("particles.distance_constraints").read()[:, :2].astype(np.int64)
+                rest = engine.buffer("particles.initial_positions").read()[:, 0]
+                n = len(mesh.positions)
+                crossing = np.nonzero((rec[:, 0] < n) & (rec[:, 1] < n) & ((rest[rec[:, 0]] > 0) != (rest[rec[:, 1]] > 0)))[0]
+                assert len(crossing) > 0
+                engine.cut_constraints("distance", crossing)
+            if f == 10:  # env 1's particle nearest its pusher held by it (the attachment slots)
+                n = len(mesh.positions)
+                p1 = positions(engine)[n:2 * n]
+                near = n + int(np.argmin(np.linalg.norm(p1 - [-0.12 + 0.04 + 0.01, 0, 0.06], axis=1)))
+                engine.attach_particle(env=1, slot=0, particle=near, body=pushers[1])
+            for env, pusher in enumerate(pushers):
+                pusher.transform = cressim.Transform(position=(-0.12 + 0.004 * f + 0.01 * env, 0, 0.06))
+            step(engine, 1)
+            forces.append(engine.buffer("rigid.contact_forces").read()[:, :3].copy())
+        runs[solver] = positions(engine)
+        runs[solver + " forces"] = np.array(forces)
+    moved = runs["dispatch"] - before
+    assert moved[:, 0].max() > 0.02, "the pushers moved the cubes along x"
+    assert np.abs(runs["dispatch forces"]).max() > 0.01, "and felt them"
+    # the same arithmetic in the same order (lavapipe gives the same bits; the GPU may contract
+    # differently); leaving out the attachment moves the cubes by 4e-4 m
+    np.testing.assert_allclose(runs["workgroup"], runs["dispatch"], atol=2e-5)
+    np.testing.assert_allclose(runs["workgroup forces"], runs["dispatch forces"], atol=1e-3 * np.abs(runs["dispatch forces"]).max())
+
+
 def test_workgroup_solve_matches_per_colour_dispatches_for_elastic_tets(make_engine):
     """The elastic vertex solve (particle_tet) in both schedules: a 20 kPa cube dropped on the
     ground, two envs (the second shifted and tilted by its start), contacts inside the solve, and a
