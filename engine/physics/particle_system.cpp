@@ -436,17 +436,20 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   if (model_.has_emitters) emit_ = pass("physics/particle_emit", uint64_t(no));
   if (model_.has_fluid) remove_ = pass("physics/particle_remove", uint64_t(n));
   // a substep's iterations in one workgroup per env, where they hold nothing but the distance and
-  // volume families, particle contacts, colliders and attachments (particle_iterations.comp.hlsl)
-  const std::string fused = block_build(shaders, "physics/particle_iterations", largest_env_);
-  bool position_families_only = !families_.empty();
-  for (auto& f : families_) position_families_only &= f.set->name == "distance" || f.set->name == "volume";
-  if (!fused.empty() && position_families_only && neighbors_ && !model_.has_fluid && !needle_solve_ && !tendon_ &&
-      !rigid_push_) {
+  // volume families, particle contacts, colliders and attachments (particle_iterations), or fluid
+  // alone with colliders and attachments (particle_fluid_iterations)
+  bool solids = !families_.empty() && !model_.has_fluid, fluid = model_.has_fluid && families_.empty();
+  for (auto& f : families_) solids &= f.set->name == "distance" || f.set->name == "volume";
+  for (auto& o : model_.objects) fluid &= o.range.w == shader::PARTICLE_FLUID;
+  const std::string fused =
+      block_build(shaders, fluid ? "physics/particle_fluid_iterations" : "physics/particle_iterations", largest_env_);
+  if (!fused.empty() && (solids || fluid) && neighbors_ && !needle_solve_ && !tendon_ && !rigid_push_) {
     auto b = bindings_;
-    const auto unused = in("", "particles.iteration_unused", std::vector<uint32_t>(4, 0u), {1, 4}, DType::UINT32);
     std::vector<uint32_t> colours(4, 0u);
     const char* slots[] = {"distance", "volume"};
-    for (size_t k = 0; k < 2; ++k) {
+    const auto unused =
+        solids ? in("", "particles.iteration_unused", std::vector<uint32_t>(4, 0u), {1, 4}, DType::UINT32) : nullptr;
+    for (size_t k = 0; solids && k < 2; ++k) {
       const std::string name = slots[k];
       for (const char* field : {"_records", "_lambdas", "_colours"}) b[name + field] = unused;
       for (auto& f : families_)
@@ -457,7 +460,7 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
           colours[k] = uint32_t(f.set->colour_count.size());
         }
     }
-    b["family_colours"] = in("", "particles.iteration_family_colours", colours, {1, 4}, DType::UINT32);
+    if (solids) b["family_colours"] = in("", "particles.iteration_family_colours", colours, {1, 4}, DType::UINT32);
     iterations_ = compute::create_builtin_pass(ctx, fused, b);
     iterations_->groups = {uint32_t(ne), 1, 1};
     all_.push_back(iterations_);

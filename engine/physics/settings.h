@@ -21,8 +21,9 @@ struct PhysicsSettings {
   uint32_t particle_contact_iterations = 0;
   // constraint families: "dispatch" (one dispatch per colour), "workgroup" (one workgroup per env
   // solves all colours in group memory; envs of at most PARTICLE_BLOCK_CAPACITY particles; where
-  // only distance and volume families, contacts, colliders and attachments act, the whole
-  // substep's iterations in one: docs/particles.md), or "auto" (workgroup where every env fits)
+  // only distance and volume families, contacts, colliders and attachments act, or fluid alone,
+  // the whole substep's iterations in one: docs/particles.md), or "auto" (workgroup where every
+  // env fits)
   std::string particle_solver = "auto";
   // particle substeps per frame (0: `substeps`). Fewer than the bodies' when only the bodies need
   // the short step (a jointed arm of gram-light wrist links holding tissue): the particles then

@@ -52,6 +52,12 @@ float cohesion_spline(Kernel k, float r) {
 // mass of a particle (w is its inverse)
 float particle_mass(float4 x) { return x.w > 0 ? 1.0 / x.w : 0; }
 
+// fluid particle i's density correction from neighbour j (r = xi - xj), before the 1 / rho0:
+// m_j (lambda_i + lambda_j) grad W_ij
+float3 density_correction(Kernel K, float3 r, float4 xj, float lambda_i, float lambda_j) {
+  return particle_mass(xj) * (lambda_i + lambda_j) * spiky_gradient(K, r);
+}
+
 // how near a wall (centre to surface) adds density to a fluid particle of radius r: beyond it the
 // first lattice layer behind the wall (at d + r) is out of the kernel
 float wall_reach(Kernel K, float r) { return K.h - r; }

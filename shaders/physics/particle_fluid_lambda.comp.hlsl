@@ -20,34 +20,17 @@ RWStructuredBuffer<float4> wall_gradients;  // for particle_neighbors, at these 
 #include "particle_collide.hlsli"
 #include "particle_fluid_boundary.hlsli"
 
+#include "particle_fluid_density.hlsli"
+
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
 void main(uint3 id : SV_DispatchThreadID) {
   const uint i = id.x;
   if (i >= pc.particle_count) return;
   const uint4 ph = phases[i];
   if (ph.x != PARTICLE_FLUID || (ph.w & PARTICLE_ACTIVE) == 0) return;
-  const ParticleObject o = objects[ph.y];
-  const Kernel K = make_kernel(o.material.x);
-  const float rho0 = o.material.w;
-  const float3 xi = positions[i].xyz;
-  float density, sum_squares = 0;
-  float3 grad_i;
-  fluid_boundary(i, xi, ph.z, o.material.x, particle_mass(positions[i]), K, density, grad_i);
-  wall_gradients[i] = float4(grad_i, 0);
-  grad_i /= rho0;
-  FOR_EACH_NEIGHBOR(i, j, xj, j_fluid, 1, {
-    if (j_fluid) {
-      const float3 r = xi - xj.xyz;
-      const float m = particle_mass(xj);
-      density += m * spiky(K, dot(r, r));
-      if (j != i) {
-        const float3 g = (m / rho0) * spiky_gradient(K, r);
-        grad_i += g;
-        sum_squares += dot(g, g);
-      }
-    }
-  })
-  const float C = max(density / rho0 - 1, 0.0);
+  float density;
+  float3 wall;
+  fluid_lambdas[i] = fluid_multiplier(i, ph, positions[i], density, wall);
   densities[i] = density;
-  fluid_lambdas[i] = C > 0 ? -C / (sum_squares + dot(grad_i, grad_i) + 1e-6) : 0;
+  wall_gradients[i] = float4(wall, 0);
 }

@@ -41,7 +41,7 @@ void main(uint3 id : SV_DispatchThreadID) {
       const float3 r = xi.xyz - xj.xyz;
       const uint4 pj = fluid && j_fluid ? uint4(0, 0, 0, 0) : phases[j];  // the kind is in the entry
       if (fluid && j_fluid) {
-        density_delta += particle_mass(xj) * (lambda_i + fluid_lambdas[j]) * spiky_gradient(K, r);
+        density_delta += density_correction(K, r, xj, lambda_i, fluid_lambdas[j]);
       } else if (particles_collide(i, ph, j, pj)) {
         add_contact(r, oi.material.x + objects[pj.y].material.x, xi.w, xj.w, contact, contacts);
       }
