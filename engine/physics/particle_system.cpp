@@ -614,13 +614,16 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
     vkCmdFillBuffer(cmd, frame_clear_, 0, VK_WHOLE_SIZE, 0);
     gpu::compute_barrier(cmd);
   }
+  // the substep's iterations in one dispatch, which also marks the colliders near each particle
+  // and takes the velocities (particle_iterations, particle_fluid_iterations)
+  const bool fused = iterations_ && settings_.particle_solver != "dispatch";
   for (uint32_t s = 0; s < substeps; ++s) {
     // passes that look at moving bodies see them where they are at the end of this substep
     const float done = float(s + 1) / float(substeps);
     for (auto* p : moving_) std::memcpy(p->constants.data() + offsetof(shader::ParticleConstants, grid) + 4, &done, 4);
     for (VkBuffer b : per_substep_clears_) vkCmdFillBuffer(cmd, b, 0, VK_WHOLE_SIZE, 0);
     run(integrate_);
-    run(collider_near_);
+    if (!fused) run(collider_near_);
     run(orient_integrate_);
     run(tendon_force_);
     run(needle_detect_);
@@ -631,7 +634,7 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
     // contact iteration k follows the families' iterations up to floor((k + 1) I / C)
     const uint32_t iterations = settings_.particle_iterations;
     const uint32_t contacts = settings_.particle_contact_iterations ? settings_.particle_contact_iterations : iterations;
-    if (iterations_ && settings_.particle_solver != "dispatch") {  // all of them in one dispatch
+    if (fused) {
       put(*iterations_, iterations, contacts);
       run(iterations_);
     } else for (uint32_t k = 0; k < contacts; ++k) {
@@ -648,7 +651,7 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
       run(attach_);
     }
     run(support_);  // reads the substep's predicted velocities, before velocity_ replaces them
-    run(velocity_);
+    if (!fused) run(velocity_);
     run(orient_velocity_);
     run(vorticity_);
     run(fluid_velocity_);

@@ -19,25 +19,10 @@ RWStructuredBuffer<uint> collider_near;
 
 #include "particle_collide.hlsli"
 #include "particle_fluid.hlsli"
+#include "particle_collider_near.hlsli"
 
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
 void main(uint3 id : SV_DispatchThreadID) {
   const uint i = id.x;
-  if (i >= pc.particle_count) return;
-  const uint4 ph = phases[i];
-  uint near = 0;
-  if ((ph.w & PARTICLE_ACTIVE) != 0) {
-    const float3 x = positions[i].xyz;
-    const float r = objects[ph.y].material.x;
-    const float reach = (ph.x == PARTICLE_FLUID ? wall_reach(make_kernel(r), r) : r) + pc.grid.x;
-    const EnvRigidRange range = env_rigid_ranges[ph.z];
-    const uint first = range.bodies.z, end = first + min(range.bodies.w, 32u);
-    for (uint c = first; c < end; ++c) {
-      const ColliderModel cm = colliders[c];
-      float3 n;
-      float depth;
-      if (meets_particles(cm) && sphere_penetration(x, reach, cm, collider_pose(cm), n, depth)) near |= 1u << (c - first);
-    }
-  }
-  collider_near[i] = near;
+  if (i < pc.particle_count) collider_near[i] = colliders_near(phases[i], positions[i].xyz);
 }

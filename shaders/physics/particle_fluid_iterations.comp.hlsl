@@ -6,7 +6,8 @@
 // particle_neighbors), the colliders near it (as particle_gather) and the env's attachment slots
 // (as particle_attach), a group barrier between them. One dispatch a substep instead of four a
 // contact iteration: one env of FluidPour's 960 particles took 22 us a density pass, the walk of
-// one thread, with a dispatch around it (H100, benchmarks/README.md).
+// one thread, with a dispatch around it (H100, benchmarks/README.md). Like particle_iterations it
+// marks the colliders near each particle first and takes the velocities last.
 // pc.item_count: the contact iterations.
 #ifndef CRESSIM_BLOCK
 #error particle_fluid_iterations is built with CRESSIM_BLOCK only (cmake/shaders.cmake)
@@ -23,7 +24,8 @@ StructuredBuffer<uint4> phases;
 StructuredBuffer<float4> prev_positions;
 StructuredBuffer<BodyModel> bodies;
 StructuredBuffer<uint> body_contact_counts;
-StructuredBuffer<uint> collider_near;
+RWStructuredBuffer<uint> collider_near;  // this substep's marks, set here
+RWStructuredBuffer<float4> velocities;  // the substep's, at its end
 RWStructuredBuffer<float4> positions;
 RWStructuredBuffer<float> densities;  // the last iteration's, for the velocity passes
 RWStructuredBuffer<float4> rigid_pushes;
@@ -44,6 +46,8 @@ static uint block_first;  // the env's first particle
 #include "particle_collide.hlsli"
 #include "particle_fluid_boundary.hlsli"
 #include "particle_fluid_density.hlsli"
+#include "particle_collider_near.hlsli"
+#include "particle_substep_velocity.hlsli"
 #include "particle_gather.hlsli"
 #include "particle_attach.hlsli"
 
@@ -57,6 +61,8 @@ void main(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
   const uint4 ph = mine ? phases[i] : uint4(0, 0, 0, 0);
   const bool moves = mine && (ph.w & PARTICLE_ACTIVE) != 0;
   if (mine) block_x[l] = positions[i];
+  // the colliders near the particle, as particle_collider_near would mark them
+  if (mine && pc.has_rigid != 0) collider_near[i] = colliders_near(ph, block_x[l].xyz);
   const ParticleObject o = objects[mine ? ph.y : 0];
   const Kernel K = make_kernel(o.material.x);
   const uint slots = pc.attachment_count / max(pc.env_count, 1u);
@@ -96,4 +102,6 @@ void main(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
     GroupMemoryBarrierWithGroupSync();
   }
   if (mine) positions[i] = block_x[l];
+  // and the substep's velocity, as particle_velocity would take it
+  if (moves) velocities[i].xyz = substep_velocity(block_x[l].xyz, prev_positions[i].xyz);
 }

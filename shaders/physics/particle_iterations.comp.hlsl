@@ -8,7 +8,9 @@
 // contacts from those positions (as particle_neighbors), the colliders (as particle_gather) and
 // the env's attachment slots (as particle_attach). That is the passes' sweep in one dispatch a
 // substep instead of five a contact iteration: at SoftBodyPush's 16 contact iterations each
-// family's dispatch cost about 20 us beyond its colour steps (H100, benchmarks/README.md).
+// family's dispatch cost about 20 us beyond its colour steps (H100, benchmarks/README.md). It also
+// marks the colliders near each particle first and takes the velocities last (the passes
+// particle_collider_near and particle_velocity, two dispatches a substep fewer).
 // pc.item_offset: the families' iterations a substep; pc.item_count: the contact iterations.
 #ifndef CRESSIM_BLOCK
 #error particle_iterations is built with CRESSIM_BLOCK only (cmake/shaders.cmake)
@@ -25,7 +27,8 @@ StructuredBuffer<uint4> phases;
 StructuredBuffer<float4> prev_positions;
 StructuredBuffer<BodyModel> bodies;
 StructuredBuffer<uint> body_contact_counts;
-StructuredBuffer<uint> collider_near;
+RWStructuredBuffer<uint> collider_near;  // this substep's marks, set here
+RWStructuredBuffer<float4> velocities;  // the substep's, at its end
 RWStructuredBuffer<float4> positions;
 RWStructuredBuffer<float4> rigid_pushes;
 RWStructuredBuffer<float4> rigid_contacts;
@@ -55,6 +58,9 @@ static uint block_first;  // the env's first particle
 #include "particle_neighbor_list.hlsli"
 #include "particle_contact.hlsli"
 #include "particle_collide.hlsli"
+#include "particle_fluid.hlsli"
+#include "particle_collider_near.hlsli"
+#include "particle_substep_velocity.hlsli"
 #include "particle_gather.hlsli"
 #include "particle_attach.hlsli"
 
@@ -66,7 +72,11 @@ void main(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
   const uint env = group.x, lane = thread.x;
   const uint first = env_ranges[env].range.x, count = env_ranges[env].range.y;
   block_first = first;
-  for (uint l = lane; l < count; l += THREADS) block_x[l] = positions[first + l];
+  for (uint l = lane; l < count; l += THREADS) {
+    block_x[l] = positions[first + l];
+    // the colliders near each particle, as particle_collider_near would mark them
+    if (pc.has_rigid != 0) collider_near[first + l] = colliders_near(phases[first + l], block_x[l].xyz);
+  }
   const uint4 colours = family_colours[0];
   GroupMemoryBarrierWithGroupSync();
   const uint iterations = pc.item_offset, contacts = pc.item_count;
@@ -122,5 +132,10 @@ void main(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
     }
     GroupMemoryBarrierWithGroupSync();
   }
-  for (uint l = lane; l < count; l += THREADS) positions[first + l] = block_x[l];
+  // and the substep's velocities, as particle_velocity would take them
+  for (uint l = lane; l < count; l += THREADS) {
+    const uint i = first + l;
+    positions[i] = block_x[l];
+    if ((phases[i].w & PARTICLE_ACTIVE) != 0) velocities[i].xyz = substep_velocity(block_x[l].xyz, prev_positions[i].xyz);
+  }
 }

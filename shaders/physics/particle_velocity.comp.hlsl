@@ -8,9 +8,11 @@ StructuredBuffer<float4> positions;
 StructuredBuffer<float4> prev_positions;
 RWStructuredBuffer<float4> velocities;
 
+#include "particle_substep_velocity.hlsli"
+
 [numthreads(CRESSIM_GROUP_SIZE, 1, 1)]
 void main(uint3 id : SV_DispatchThreadID) {
   const uint i = id.x;
   if (i >= pc.particle_count || (phases[i].w & PARTICLE_ACTIVE) == 0) return;
-  velocities[i].xyz = (positions[i].xyz - prev_positions[i].xyz) / pc.gravity.w;
+  velocities[i].xyz = substep_velocity(positions[i].xyz, prev_positions[i].xyz);
 }
