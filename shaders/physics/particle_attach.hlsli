@@ -37,3 +37,14 @@ void apply_attachment(uint a) {
   if (dot(goal, qe) < 0) goal = -goal;  // the nearer of +-goal
   orientations[e] = normalize(qe + share_of(orientation_weights[e], at.local.w) * (goal - qe));
 }
+
+// The env's attachment slots, applied by a workgroup holding its particles (`threads` threads,
+// this one `lane`); a slot written past the host's checks with another env's particle is left
+// alone
+void apply_env_attachments(uint env, uint first, uint count, uint lane, uint threads) {
+  const uint slots = pc.attachment_count / max(pc.env_count, 1u);
+  for (uint s = lane; s < slots; s += threads) {
+    const uint a = env * slots + s, p = attachments[a].ids.x;
+    if (p >= first && p - first < count) apply_attachment(a);
+  }
+}

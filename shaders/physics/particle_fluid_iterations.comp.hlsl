@@ -65,7 +65,6 @@ void main(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
   if (mine && pc.has_rigid != 0) collider_near[i] = colliders_near(ph, block_x[l].xyz);
   const ParticleObject o = objects[mine ? ph.y : 0];
   const Kernel K = make_kernel(o.material.x);
-  const uint slots = pc.attachment_count / max(pc.env_count, 1u);
   GroupMemoryBarrierWithGroupSync();
   for (uint k = 0; k < pc.item_count; ++k) {
     // every particle's density and multiplier
@@ -93,12 +92,8 @@ void main(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
       block_x[l] = x;
     }
     GroupMemoryBarrierWithGroupSync();
-    // then the env's attachment slots (one written past the host's checks with another env's
-    // particle is left alone)
-    for (uint s = l; s < slots; s += CRESSIM_BLOCK) {
-      const uint a = env * slots + s, p = attachments[a].ids.x;
-      if (p >= first && p - first < count) apply_attachment(a);
-    }
+    // then the env's attachment slots
+    apply_env_attachments(env, first, count, l, CRESSIM_BLOCK);
     GroupMemoryBarrierWithGroupSync();
   }
   if (mine) positions[i] = block_x[l];

@@ -123,13 +123,8 @@ void main(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
       block_x[l] = x;
     }
     GroupMemoryBarrierWithGroupSync();
-    // then the env's attachment slots; a slot written past the host's checks with another env's
-    // particle is left alone
-    const uint slots = pc.attachment_count / max(pc.env_count, 1u);
-    for (uint s = lane; s < slots; s += THREADS) {
-      const uint a = env * slots + s, p = attachments[a].ids.x;
-      if (p >= first && p - first < count) apply_attachment(a);
-    }
+    // then the env's attachment slots
+    apply_env_attachments(env, first, count, lane, THREADS);
     GroupMemoryBarrierWithGroupSync();
   }
   // and the substep's velocities, as particle_velocity would take them

@@ -9,6 +9,14 @@ import cressim
 from .particle_scenes import lattice, open_box, positions, start, static, step
 
 
+def _passes_of_a_frame(engine):
+    """The compute passes one frame of `engine` ran, by name."""
+    engine.profiling = engine.profile_passes = True
+    step(engine, 1)
+    engine.profiling = engine.profile_passes = False
+    return {name for _, name, _ in engine.last_pass_timings}
+
+
 def _soft_scene(envs=2, cells=3):
     """A self-colliding soft cube dropped on the ground and a hanging thread, per env."""
     world = cressim.World(cressim.SceneLayout(envs))
@@ -36,10 +44,7 @@ def test_workgroup_solve_matches_per_colour_dispatches(make_engine, cells, build
         world, _ = _soft_scene(cells=cells)
         engine = start(world, make_engine, substeps=2, particle_iterations=6, particle_solver=solver)
         before = positions(engine)
-        engine.profiling = engine.profile_passes = True
-        step(engine, 1)
-        engine.profiling = engine.profile_passes = False
-        solves = {name for _, name, _ in engine.last_pass_timings if "particle_volume" in name}
+        solves = {name for name in _passes_of_a_frame(engine) if "particle_volume" in name}
         assert solves == ({f"physics/particle_volume.block{build}"} if solver == "workgroup" else
                           {"physics/particle_volume"}), solves
         step(engine, frames - 1)
@@ -81,10 +86,7 @@ def test_a_substeps_iterations_in_one_workgroup_match_the_passes(make_engine):
         engine = start(world, make_engine, substeps=2, particle_iterations=8, particle_contact_iterations=4,
                        particle_solver=solver)
         before = positions(engine)
-        engine.profiling = engine.profile_passes = True
-        step(engine, 1)
-        engine.profiling = engine.profile_passes = False
-        names = {name for _, name, _ in engine.last_pass_timings}
+        names = _passes_of_a_frame(engine)
         fused = {name for name in names if "particle_iterations" in name}
         assert fused == ({"physics/particle_iterations.block256"} if solver == "workgroup" else set()), names
         if solver == "workgroup":  # nothing of the iterations left outside it
@@ -139,10 +141,7 @@ def test_a_fluids_iterations_in_one_workgroup_match_the_passes(make_engine):
             paddles.append(paddle)
         engine = start(world, make_engine, particle_solver=solver)
         before = positions(engine)
-        engine.profiling = engine.profile_passes = True
-        step(engine, 1)
-        engine.profiling = engine.profile_passes = False
-        names = {name for _, name, _ in engine.last_pass_timings}
+        names = _passes_of_a_frame(engine)
         fused = {name for name in names if "iterations" in name}
         assert fused == ({"physics/particle_fluid_iterations.block256"} if solver == "workgroup" else set()), names
         if solver == "workgroup":  # nothing of the iterations left outside it
