@@ -174,7 +174,7 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   scratch("neighbor_counts", "particles.neighbor_counts", {n}, DType::UINT32);
   scratch("neighbor_lists", "particles.neighbor_lists", {grid ? int64_t(shader::PARTICLE_MAX_NEIGHBORS) : 1, n},
           DType::UINT32);
-  if (grid) per_substep_clears_ = {counts->storage->buffer.buffer, fill->storage->buffer.buffer};
+  if (grid) grid_clears_ = {counts->storage->buffer.buffer, fill->storage->buffer.buffer};
 
   // control: attachment slots, all free
   const int64_t na = ne * int64_t(attachments_per_env_);
@@ -571,6 +571,7 @@ void ParticleSystem::set_constants(const PhysicsSettings& s) {
     shader::ParticleConstants c{};
     c.gravity = {s.gravity[0], s.gravity[1], s.gravity[2], s.dt / float(s.particle_substep_count())};
     c.grid = {model_.cell_size, 1, s.max_speed, float(s.particle_substep_count())};
+    c.cell_inverse = model_.cell_size > 0 ? float(1.0 / double(model_.cell_size)) : 0.f;
     c.particle_count = uint32_t(model_.size());
     c.table_size = table_size_;
     c.env_count = uint32_t(model_.env_ranges.size());
@@ -614,20 +615,22 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
     vkCmdFillBuffer(cmd, frame_clear_, 0, VK_WHOLE_SIZE, 0);
     gpu::compute_barrier(cmd);
   }
-  // the substep's iterations in one dispatch, which also marks the colliders near each particle
-  // and takes the velocities (particle_iterations, particle_fluid_iterations)
+  // the substep's iterations in one dispatch, which also lists the neighbours, marks the colliders
+  // near each particle and takes the velocities (particle_iterations, particle_fluid_iterations)
   const bool fused = iterations_ && settings_.particle_solver != "dispatch";
   for (uint32_t s = 0; s < substeps; ++s) {
     // passes that look at moving bodies see them where they are at the end of this substep
     const float done = float(s + 1) / float(substeps);
     for (auto* p : moving_) std::memcpy(p->constants.data() + offsetof(shader::ParticleConstants, grid) + 4, &done, 4);
     for (VkBuffer b : per_substep_clears_) vkCmdFillBuffer(cmd, b, 0, VK_WHOLE_SIZE, 0);
+    for (VkBuffer b : grid_clears_)
+      if (!fused) vkCmdFillBuffer(cmd, b, 0, VK_WHOLE_SIZE, 0);
     run(integrate_);
     if (!fused) run(collider_near_);
     run(orient_integrate_);
     run(tendon_force_);
     run(needle_detect_);
-    if (grid_count_) {
+    if (grid_count_ && !fused) {
       for (auto& p : {grid_count_, scan_local_, scan_blocks_, scan_add_, scatter_, sort_, neighbor_list_}) run(p);
     }
     // the constraint families every iteration, contacts in `contacts` of them spread evenly:

@@ -56,14 +56,16 @@ class ParticleSystem {
   bool has_rigid_ = false;
   uint32_t table_size_ = 0, blocks_ = 0, attachments_per_env_ = 0;
   std::map<std::string, std::shared_ptr<compute::TypedBuffer>> bindings_;  // HLSL name -> buffer
-  std::vector<VkBuffer> per_substep_clears_;  // zeroed at each substep start (grid counters, lambdas)
+  std::vector<VkBuffer> per_substep_clears_;  // zeroed at each substep start (multipliers)
+  std::vector<VkBuffer> grid_clears_;  // zeroed before each neighbour-grid build (its counters)
   VkBuffer frame_clear_ = VK_NULL_HANDLE;     // zeroed at each frame start (particle forces on bodies)
   std::vector<std::shared_ptr<compute::ComputePass>> all_;
   std::shared_ptr<compute::ComputePass> emit_, integrate_, collider_near_, orient_integrate_, orient_velocity_, grid_count_, scan_local_, scan_blocks_, scan_add_, scatter_, sort_, neighbor_list_,
       fluid_lambda_, neighbors_, gather_, rigid_push_, rigid_hold_, rigid_forces_, heat_cover_, heat_flow_, heat_apply_, coagulate_, coagulate_reset_, attach_, support_, velocity_, vorticity_,
       fluid_velocity_, tendon_, tendon_force_, needle_detect_, needle_solve_, needle_reset_, needle_load_,
       health_, reset_, remove_;
-  // a substep's iterations in one workgroup per env (particle_iterations), where the model allows it
+  // a substep's iterations in one workgroup per env (particle_iterations), where the model allows
+  // it; it lists the env's neighbours too, so the neighbour grid's passes do not run beside it
   std::shared_ptr<compute::ComputePass> iterations_;
   // a non-empty constraint set: its pass dispatched once per colour, and for positional
   // families whose envs fit in group memory the one-workgroup-per-env pass

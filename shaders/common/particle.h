@@ -137,7 +137,7 @@ struct ParticleConstants {
   uint item_offset;   // first constraint of the colour this dispatch projects
   uint edge_count;    // strand segments (material frames)
   uint has_pins;      // particles.tet_pins is one per particle (suture needles pin tissue there)
-  uint pad1;
+  float cell_inverse; // 1 / grid.x: a cell is floor(x * cell_inverse), one rounding whichever kernel takes it
   uint pad2;
 };
 

@@ -1,7 +1,8 @@
 // A substep's iterations in one workgroup per env, a thread a particle, for models of fluid alone
 // against static and kinematic colliders (no soft bodies, strands, needles, tendons or dynamic
-// bodies for the fluid to push; ParticleSystem picks it). The env's particles and multipliers stay
-// in group memory while each contact iteration takes every particle's density and multiplier (as
+// bodies for the fluid to push; ParticleSystem picks it). It lists the env's neighbours itself
+// (particle_block_grid.hlsli: the neighbour grid's passes do not run). The env's particles and
+// multipliers stay in group memory while each contact iteration takes every particle's density and multiplier (as
 // particle_fluid_lambda), then its correction from its neighbours' multipliers and the walls (as
 // particle_neighbors), the colliders near it (as particle_gather) and the env's attachment slots
 // (as particle_attach), a group barrier between them. One dispatch a substep instead of four a
@@ -32,6 +33,9 @@ RWStructuredBuffer<float4> rigid_pushes;
 RWStructuredBuffer<float4> rigid_contacts;
 RWStructuredBuffer<float4> rigid_forces;
 RWStructuredBuffer<ParticleAttachment> attachments;
+RWStructuredBuffer<uint> neighbor_counts;
+RWStructuredBuffer<uint> neighbor_lists;
+#define NEIGHBOR_LISTS_WRITTEN
 RWStructuredBuffer<float4> orientations;
 StructuredBuffer<float> orientation_weights;
 
@@ -41,6 +45,8 @@ static uint block_first;  // the env's first particle
 #define NEIGHBOR_POSITION(j) block_x[(j) - block_first]
 #define ATTACHED_POSITION(i) block_x[(i) - block_first]
 
+#include "particle_grid.hlsli"
+#include "particle_block_grid.hlsli"
 #include "particle_neighbor_list.hlsli"
 #include "particle_fluid.hlsli"
 #include "particle_collide.hlsli"
@@ -66,6 +72,7 @@ void main(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
   const ParticleObject o = objects[mine ? ph.y : 0];
   const Kernel K = make_kernel(o.material.x);
   GroupMemoryBarrierWithGroupSync();
+  list_block_neighbors(env, first, count, l, CRESSIM_BLOCK);
   for (uint k = 0; k < pc.item_count; ++k) {
     // every particle's density and multiplier
     float lambda = 0, density = 0;

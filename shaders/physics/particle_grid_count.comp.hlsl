@@ -23,7 +23,7 @@ void main(uint3 id : SV_DispatchThreadID) {
   }
   const int3 c = cell_of(positions[i].xyz);
   cells[i] = int4(c, int(ph.z));
-  const uint b = cell_bucket(c, ph.z);
+  const uint b = cell_bucket(c, ph.z, pc.table_size);
   buckets[i] = b;
   InterlockedAdd(cell_counts[b], 1u);
 }

@@ -1,8 +1,6 @@
-// Neighbour grid, step 5: each active particle lists the particles within the grid's reach
-// (the cell size: the widest fluid kernel or contact) plus a 5 % skin for what moves into
-// reach during the iterations, at most PARTICLE_MAX_NEIGHBORS in walk order, each marked with
-// its kind. Walking 27 cells per iteration pass cost several times the list (a fluid cell holds
-// 8 particles, a particle about 40 neighbours).
+// Neighbour grid, step 5: each active particle lists the particles neighbor_near() it, at most
+// PARTICLE_MAX_NEIGHBORS in walk order, each marked with its kind. Walking 27 cells per iteration
+// pass cost several times the list (a fluid cell holds 8 particles, a particle about 40 neighbours).
 // PARTICLE_LIST_LANES adjacent threads (lanes of one subgroup, in order: the engine checks the
 // subgroup is wide enough) share a particle: they test a cell's candidates that many at a time
 // and a ballot gives each accepted one its slot, so the list keeps the walk's order. One thread
@@ -40,13 +38,12 @@ void main(uint3 id : SV_DispatchThreadID) {
   uint count = 0;
   if ((phases[i].w & PARTICLE_ACTIVE) != 0) {
     const float3 xi = positions[i].xyz;
-    const float reach = 1.05 * pc.grid.x;
     const int4 home = cells[i];
     for (int dz = -1; dz <= 1; ++dz)
       for (int dy = -1; dy <= 1; ++dy)
         for (int dx = -1; dx <= 1; ++dx) {
           const int4 cell = int4(home.xyz + int3(dx, dy, dz), home.w);
-          const uint bucket = cell_bucket(cell.xyz, uint(cell.w));
+          const uint bucket = cell_bucket(cell.xyz, uint(cell.w), pc.table_size);
           const uint start = cell_starts[bucket], end = start + cell_counts[bucket];
           for (uint first = start; first < end; first += LANES) {
             const uint k = first + lane;
@@ -54,13 +51,12 @@ void main(uint3 id : SV_DispatchThreadID) {
             bool near = false;
             if (k < end) {
               j = sorted[k];
-              const float3 r = positions[j].xyz - xi;
-              near = all(cells[j] == cell) && dot(r, r) < reach * reach;
+              near = all(cells[j] == cell) && neighbor_near(xi, positions[j].xyz);
             }
             const uint taken = lanes_ballot(near);
             const uint slot = count + countbits(taken & ((1u << lane) - 1));
             if (near && slot < PARTICLE_MAX_NEIGHBORS)
-              neighbor_lists[slot * pc.particle_count + i] = j | (phases[j].x == PARTICLE_FLUID ? PARTICLE_NEIGHBOR_FLUID : 0);
+              neighbor_lists[slot * pc.particle_count + i] = neighbor_entry(j);
             count += countbits(taken);
           }
         }

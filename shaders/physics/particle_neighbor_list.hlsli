@@ -1,13 +1,17 @@
 // Each particle's neighbours, listed once per substep by particle_neighbor_list (the grid walk,
-// in its deterministic order); the iteration passes read the list instead of walking 27 cells.
+// in its deterministic order) or particle_block_grid.hlsli (the same walk in group memory); the
+// iteration passes read the list instead of walking 27 cells.
 // Entry k of particle i is at k * particle_count + i so that a warp's reads are contiguous.
 // Expects `positions` declared by the including kernel, or NEIGHBOR_POSITION(j) defined first
-// (particle_iterations reads the env's particles from group memory).
+// (particle_iterations reads the env's particles from group memory). A kernel that writes the
+// lists itself (particle_block_grid.hlsli) declares them first and defines NEIGHBOR_LISTS_WRITTEN.
 #ifndef NEIGHBOR_POSITION
 #define NEIGHBOR_POSITION(j) positions[j]
 #endif
+#ifndef NEIGHBOR_LISTS_WRITTEN
 StructuredBuffer<uint> neighbor_counts;
 StructuredBuffer<uint> neighbor_lists;
+#endif
 
 // visits particle i's neighbours j (i itself included) with xj their position and j_fluid its
 // kind, `batch` at a time: their entries and positions are loaded together. A pass that reads

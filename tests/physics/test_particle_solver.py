@@ -17,6 +17,17 @@ def _passes_of_a_frame(engine):
     return {name for _, name, _ in engine.last_pass_timings}
 
 
+def _neighbor_lists(engine):
+    """Each particle's neighbour list of the last substep, its entries in order."""
+    counts = engine.buffer("particles.neighbor_counts").read().astype(np.int64)
+    lists = engine.buffer("particles.neighbor_lists").read()
+    assert counts.max() > 1, "the particles had neighbours"
+    return [tuple(lists[:c, i]) for i, c in enumerate(counts)]
+
+
+_GRID_PASSES = ("grid_count", "scan_local", "scan_blocks", "scan_add", "grid_scatter", "grid_sort", "neighbor_list")
+
+
 def _soft_scene(envs=2, cells=3):
     """A self-colliding soft cube dropped on the ground and a hanging thread, per env."""
     world = cressim.World(cressim.SceneLayout(envs))
@@ -87,10 +98,12 @@ def test_a_substeps_iterations_in_one_workgroup_match_the_passes(make_engine):
                        particle_solver=solver)
         before = positions(engine)
         names = _passes_of_a_frame(engine)
+        runs[solver + " lists"] = _neighbor_lists(engine)  # of a frame from the same start
         fused = {name for name in names if "particle_iterations" in name}
         assert fused == ({"physics/particle_iterations.block256"} if solver == "workgroup" else set()), names
-        if solver == "workgroup":  # nothing of the iterations left outside it
-            assert not {n for n in names if "volume" in n or "distance" in n or n.endswith(("neighbors", "gather", "attach"))}, names
+        if solver == "workgroup":  # nothing of the iterations or the neighbour grid left outside it
+            assert not {n for n in names if "volume" in n or "distance" in n
+                        or n.endswith(("neighbors", "gather", "attach") + _GRID_PASSES)}, names
         forces = []
         for f in range(40):
             if f == 20:  # the edges crossing the cube's middle plane, in env 0
@@ -118,6 +131,8 @@ def test_a_substeps_iterations_in_one_workgroup_match_the_passes(make_engine):
     # differently); leaving out the attachment moves the cubes by 4e-4 m
     np.testing.assert_allclose(runs["workgroup"], runs["dispatch"], atol=2e-5)
     np.testing.assert_allclose(runs["workgroup forces"], runs["dispatch forces"], atol=1e-3 * np.abs(runs["dispatch forces"]).max())
+    # the lists the workgroup builds in group memory are the grid's, entry for entry
+    assert runs["workgroup lists"] == runs["dispatch lists"]
 
 
 def test_a_fluids_iterations_in_one_workgroup_match_the_passes(make_engine):
@@ -142,10 +157,11 @@ def test_a_fluids_iterations_in_one_workgroup_match_the_passes(make_engine):
         engine = start(world, make_engine, particle_solver=solver)
         before = positions(engine)
         names = _passes_of_a_frame(engine)
+        runs[solver + " lists"] = _neighbor_lists(engine)  # of a frame from the same start
         fused = {name for name in names if "iterations" in name}
         assert fused == ({"physics/particle_fluid_iterations.block256"} if solver == "workgroup" else set()), names
-        if solver == "workgroup":  # nothing of the iterations left outside it
-            assert not {n for n in names if n.endswith(("fluid_lambda", "neighbors", "gather", "attach"))}, names
+        if solver == "workgroup":  # nothing of the iterations or the neighbour grid left outside it
+            assert not {n for n in names if n.endswith(("fluid_lambda", "neighbors", "gather", "attach") + _GRID_PASSES)}, names
         for f in range(20):
             if f == 5:  # env 1's particle nearest its paddle held by it
                 n = len(before) // 2
@@ -165,6 +181,7 @@ def test_a_fluids_iterations_in_one_workgroup_match_the_passes(make_engine):
     np.testing.assert_allclose(runs["workgroup density"], runs["dispatch density"], rtol=1e-4)
     np.testing.assert_allclose(runs["workgroup forces"], runs["dispatch forces"],
                                atol=1e-3 * np.abs(runs["dispatch forces"]).max())
+    assert runs["workgroup lists"] == runs["dispatch lists"]
 
 
 def test_workgroup_solve_matches_per_colour_dispatches_for_elastic_tets(make_engine):
