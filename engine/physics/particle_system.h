@@ -64,9 +64,9 @@ class ParticleSystem {
       fluid_lambda_, neighbors_, gather_, rigid_push_, rigid_hold_, rigid_forces_, heat_cover_, heat_flow_, heat_apply_, coagulate_, coagulate_reset_, attach_, support_, velocity_, vorticity_,
       fluid_velocity_, tendon_, tendon_force_, needle_detect_, needle_solve_, needle_reset_, needle_load_,
       health_, reset_, remove_;
-  // a substep's iterations in one workgroup per env (particle_iterations), where the model allows
-  // it; it lists the env's neighbours too, so the neighbour grid's passes do not run beside it
+  // a substep's iterations in one workgroup per env (particle_iterations), where the model allows it
   std::shared_ptr<compute::ComputePass> iterations_;
+  bool iterations_list_ = false;  // iterations_ lists the neighbours itself: the grid's passes do not run
   // a non-empty constraint set: its pass dispatched once per colour, and for positional
   // families whose envs fit in group memory the one-workgroup-per-env pass
   struct Family {

@@ -9,8 +9,7 @@
 // the env's attachment slots (as particle_attach). That is the passes' sweep in one dispatch a
 // substep instead of five a contact iteration: at SoftBodyPush's 16 contact iterations each
 // family's dispatch cost about 20 us beyond its colour steps (H100, benchmarks/README.md). It also
-// lists the env's neighbours itself (particle_block_grid.hlsli: the neighbour grid's passes do not
-// run), marks the colliders near each particle and takes the velocities last (the passes
+// marks the colliders near each particle first and takes the velocities last (the passes
 // particle_collider_near and particle_velocity, two dispatches a substep fewer).
 // pc.item_offset: the families' iterations a substep; pc.item_count: the contact iterations.
 #ifndef CRESSIM_BLOCK
@@ -35,9 +34,6 @@ RWStructuredBuffer<float4> rigid_pushes;
 RWStructuredBuffer<float4> rigid_contacts;
 RWStructuredBuffer<float4> rigid_forces;
 RWStructuredBuffer<ParticleAttachment> attachments;
-RWStructuredBuffer<uint> neighbor_counts;
-RWStructuredBuffer<uint> neighbor_lists;
-#define NEIGHBOR_LISTS_WRITTEN
 RWStructuredBuffer<float4> orientations;
 StructuredBuffer<float> orientation_weights;
 // each family's block records, multipliers and (first, count) per env and colour; a family the
@@ -59,8 +55,6 @@ static uint block_first;  // the env's first particle
 #include "particle_block.hlsli"
 #include "particle_distance.hlsli"
 #include "particle_volume.hlsli"
-#include "particle_grid.hlsli"
-#include "particle_block_grid.hlsli"
 #include "particle_neighbor_list.hlsli"
 #include "particle_contact.hlsli"
 #include "particle_collide.hlsli"
@@ -85,7 +79,6 @@ void main(uint3 group : SV_GroupID, uint3 thread : SV_GroupThreadID) {
   }
   const uint4 colours = family_colours[0];
   GroupMemoryBarrierWithGroupSync();
-  list_block_neighbors(env, first, count, lane, THREADS);
   const uint iterations = pc.item_offset, contacts = pc.item_count;
   for (uint k = 0; k < contacts; ++k) {
     // contact iteration k follows the families' iterations up to floor((k + 1) I / C), as the passes do
