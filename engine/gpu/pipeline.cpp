@@ -84,6 +84,11 @@ ComputePipeline create_compute_pipeline(Context& ctx, const std::vector<uint32_t
       throw VulkanError(VK_ERROR_INITIALIZATION_FAILED,
                         name + ": binding '" + b.name + "' is in descriptor set " + std::to_string(b.set) +
                             "; compute passes use set 0 only");
+  if (const uint32_t limit = ctx.properties.limits.maxComputeSharedMemorySize; p.reflection.workgroup_bytes > limit)
+    throw VulkanError(VK_ERROR_INITIALIZATION_FAILED,
+                      name + ": its groupshared variables take " + std::to_string(p.reflection.workgroup_bytes) +
+                          " bytes; this device allows a workgroup " + std::to_string(limit) +
+                          " (maxComputeSharedMemorySize)");
 
   VkShaderModuleCreateInfo mi{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
   mi.codeSize = spirv.size() * 4;

@@ -20,6 +20,7 @@ struct Id {
   std::vector<uint32_t> member_offsets;
   std::vector<bool> member_nonwritable;
   uint32_t width = 0, signedness = 0, count = 0;
+  uint32_t value = 0;  // an integer constant's (array lengths)
   uint32_t set = 0, binding = 0, array_stride = 0;
   bool has_binding = false, nonwritable = false, block = false;
 };
@@ -48,6 +49,23 @@ void describe_element(const std::vector<Id>& ids, uint32_t type, ReflectedBindin
                        : b.element_kind == ScalarKind::INT ? (t->width == 64 ? "int64_t" : "int")
                                                            : (t->width == 64 ? "uint64_t" : "uint");
   b.element_type = scalar + (b.element_components > 1 ? std::to_string(b.element_components) : "");
+}
+
+// a group-memory type's size in bytes: scalars, vectors, arrays and structs of them, unpadded
+uint64_t natural_size(const std::vector<Id>& ids, uint32_t type) {
+  const Id& t = ids[type];
+  switch (t.opcode) {
+    case SpvOpTypeInt:
+    case SpvOpTypeFloat: return t.width / 8;
+    case SpvOpTypeVector: return t.count * natural_size(ids, t.type);
+    case SpvOpTypeArray: return uint64_t(ids[t.count].value) * natural_size(ids, t.type);
+    case SpvOpTypeStruct: {
+      uint64_t bytes = 0;
+      for (uint32_t m : t.members) bytes += natural_size(ids, m);
+      return bytes;
+    }
+    default: return 4;  // a bool
+  }
 }
 
 }  // namespace
@@ -98,6 +116,8 @@ ShaderReflection reflect_spirv(const std::vector<uint32_t>& code) {
       case SpvOpTypeFloat: ids[w[1]].opcode = op, ids[w[1]].width = w[2]; break;
       case SpvOpTypeVector: ids[w[1]].opcode = op, ids[w[1]].type = w[2], ids[w[1]].count = w[3]; break;
       case SpvOpTypeRuntimeArray: ids[w[1]].opcode = op, ids[w[1]].type = w[2]; break;
+      case SpvOpTypeArray: ids[w[1]].opcode = op, ids[w[1]].type = w[2], ids[w[1]].count = w[3]; break;
+      case SpvOpConstant: ids[w[2]].opcode = op, ids[w[2]].value = w[3]; break;
       case SpvOpTypeStruct:
         ids[w[1]].opcode = op;
         ids[w[1]].members.assign(w + 2, w + n);
@@ -112,7 +132,9 @@ ShaderReflection reflect_spirv(const std::vector<uint32_t>& code) {
   for (Id& var : ids) {
     if (var.opcode != SpvOpVariable) continue;
     const Id& pointee = ids[ids[var.type].type];
-    if (var.storage_class == SpvStorageClassPushConstant) {
+    if (var.storage_class == SpvStorageClassWorkgroup) {
+      out.workgroup_bytes += uint32_t(natural_size(ids, ids[var.type].type));
+    } else if (var.storage_class == SpvStorageClassPushConstant) {
       for (size_t m = 0; m < pointee.members.size(); ++m) {
         ReflectedConstant c;
         c.name = m < pointee.member_names.size() ? pointee.member_names[m] : "";

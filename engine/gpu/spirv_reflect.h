@@ -1,5 +1,5 @@
 // What a compute shader declares, read from its SPIR-V: descriptor bindings (by HLSL name),
-// push-constant members and the thread-group size. Bindings are written once, in the shader.
+// push-constant members, the thread-group size and its group memory. Bindings are written once, in the shader.
 #pragma once
 #include <array>
 #include <cstdint>
@@ -35,6 +35,7 @@ struct ShaderReflection {
   std::vector<ReflectedConstant> constants;  // push-constant members
   uint32_t push_constant_size = 0;
   std::array<uint32_t, 3> local_size{1, 1, 1};
+  uint32_t workgroup_bytes = 0;  // groupshared variables, at their natural sizes (as the validation layer counts)
 
   const ReflectedBinding* find_binding(const std::string& name) const;
   const ReflectedConstant* find_constant(const std::string& name) const;

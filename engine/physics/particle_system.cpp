@@ -9,22 +9,28 @@
 #include "cressim/layout.h"
 #include "gpu/context.h"
 #include "gpu/embedded_shaders.h"
+#include "gpu/spirv_reflect.h"
 
 namespace cressim::physics {
 namespace {
 
 // The `<shader>.blockN` build (cmake/shaders.cmake) with the least group memory that holds
-// `particles` an env, or "" where none does. Group memory sets how many workgroups share a
-// multiprocessor: SoftBodyPush's 343-particle envs in 1,024-particle groups ran three a
-// multiprocessor and took 9.0 instead of 5.9 ms a frame for their solves at 512 envs (H200).
-std::string block_build(const std::vector<std::string>& shaders, const std::string& shader, uint32_t particles) {
+// `particles` an env within the device's group memory, or "" where none does (the passes then
+// dispatch a colour at a time). Group memory sets how many workgroups share a multiprocessor:
+// SoftBodyPush's 343-particle envs in 1,024-particle groups ran three a multiprocessor and took
+// 9.0 instead of 5.9 ms a frame for their solves at 512 envs (H200).
+std::string block_build(const gpu::Context& ctx, const std::vector<std::string>& shaders, const std::string& shader,
+                        uint32_t particles) {
   const std::string prefix = shader + ".block";
   std::string best;
   unsigned long best_capacity = ~0ul;
   for (const auto& name : shaders) {
     if (name.size() <= prefix.size() || name.compare(0, prefix.size(), prefix) != 0) continue;
     const unsigned long capacity = std::stoul(name.substr(prefix.size()));
-    if (capacity >= particles && capacity < best_capacity) best = name, best_capacity = capacity;
+    if (capacity < particles || capacity >= best_capacity) continue;
+    if (gpu::reflect_spirv(gpu::embedded_shader(name)).workgroup_bytes > ctx.properties.limits.maxComputeSharedMemorySize)
+      continue;
+    best = name, best_capacity = capacity;
   }
   return best;
 }
@@ -371,7 +377,7 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
     all_.push_back(p);
     Family f{p, nullptr, nullptr, &s};
     if (s.rows_per_record) moving_.push_back(p.get());  // the elastic solve's contacts
-    if (const std::string block = block_build(shaders, s.shader, largest_env_); !block.empty()) {
+    if (const std::string block = block_build(*ctx, shaders, s.shader, largest_env_); !block.empty()) {
       b["env_colours"] = in("", "particles." + s.name + "_env_colours", s.env_colours,
                             {int64_t(s.env_colours.size() / 2), 2}, DType::UINT32);
       if (s.vertices.empty()) {  // particle_solve.hlsli's 16-byte records (PARTICLE_BLOCK_NONE in cressim/particle.h)
@@ -442,7 +448,7 @@ ParticleSystem::ParticleSystem(std::shared_ptr<gpu::Context> ctx, ParticleModel 
   for (auto& f : families_) solids &= f.set->name == "distance" || f.set->name == "volume";
   for (auto& o : model_.objects) fluid &= o.range.w == shader::PARTICLE_FLUID;
   const std::string fused =
-      block_build(shaders, fluid ? "physics/particle_fluid_iterations" : "physics/particle_iterations", largest_env_);
+      block_build(*ctx, shaders, fluid ? "physics/particle_fluid_iterations" : "physics/particle_iterations", largest_env_);
   if (!fused.empty() && (solids || fluid) && neighbors_ && !needle_solve_ && !tendon_ && !rigid_push_) {
     auto b = bindings_;
     std::vector<uint32_t> colours(4, 0u);

@@ -33,6 +33,36 @@ TEST(SpirvReflect, BindingsConstantsAndGroupSize) {
   EXPECT_EQ(r.local_size[1], 2u);
 }
 
+TEST(SpirvReflect, GroupMemoryAtItsNaturalSize) {
+  const char* src = R"(
+    groupshared float4 a[100];
+    groupshared uint b[7];
+    groupshared int3 c[3];
+    RWStructuredBuffer<float> o;
+    [numthreads(64, 1, 1)] void main(uint3 t : SV_GroupThreadID) {
+      a[t.x % 100] = float4(t.x, 0, 0, 0);
+      b[t.x % 7] = t.x;
+      c[t.x % 3] = int3(t.x, 1, 2);
+      GroupMemoryBarrierWithGroupSync();
+      o[t.x] = a[(t.x + 1) % 100].x + b[(t.x + 1) % 7] + c[(t.x + 1) % 3].y;
+    })";
+  EXPECT_EQ(reflect_spirv(compile_hlsl(src, "shared", "main")).workgroup_bytes, 100u * 16 + 7 * 4 + 3 * 12);
+}
+
+// the one-workgroup-per-env builds hold an env's particles in group memory: each must fit the
+// 32 KB lavapipe offers (NVIDIA 48 KB), or the engine would fall back to the per-colour passes there
+TEST(SpirvReflect, EveryOneWorkgroupBuildFitsLavapipesGroupMemory) {
+  int blocks = 0;
+  for (const auto& name : embedded_shader_names())
+    if (name.find(".block") != std::string::npos) {
+      const uint32_t bytes = reflect_spirv(embedded_shader(name)).workgroup_bytes;
+      EXPECT_GT(bytes, 0u) << name;
+      EXPECT_LE(bytes, 32768u) << name;
+      ++blocks;
+    }
+  EXPECT_GT(blocks, 0);
+}
+
 TEST(SpirvReflect, ConstantBuffersAreRefusedWithAHint) {
   const char* src = "cbuffer Params { float k; };\nRWStructuredBuffer<float> o;\n"
                     "[numthreads(1,1,1)] void main() { o[0] = k; }";
