@@ -1,5 +1,6 @@
 // What a compute shader declares, read from its SPIR-V: descriptor bindings (by HLSL name),
-// push-constant members, the thread-group size and its group memory. Bindings are written once, in the shader.
+// push-constant members, the thread-group size and its group memory. Bindings are written once,
+// in the shader.
 #pragma once
 #include <array>
 #include <cstdint>

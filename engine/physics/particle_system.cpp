@@ -628,14 +628,14 @@ void ParticleSystem::record_step(VkCommandBuffer cmd) const {
   // and takes the velocities (particle_iterations, particle_fluid_iterations, which also lists the
   // neighbours)
   const bool fused = iterations_ && settings_.particle_solver != "dispatch";
+  const bool grid = grid_count_ && !(fused && iterations_list_);
   for (uint32_t s = 0; s < substeps; ++s) {
     // passes that look at moving bodies see them where they are at the end of this substep
     const float done = float(s + 1) / float(substeps);
     for (auto* p : moving_) std::memcpy(p->constants.data() + offsetof(shader::ParticleConstants, grid) + 4, &done, 4);
     for (VkBuffer b : per_substep_clears_) vkCmdFillBuffer(cmd, b, 0, VK_WHOLE_SIZE, 0);
-    const bool grid = grid_count_ && !(fused && iterations_list_);
-    for (VkBuffer b : grid_clears_)
-      if (grid) vkCmdFillBuffer(cmd, b, 0, VK_WHOLE_SIZE, 0);
+    if (grid)
+      for (VkBuffer b : grid_clears_) vkCmdFillBuffer(cmd, b, 0, VK_WHOLE_SIZE, 0);
     run(integrate_);
     if (!fused) run(collider_near_);
     run(orient_integrate_);

@@ -13,37 +13,13 @@
 #ifndef CRESSIM_BLOCK
 #error particle_fluid_iterations is built with CRESSIM_BLOCK only (cmake/shaders.cmake)
 #endif
-#include "cressim/layout.h"
-#include "cressim/particle.h"
-#include "cressim/quat.h"
-#include "cressim/rigid.h"
-
-[[vk::push_constant]] ConstantBuffer<ParticleConstants> pc;
-StructuredBuffer<ParticleEnvRange> env_ranges;
-StructuredBuffer<ParticleObject> objects;
-StructuredBuffer<uint4> phases;
-StructuredBuffer<float4> prev_positions;
-StructuredBuffer<BodyModel> bodies;
-StructuredBuffer<uint> body_contact_counts;
-RWStructuredBuffer<uint> collider_near;  // this substep's marks, set here
-RWStructuredBuffer<float4> velocities;  // the substep's, at its end
-RWStructuredBuffer<float4> positions;
+#include "particle_iterations_kernel.hlsli"
 RWStructuredBuffer<float> densities;  // the last iteration's, for the velocity passes
-RWStructuredBuffer<float4> rigid_pushes;
-RWStructuredBuffer<float4> rigid_contacts;
-RWStructuredBuffer<float4> rigid_forces;
-RWStructuredBuffer<ParticleAttachment> attachments;
 RWStructuredBuffer<uint> neighbor_counts;
 RWStructuredBuffer<uint> neighbor_lists;
 #define NEIGHBOR_LISTS_WRITTEN
-RWStructuredBuffer<float4> orientations;
-StructuredBuffer<float> orientation_weights;
 
-groupshared float4 block_x[CRESSIM_BLOCK];
 groupshared float block_lambda[CRESSIM_BLOCK];
-static uint block_first;  // the env's first particle
-#define NEIGHBOR_POSITION(j) block_x[(j) - block_first]
-#define ATTACHED_POSITION(i) block_x[(i) - block_first]
 
 #include "particle_grid.hlsli"
 #include "particle_block_grid.hlsli"

@@ -15,27 +15,7 @@
 #ifndef CRESSIM_BLOCK
 #error particle_iterations is built with CRESSIM_BLOCK only (cmake/shaders.cmake)
 #endif
-#include "cressim/layout.h"
-#include "cressim/particle.h"
-#include "cressim/quat.h"
-#include "cressim/rigid.h"
-
-[[vk::push_constant]] ConstantBuffer<ParticleConstants> pc;
-StructuredBuffer<ParticleEnvRange> env_ranges;
-StructuredBuffer<ParticleObject> objects;
-StructuredBuffer<uint4> phases;
-StructuredBuffer<float4> prev_positions;
-StructuredBuffer<BodyModel> bodies;
-StructuredBuffer<uint> body_contact_counts;
-RWStructuredBuffer<uint> collider_near;  // this substep's marks, set here
-RWStructuredBuffer<float4> velocities;  // the substep's, at its end
-RWStructuredBuffer<float4> positions;
-RWStructuredBuffer<float4> rigid_pushes;
-RWStructuredBuffer<float4> rigid_contacts;
-RWStructuredBuffer<float4> rigid_forces;
-RWStructuredBuffer<ParticleAttachment> attachments;
-RWStructuredBuffer<float4> orientations;
-StructuredBuffer<float> orientation_weights;
+#include "particle_iterations_kernel.hlsli"
 // each family's block records, multipliers and (first, count) per env and colour; a family the
 // model lacks has stand-ins and no colours
 StructuredBuffer<uint4> family_colours;  // x distance, y volume: colours
@@ -45,11 +25,6 @@ StructuredBuffer<uint2> distance_colours;
 StructuredBuffer<uint4> volume_records;
 RWStructuredBuffer<float> volume_lambdas;
 StructuredBuffer<uint2> volume_colours;
-
-groupshared float4 block_x[CRESSIM_BLOCK];
-static uint block_first;  // the env's first particle
-#define NEIGHBOR_POSITION(j) block_x[(j) - block_first]
-#define ATTACHED_POSITION(i) block_x[(i) - block_first]
 
 #include "particle_xpbd.hlsli"
 #include "particle_block.hlsli"
