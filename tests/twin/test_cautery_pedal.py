@@ -24,11 +24,11 @@ def test_a_client_presses_the_coag_pedal_over_dds(make_node):
         pedal = client.create_publisher(Joy, "/footpedals/coag", 10)
         until(lambda: pedal.get_subscription_count() > 0, "the twin does not listen on /footpedals/coag")
         pedal.publish(Joy(buttons=[1]))
-        until(lambda: bool(arms.coag_pedal[0]), "the press did not arrive")
+        until(lambda: bool(arms.instrument("cautery").pedal[0]), "the press did not arrive")
         until(lambda: (engine.buffer("particles.damage").read() > 1.0).sum() >= 2, "the liver did not coagulate",
               ticks=400)
         pedal.publish(Joy(buttons=[0]))
-        until(lambda: not arms.coag_pedal[0], "the release did not arrive")
+        until(lambda: not arms.instrument("cautery").pedal[0], "the release did not arrive")
         node._tick()
         peak = engine.buffer("particles.temperatures").read().max()
         for _ in range(20):

@@ -50,8 +50,8 @@ def test_the_needle_in_the_jaws_punctures_the_pad_where_the_arm_pushes_it(make_a
     # the tool feels the pad holding the needle back (up, against the push) in env 0, and in env 1
     # the needle's weight alone
     weight = G * arms.bodies.needle_mass[0]
-    assert float(arms.tool_wrench[0, 2]) > 10 * weight, arms.tool_wrench[0]
-    torch.testing.assert_close(arms.tool_wrench[1, :3], torch.tensor([0, 0, -weight], dtype=torch.float64),
+    assert float(arms.instrument("contact").wrench[0, 2]) > 10 * weight, arms.instrument("contact").wrench[0]
+    torch.testing.assert_close(arms.instrument("contact").wrench[1, :3], torch.tensor([0, 0, -weight], dtype=torch.float64),
                                atol=1e-3 * weight, rtol=0)
     arms.bodies.engine.reset_envs([0])  # the pad as authored: the puncture is gone
     run_ticks(arms, 1)
@@ -78,9 +78,9 @@ def test_the_jaws_let_the_needle_go_and_pick_it_up_again(make_arms):
     jaws_at(arms, np.array([0.0015, 0.0015]), point=TABLE_BESIDE)
     tip = lambda: (arms.bodies.base @ arms.kin.forward(arms.measured))[:, :3, 3].clone()  # noqa: E731
     start, tips = arms.bodies.needle_poses(), tip()
-    assert arms.needle_held.tolist() == [True, True]
+    assert arms.instrument("needle").held.tolist() == [True, True]
     _jaws(arms, 0, 0.8)  # env 0 opens: the needle drops onto the table and lies there
-    assert arms.needle_held.tolist() == [False, True]
+    assert arms.instrument("needle").held.tolist() == [False, True]
     _moved(arms, [0, 1], 0.01)
     now, moved = arms.bodies.needle_poses(), tip() - tips
     assert float(moved[:, 2].min()) > 0.009  # both tools rose 10 mm
@@ -89,17 +89,17 @@ def test_the_jaws_let_the_needle_go_and_pick_it_up_again(make_arms):
     torch.testing.assert_close(now[1, :3, 3] - start[1, :3, 3], moved[1], atol=1e-5, rtol=0)  # carried
     torch.testing.assert_close(now[1, :3, :3], start[1, :3, :3], atol=1e-5, rtol=0)
     _jaws(arms, 0, -0.2)  # closed 10 mm above it: nothing to take
-    assert not arms.needle_held[0]
+    assert not arms.instrument("needle").held[0]
     _jaws(arms, 0, 0.8)
     _moved(arms, [0], -0.01)  # back down around it, and closed: picked up where the jaws hold it
     _jaws(arms, 0, -0.2)
-    assert arms.needle_held.tolist() == [True, True]
+    assert arms.instrument("needle").held.tolist() == [True, True]
     base, at = arms.bodies.needle_poses()[0], tip()[0]
     _moved(arms, [0], 0.01)  # and carried again
     torch.testing.assert_close(arms.bodies.needle_poses()[0, :3, 3] - base[:3, 3], tip()[0] - at, atol=1e-5, rtol=0)
     arms.reset_envs([0])  # a reset: the needle back in the jaws as authored
     run_ticks(arms, 2)
-    assert arms.needle_held[0]
+    assert arms.instrument("needle").held[0]
 
 
 def _on_arc(arms, env, s):
@@ -125,7 +125,7 @@ def test_a_needle_let_go_of_in_the_pad_hangs_from_its_puncture(make_arms):
         # it turns about a point of its own: its centre stays within its diameter of where it was
         assert float((arms.bodies.needle_poses()[0, :3, 3] - let_go[:3, 3]).norm()) < 2 * R + 0.002
         assert any(r["state"] == 2 for r in punctures(arms.bodies.engine)[0])
-    assert arms.needle_held.tolist() == [False, True]
+    assert arms.instrument("needle").held.tolist() == [False, True]
     through = [r for r in punctures(arms.bodies.engine)[0] if r["state"] == 2]
     assert through
     for r in through:
@@ -144,7 +144,7 @@ def test_a_needle_let_go_of_falls_and_comes_to_rest_on_the_table(make_arms):
     held = arms.bodies.needle_poses()[1].clone()
     pose = np.eye(4)  # the arc level
     pose[:3, 3] = TABLE_BESIDE + np.array([0.0, 0.0, 0.03])
-    arms.set_needle_pose(0, pose)
+    arms.instrument("needle").set_pose(arms, 0, pose)
     z0 = float(_body(arms, "rigid.positions", 0)[2])
     ticks = 6  # 60 ms, the fall takes 78
     run_ticks(arms, ticks)
@@ -158,7 +158,7 @@ def test_a_needle_let_go_of_falls_and_comes_to_rest_on_the_table(make_arms):
     assert float(lying[2, 2]) > 0.999  # its plane level
     assert float(_body(arms, "rigid.linear_velocities", 0).norm()) < 1e-3  # at rest
     torch.testing.assert_close(arms.bodies.needle_poses()[1], held, atol=1e-6, rtol=0)
-    assert arms.needle_held.tolist() == [False, True]
+    assert arms.instrument("needle").held.tolist() == [False, True]
 
 
 def test_a_dynamic_arm_bears_the_needle_it_holds(make_arms):
@@ -178,7 +178,7 @@ def test_a_dynamic_arm_bears_the_needle_it_holds(make_arms):
     weight = torch.tensor([0.0, 0.0, -G * arms.bodies.needle_mass[0]], dtype=torch.float64)
     tip = (arms.bodies.base @ arms.kin.forward(arms.measured))[:, :3, 3]
     for env in range(2):
-        force, torque = arms.tool_wrench[env, :3], arms.tool_wrench[env, 3:]
+        force, torque = arms.instrument("contact").wrench[env, :3], arms.instrument("contact").wrench[env, 3:]
         torch.testing.assert_close(force, weight, atol=0.02 * float(weight.norm()), rtol=0)
         arm = _body(arms, "rigid.positions", env) - tip[env]
         torch.testing.assert_close(torque, torch.linalg.cross(arm, weight),

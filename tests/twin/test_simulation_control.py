@@ -98,7 +98,7 @@ def test_the_needle_is_an_entity_whose_pose_is_set_and_read(control):
     got = call("get_entity_state", entity="needle")
     assert got.result.result == Result.RESULT_OK and got.state.header.frame_id == "world"
     p = got.state.pose.position
-    np.testing.assert_allclose([p.x, p.y, p.z], node.arms.needle_pose(0)[:3, 3], atol=1e-6)
+    np.testing.assert_allclose([p.x, p.y, p.z], node.arms.instrument("needle").pose(node.arms, 0)[:3, 3], atol=1e-6)
 
     # 3 cm to the side and turned a quarter about z, out of the jaws
     pose = Pose()
@@ -107,14 +107,14 @@ def test_the_needle_is_an_entity_whose_pose_is_set_and_read(control):
     r = call("set_entity_state", entity="needle", state=EntityState(pose=pose), set_pose=True)
     assert r.result.result == Result.RESULT_OK, r.result.error_message
     assert call("step_simulation", steps=3).result.result == Result.RESULT_OK
-    T = node.arms.needle_pose(0)
+    T = node.arms.instrument("needle").pose(node.arms, 0)
     # let go of at rest there, it falls freely: g t^2 / 2 and semi-implicit Euler's g t h / 2 (h the substep)
     t = 3 * node.arms.bodies.dt
     h = node.arms.bodies.dt / node.arms.bodies.engine.physics.substeps
     np.testing.assert_allclose(T[:2, 3], [p.x + 0.03, p.y], atol=1e-6)
     assert p.z - T[2, 3] == pytest.approx(9.81 * t * (t + h) / 2, rel=0.02)
     np.testing.assert_allclose(T[:3, 0], [0, 1, 0], atol=1e-5)
-    assert not node.arms.needle_held[0]
+    assert not node.arms.instrument("needle").held[0]
     back = call("get_entity_state", entity="needle").state.pose.orientation
     assert abs(back.z) == pytest.approx(math.sqrt(0.5), abs=1e-5)
 

@@ -24,7 +24,7 @@ def test_the_jaws_grasp_lift_and_release_the_flap(make_arms, dynamics):
     if dynamics == "dynamic":
         scene.physics_rate, scene.particle_rate = 800.0, 200.0
     arms = make_arms(scene=scene, num_envs=2)
-    assert arms.simulated and arms.grasp is not None
+    assert arms.simulated and arms.instrument("jaws") is not None
     for env in range(2):
         arms.state_command(env, "enable")
         arms.state_command(env, "home")
@@ -36,7 +36,7 @@ def test_the_jaws_grasp_lift_and_release_the_flap(make_arms, dynamics):
     before = positions.read()[:, :3].reshape(2, -1, 3).copy()
     arms.jaw_move_jp(0, JointCommand(position=[-0.2]))  # env 0 closes; env 1's jaws stay open
     settle(arms)
-    held = arms.grasp.held()
+    held = arms.instrument("jaws").grasp.held()
     assert held[0] > 0 and held[1] == 0
     jaws_at(arms, LIFT)
     run_ticks(arms, 100)  # one second held up
@@ -64,7 +64,7 @@ def test_the_jaws_grasp_lift_and_release_the_flap(make_arms, dynamics):
     arms.jaw_move_jp(0, JointCommand(position=[0.8]))
     settle(arms)
     run_ticks(arms, 100)
-    assert arms.grasp.held()[0] == 0
+    assert arms.instrument("jaws").grasp.held()[0] == 0
     back = positions.read()[:, :3].reshape(2, -1, 3)
     np.testing.assert_allclose(back[0, free_edge, 2], flat[0, free_edge, 2], atol=1.5e-3)
 
@@ -116,8 +116,8 @@ def test_the_suction_tool_removes_blood_at_its_tip(make_arms):
     """psm_suction over blood_suction.yaml's pool: shut, nothing goes; open, the blood within the
     radius of the tube's end goes (counted on suction/measured_js's effort), nothing farther."""
     arms = make_arms(scene=load_scene("psm_suction.yaml"))
-    assert arms.suction is not None and arms.grasp is None
-    assert [e.value for e in arms.suction_servo_jp(0, JointCommand(position=[1.0])) if e.topic == "error"]  # disabled
+    assert arms.instrument("suction") is not None and arms.instrument("jaws") is None
+    assert [e.value for e in arms.instrument_command(0, "suction/servo_jp", JointCommand(position=[1.0])) if e.topic == "error"]  # disabled
     arms.state_command(0, "enable")
     arms.state_command(0, "home")
     settle(arms)
@@ -130,9 +130,9 @@ def test_the_suction_tool_removes_blood_at_its_tip(make_arms):
     x = engine.buffer("particles.positions").read()[:, :3]
     near = before & (np.linalg.norm(x - tip, axis=1) < arms.scene.suction_radius)
     assert near.sum() > 0, "the tip is in the pool"
-    refused = arms.suction_servo_jp(0, JointCommand(position=[2.0]))
+    refused = arms.instrument_command(0, "suction/servo_jp", JointCommand(position=[2.0]))
     assert [e.value for e in refused if e.topic == "error"], "a valve opening past 1 is refused"
-    assert not arms.suction_servo_jp(0, JointCommand(position=[1.0], name=["suction"]))
+    assert not arms.instrument_command(0, "suction/servo_jp", JointCommand(position=[1.0], name=["suction"]))
     run_ticks(arms, 1)  # flagged and removed in the tick's step (its freed slots may bleed in again at the vessel)
     after = _active_fluid(engine)
     y = engine.buffer("particles.positions").read()[:, :3]
@@ -142,16 +142,16 @@ def test_the_suction_tool_removes_blood_at_its_tip(make_arms):
     assert inner.any() and not (after & inner & (np.linalg.norm(y - tip, axis=1) < r)).any()  # those went
     assert after[outer].all()  # the rest of the pool stays
     assert arms.snapshot().suction_removed[0, 0] >= inner.sum()
-    arms.suction_servo_jp(0, JointCommand(position=[0.0]))
+    arms.instrument_command(0, "suction/servo_jp", JointCommand(position=[0.0]))
     run_ticks(arms, 1)
-    count = arms.suction.removed()[0]
+    count = arms.instrument("suction").suction.removed()[0]
     run_ticks(arms, 10)
-    assert arms.suction.removed()[0] == count  # shut: nothing more goes
+    assert arms.instrument("suction").suction.removed()[0] == count  # shut: nothing more goes
 
 
 def test_the_needle_driver_has_no_suction(make_arms):
     arms = make_arms(scene=load_scene("psm_retraction.yaml"))
-    refused = arms.suction_servo_jp(0, JointCommand(position=[1.0]))
+    refused = arms.instrument_command(0, "suction/servo_jp", JointCommand(position=[1.0]))
     assert "has no suction tube" in [e.value for e in refused if e.topic == "error"][0]
 
 
@@ -186,7 +186,7 @@ def test_the_jaws_pick_up_the_suture(make_arms):
     jaws_at(arms, 0.0, point=middle)
     arms.jaw_move_jp(0, JointCommand(position=[-0.2]))
     settle(arms)
-    held = arms.grasp.held()[0]
+    held = arms.instrument("jaws").grasp.held()[0]
     taken = arms.bodies.engine.buffer("control.particle_attachments").read()[:held, 0].astype(np.int64)
     assert held > 0 and (taken >= first).all()  # thread particles only
     jaws_at(arms, LIFT, point=middle)

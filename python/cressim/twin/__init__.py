@@ -2,7 +2,8 @@
 scene file, and the sensor loop that renders off the control tick. The ROS 2 node
 (ros_ws/src/cressim_ros) only wires topics to these objects; tests drive them directly.
 """
-from cressim.twin.arms import ConfigError, Event, JointCommand, Snapshot, StateReport, TwinArms, TwinConfig
+from cressim.twin.arms import TwinArms, TwinConfig
+from cressim.twin.messages import ConfigError, Event, JointCommand, Snapshot, StateReport
 from cressim.twin.scene import DEFAULT_SCENE, Scene, SceneError, load_scene, parse_scene
 from cressim.twin.sensor_loop import Sensor, SensorLoop
 

@@ -29,69 +29,33 @@ stepped by whoever renders (`step_engine`, cressim.twin.SensorLoop); a dynamic a
 any arm's in a world that moves by itself (tissue, blood: the scene's `world` file), runs in
 `tick`, every tick. `engine_lock` serialises the two.
 
-Tissue. In a world with particles the needle driver's jaws grasp (cressim.passes.Grasp): once the
-measured jaw angle falls below `arm.grasp.closed_below` they take the particles within
-`arm.grasp.reach` of the middle of the jaws and hold them to the wrist until the angle rises
-again. `tool_wrench` (N, 6: force N, torque N m about the tool tip, world axes) is what
-contacts and held tissue exert on the tool (shaft, wrist and jaws) over the last tick; the
-snapshot gives it in the base frame (`spatial_cf`) and the tip frame (`body_cf`). The suction
-tool (psm_suction) removes the world's fluid within `arm.suction.radius` of its tube's end while
-its valve (`suction_servo_jp`, 0 shut .. 1 open) is open, and draws the fluid within
-`arm.suction.reach` in at the valve's share of `arm.suction.flow_rate` (cressim.passes.Suction).
-A suture needle (`arm.needle`) is held by the same jaw angle: closed, the jaws carry it (a
-kinematic body; the jaws' body bears its weight and the tissue's pull on it); opened, they let it
-go (a dynamic body: it falls, held by the punctures it is threaded through); closed again over
-it, they pick it up (`_carry_needle`).
+Instruments. What the arm's tool does to the world (the jaws' grasp of tissue, a needle in them,
+suction, cautery, the contact wrench on the tool) are plug-ins (cressim.twin.instruments), built
+where the tool and the world have what each needs, hooked around the tick's one engine frame
+(`_step_world`); their commands come through `instrument_command` (`suction/servo_jp`,
+`footpedals/coag`) and their state through `instrument(name)`.
 """
 from __future__ import annotations
 
 import math
 import threading
 from dataclasses import dataclass, field
-from typing import NamedTuple, Sequence
 
 import numpy as np
 import torch
 
-from cressim.robots import JAW_GRASP_POINT, PSM, PSM_JOINT_NAMES, robot_dir
+from cressim.robots import PSM, PSM_JOINT_NAMES, robot_dir
 from cressim.robots.arm_bodies import ArmBodies, describe_health
 from cressim.robots.kinematics import INTERFACE_DOF, ArmKinematics, body_jacobian, matrix_to_pose7
 
 from .arm_state import FAULT, ArmState
 from .command_checks import joint_values, limit_refusal, pose_matrix, ratio_value
+from .instruments import build_instruments, command_plugin
+from .messages import ConfigError, Event, JointCommand, Snapshot, StateReport
 from .scene import Scene, rates_problem
 from .scenery import CameraSpec, SceneryPlan, UltrasoundSpec
 from .sensor_loop import process_threads
 from .trajectory import BatchedTrajectory
-from cressim.passes.grasp import Grasp
-from cressim.passes.cautery import Cautery
-from cressim.passes.suction import Suction
-
-TOOL_LINKS = ("shaft_link", "wrist_pitch_link", "wrist_yaw_link", "jaw_1_link", "jaw_2_link")  # name endings
-SUCTION_TIP = (0.0, 0.0, 0.0091)  # m, in the suction tube link: the tube's open end
-
-
-class ConfigError(RuntimeError):
-    """A bad start-up configuration (scene or parameter); nothing was built."""
-
-
-class Event(NamedTuple):
-    env: int
-    topic: str
-    value: object
-
-
-class StateReport(NamedTuple):
-    state: str
-    is_homed: bool
-    is_busy: bool
-
-
-@dataclass
-class JointCommand:
-    """A joint command (what sensor_msgs/JointState carries): names may be empty (dVRK order)."""
-    position: Sequence[float] = ()
-    name: Sequence[str] = ()
 
 
 @dataclass
@@ -164,32 +128,6 @@ class TwinArms:
         self.engine_threads = process_threads() - before  # the Vulkan driver's (SensorLoop.lower_priority)
         self.dynamic = self.bodies.dynamic
         self.simulated = self.bodies.simulated  # the world moves: the engine steps in every tick
-        names = self.bodies.link_names
-        self.tool_links = [n for n in names if n.endswith(TOOL_LINKS)]
-        self.grasp = None
-        wrist = [n for n in names if n.endswith("wrist_yaw_link")]
-        if self.simulated and self.psm.has_jaw and wrist:
-            bodies, point = self.bodies.link_point(wrist[0], JAW_GRASP_POINT)
-            self.grasp = Grasp(self.bodies.engine, bodies, point, scene.grasp_reach)
-        self._grasp_closed = np.zeros(self.num_envs, dtype=bool)
-        self.suction = None
-        tube = [n for n in names if n.endswith("suction_tube_link")]
-        if self.simulated and tube and self.bodies.has_fluid:
-            bodies, point = self.bodies.link_point(tube[0], SUCTION_TIP)
-            self.suction = Suction(self.bodies.engine, bodies, point, scene.suction_radius,
-                                   flow_rate=scene.suction_flow_rate, reach=scene.suction_reach)
-        self.cautery = None  # the needle driver's jaws, energized by the coag pedal, over a world with heat
-        if self.simulated and self.psm.has_jaw and wrist and self.bodies.has_heat:
-            bodies, point = self.bodies.link_point(wrist[0], JAW_GRASP_POINT)
-            self.cautery = Cautery(self.bodies.engine, bodies, point, scene.cautery_radius, power=scene.cautery_power)
-            self.cautery.set_mode([scene.cautery_mode == "cut"] * self.num_envs)
-        self.coag_pedal = np.zeros(self.num_envs, dtype=bool)
-        self._cautery_on = np.zeros(self.num_envs, dtype=bool)
-        self.suction_valve = torch.zeros(self.num_envs, 1, dtype=torch.float64)
-        self.suction_removed = torch.zeros(self.num_envs, 1, dtype=torch.float64)
-        self._suction_on = np.zeros(self.num_envs, dtype=bool)
-        self._suction_share = np.zeros(self.num_envs)  # the valve as last given to the pass
-        self.tool_wrench = torch.zeros(self.num_envs, 6, dtype=torch.float64)
         self.engine_lock = threading.Lock()
         # the arms' state is (N, 6) rows and a few (N, 4, 4): kernel launches and syncs would cost a
         # GPU more than the math, so it lives on the CPU; the engine's buffers stay on its device
@@ -230,18 +168,6 @@ class TwinArms:
         self.a_limit = self.v_limit * scene.acceleration_ratio
         jaw_v = joints["jaw"].limit.velocity if self.psm.has_jaw else 1.0
         self.jaw_v_limit = np.array([jaw_v * scene.velocity_ratio])
-        self.needle_offset = None  # (N, 4, 4): a held needle's arc frame in the tool-tip frame
-        if self.bodies.needle_rows is not None:  # held as authored, at the initial joints
-            authored = torch.zeros_like(self.setpoint[:1])
-            authored[0, :len(self.bodies.authored_q)] = torch.as_tensor(self.bodies.authored_q)
-            tip0 = self.bodies.base.to(torch.float64) @ self.kin.forward(authored)[0]
-            self._needle_offset0 = torch.linalg.solve(tip0, torch.as_tensor(self.bodies.needle_pose0))
-            A, R = scene.needle["arc_angle"], scene.needle["arc_radius"]
-            self._needle_grip = self._needle_offset0 @ torch.tensor([R * math.cos(A / 3), R * math.sin(A / 3), 0.0, 1.0],
-                                                                    dtype=torch.float64)  # the jaws' middle
-            self.needle_offset = self._needle_offset0.repeat(N, 1, 1)
-            self.needle_held = np.ones(N, dtype=bool)
-            self._jaws_were_closed = np.ones(N, dtype=bool)
         self.jaw_a_limit = self.jaw_v_limit * scene.acceleration_ratio
 
         self.period_ns = 0
@@ -251,6 +177,7 @@ class TwinArms:
         self.step_hooks = []  # fn(arms) run in each tick before the targets are written ("Training beside the twin")
         self._faults = []  # (env, flags) seen by whoever stepped the engine, reported by the next tick
         self._faults_lock = threading.Lock()
+        self.instruments = build_instruments(self)  # the tool's functions (twin/instruments), by name
 
     # ------------------------------------------------------------------ helpers
     def set_rate(self, publish_rate: float):
@@ -258,6 +185,25 @@ class TwinArms:
         self.period_ns = int(round(1e9 / publish_rate))
         substeps = int(round(self.physics_rate / publish_rate))
         self.bodies.set_rate(1.0 / publish_rate, substeps, int(round(self.particle_rate / publish_rate)))
+
+    def link_named(self, ending: str) -> str | None:
+        """The arm's first link whose name ends so (None: its tool has none)."""
+        return next((n for n in self.bodies.link_names if n.endswith(ending)), None)
+
+    def instrument(self, name: str):
+        """The instrument plug-in of that name (twin/instruments), or None where the arm has none."""
+        return self.instruments.get(name)
+
+    def instrument_command(self, env: int, kind: str, value) -> list[Event]:
+        """A client's command to the arm's instrument (`suction/servo_jp`, `footpedals/coag`): taken
+        by the plug-in that has it, or refused with why the arm's tool or world lacks it."""
+        plugin = command_plugin(kind)
+        if plugin is None:
+            return self._refusal(env, f"{kind} refused: no instrument takes it")
+        instrument = self.instruments.get(plugin.name)
+        if instrument is None:
+            return plugin.absent(self, env, kind, value)
+        return getattr(instrument, plugin.commands[kind])(self, env, value)
 
     def label(self, env: int) -> str:
         if self.names is not None:
@@ -554,43 +500,40 @@ class TwinArms:
         self.setpoint_v = torch.where(moving[:, None], qd, (self.setpoint - self._last_sp) / dt)
         self.jaw_sp_v = torch.where(jmoving[:, None], jqd, (self.jaw_sp - self._last_jaw_sp) / dt)
         self._last_sp, self._last_jaw_sp = self.setpoint.clone(), self.jaw_sp.clone()
-        if self.dynamic:
-            with self.engine_lock:  # the engine's joint drives track the setpoint; other links follow measured
-                self.bodies.set_targets(self.setpoint, self.jaw_sp)
-                self.bodies.write(self.measured, self.jaw_meas)
-                self._grasp()
-                self._carry_needle()
-                self._suck()
-                self._energize()
-                self.bodies.step()
-                self._sense_tool()
-                q_m, qd_m, jaw_m, jawd_m = (t.cpu() for t in self.bodies.read_joints())
-                dof = self.psm.dof
-                self.measured, self.measured_v = self.measured.clone(), self.measured_v.clone()
-                self.measured[:, :dof], self.measured_v[:, :dof] = q_m, qd_m
-                self.jaw_meas, self.jaw_meas_v = jaw_m, jawd_m
-                self._collect_faults()
-        else:  # measured follows setpoint through a first-order lag (exact for tau = 0)
+        if not self.dynamic:  # measured follows setpoint through a first-order lag (exact for tau = 0)
             tau = self.scene.measured_lag
             alpha = 1.0 if tau <= 0 else 1.0 - math.exp(-dt / tau)
             new_meas = self.measured + alpha * (self.setpoint - self.measured)
             new_jaw = self.jaw_meas + alpha * (self.jaw_sp - self.jaw_meas)
             self.measured_v, self.jaw_meas_v = (new_meas - self.measured) / dt, (new_jaw - self.jaw_meas) / dt
             self.measured, self.jaw_meas = new_meas, new_jaw
-            if self.simulated:  # the world moves on its own: physics every tick, at the new measured
-                with self.engine_lock:
-                    self.bodies.write(self.measured, self.jaw_meas)
-                    self._grasp()
-                    self._carry_needle()
-                    self._suck()
-                    self._energize()
-                    self.bodies.step()
-                    self._sense_tool()
-                    self._collect_faults()
+        if self.dynamic or self.simulated:  # the arm's or the world's physics: one engine frame every tick
+            with self.engine_lock:
+                self._step_world()
         events += self._finish_motions(finished, jfinished)
         for env, flags in self._take_faults():
             events += self._fault(env, flags)
         return events
+
+    def _step_world(self):
+        """The tick's engine frame: the joint drives track the setpoint (dynamic) and the links
+        follow measured, the instruments' before-step, physics, their after-step; then a dynamic
+        arm's measured joints and every env's health."""
+        if self.dynamic:
+            self.bodies.set_targets(self.setpoint, self.jaw_sp)
+        self.bodies.write(self.measured, self.jaw_meas)
+        for instrument in self.instruments.values():
+            instrument.before_step(self)
+        self.bodies.step()
+        for instrument in self.instruments.values():
+            instrument.after_step(self)
+        if self.dynamic:
+            q_m, qd_m, jaw_m, jawd_m = (t.cpu() for t in self.bodies.read_joints())
+            dof = self.psm.dof
+            self.measured, self.measured_v = self.measured.clone(), self.measured_v.clone()
+            self.measured[:, :dof], self.measured_v[:, :dof] = q_m, qd_m
+            self.jaw_meas, self.jaw_meas_v = jaw_m, jawd_m
+        self._collect_faults()
 
     def step_engine(self, *, render: bool = False, sense: bool = False):
         """Engine work outside the tick (a sensor frame): a kinematic arm's links are posed at
@@ -608,120 +551,6 @@ class TwinArms:
         if posed_here:
             self._collect_faults()
 
-    def _grasp(self):
-        """The jaws' grasp follows the measured jaw angle (the GPU pass acts on a change)."""
-        if self.grasp is None:
-            return
-        closed = (self.jaw_meas[:, 0] < self.scene.grasp_closed_below).numpy()
-        if (closed != self._grasp_closed).any():
-            self.grasp.set(closed)
-            self._grasp_closed = closed
-        self.grasp.execute()
-
-    def _carry_needle(self):
-        """A held needle moves with the jaws (its arc frame fixed in the tool-tip frame). Opened past
-        `grasp_closed_below`, the jaws let go and it stays where it is (in the tissue, say); closed
-        again with its arc within `grasp.reach` of their middle, they take it where they hold it."""
-        if self.needle_offset is None:
-            return
-        closed = (self.jaw_meas[:, 0] < self.scene.grasp_closed_below).numpy()
-        tip = self.bodies.base.to(torch.float64) @ self.kin.forward(self.measured)  # (N, 4, 4) world
-        was_held = self.needle_held.copy()
-        self.needle_held &= closed
-        take = np.flatnonzero(closed & ~self._jaws_were_closed & ~self.needle_held)
-        self._jaws_were_closed = closed
-        if take.size:  # a host read of those needles only when jaws close on none
-            needles = self.bodies.needle_poses(torch.as_tensor(take))
-            local = torch.linalg.solve(needles, tip[take] @ self._needle_grip)[:, :3]  # the jaws' middle, arc frame
-            A, R = self.scene.needle["arc_angle"], self.scene.needle["arc_radius"]
-            phi = torch.atan2(local[:, 1], local[:, 0])
-            phi = torch.where(phi < -0.5 * (2 * math.pi - A), phi + 2 * math.pi, phi).clamp(0.0, A)
-            on_arc = torch.stack([R * torch.cos(phi), R * torch.sin(phi), torch.zeros_like(phi)], 1)
-            near = ((local - on_arc).norm(dim=1) <= self.scene.grasp_reach).numpy()
-            for k, env in enumerate(take):
-                if near[k]:
-                    self.needle_held[env] = True
-                    self.needle_offset[env] = torch.linalg.solve(tip[env], needles[k])
-        for now in (False, True):  # let go of: dynamic from this frame on; taken: kinematic, the jaws bear it
-            changed = np.flatnonzero((was_held != self.needle_held) & (self.needle_held == now))
-            if changed.size:
-                self.bodies.hold_needle(torch.as_tensor(changed), now)
-        held = np.flatnonzero(self.needle_held)
-        if held.size:
-            held_t = torch.as_tensor(held)
-            self.bodies.place_needle(held_t, tip[held_t] @ self.needle_offset[held_t])
-
-    def _regrip_needle(self, envs: torch.Tensor):
-        """Reset envs: the needle as authored, held in the jaws."""
-        if self.needle_offset is not None:
-            self.needle_offset[envs] = self._needle_offset0
-            self.needle_held[envs.numpy()] = True
-            self._jaws_were_closed[envs.numpy()] = True
-            self.bodies.hold_needle(envs, True)
-
-    def _suck(self):
-        """The suction follows the valve: open, the GPU pass removes the fluid at the tip and draws
-        the fluid within reach at the valve's share of the flow rate."""
-        if self.suction is None:
-            return
-        valve = self.suction_valve[:, 0].numpy()
-        on = valve > 0
-        if (on != self._suction_on).any() or (valve != self._suction_share).any():
-            self.suction.set(on)
-            self.suction.set_flow(valve * self.scene.suction_flow_rate)
-            self._suction_on, self._suction_share = on, valve.copy()
-        self.suction.execute()
-
-    def _energize(self):
-        """The instrument follows the coag pedal while the arm is enabled (the GPU pass heats at its
-        jaws)."""
-        if self.cautery is None:
-            return
-        on = self.coag_pedal.copy()
-        for env in np.flatnonzero(on):  # the pressed pedals only: no per-env work while none is
-            on[env] = self.states[env].state == "ENABLED"
-        if (on != self._cautery_on).any():
-            self.cautery.set(on)
-            self._cautery_on = on
-        self.cautery.execute()
-
-    def press_coag(self, env: int, pressed: bool) -> list[Event]:
-        """The coagulation foot pedal (the dVRK console's footpedals/coag): pressed, the needle
-        driver's jaws deliver `arm.cautery.power` into the tissue within `arm.cautery.radius` of
-        their middle (in `arm.cautery.mode`: coag heats, cut also parts coagulated tissue)."""
-        if self.cautery is None:
-            why = (f"the {self.robot} instrument has no jaws to energize" if not self.psm.has_jaw
-                   else "the world has no tissue that takes heat (a soft_body with thermal)")
-            return self._refusal(env, f"footpedals/coag refused: {why}") if pressed else []
-        self.coag_pedal[env] = bool(pressed)
-        return []
-
-    def suction_servo_jp(self, env: int, cmd) -> list[Event]:
-        """The suction valve: 0 shut .. 1 open (CRTK style: suction/servo_jp, one value)."""
-        kind = "suction/servo_jp"
-        if self.suction is None:
-            why = (f"the {self.robot} instrument has no suction tube" if not any(
-                n.endswith("suction_tube_link") for n in self.bodies.link_names) else "the world has no fluid")
-            return self._refusal(env, f"{kind} refused: {why}")
-        problem = self._ready(env, kind)
-        if problem:
-            return self._refusal(env, problem)
-        value, problem = joint_values(cmd, what=kind, names=("suction",), lower=np.zeros(1), upper=np.ones(1))
-        if problem:
-            return self._refusal(env, problem)
-        self.suction_valve[env, 0] = float(value[0])
-        return []
-
-    def _sense_tool(self):
-        """After the tick's step: the contact wrench on the tool, about its tip (world axes), and
-        the fluid the suction has removed."""
-        if self.suction is not None and self._suction_on.any():
-            self.suction_removed = torch.as_tensor(self.suction.removed(), dtype=torch.float64)[:, None]
-        if not self.tool_links:
-            return
-        tip = (self.bodies.base @ self.kin.forward(self.measured))[:, :3, 3]
-        self.tool_wrench = self.bodies.contact_wrench(self.tool_links, tip)
-
     def _collect_faults(self):
         """Envs the engine flagged in the frame just run (one small read); their measured state
         (NaN or exploded in dynamic mode) becomes the setpoint at rest, which is also where the
@@ -736,9 +565,13 @@ class TwinArms:
         self.jaw_meas[envs] = self.jaw_sp[envs]
         self.jaw_meas_v[envs] = 0.0
         self.bodies.prepare_reset(envs, self.setpoint[envs], self.jaw_sp[envs])
-        self._regrip_needle(envs)
+        self._reset_instruments(envs)
         with self._faults_lock:
             self._faults += list(zip(envs.tolist(), flags[envs].tolist()))
+
+    def _reset_instruments(self, envs: torch.Tensor):
+        for instrument in self.instruments.values():
+            instrument.reset(self, envs)
 
     def _take_faults(self):
         with self._faults_lock:
@@ -809,7 +642,7 @@ class TwinArms:
             getattr(self, name)[envs] = 0.0
         with self.engine_lock:
             self.bodies.prepare_reset(envs, q, jaw)
-            self._regrip_needle(envs)
+            self._reset_instruments(envs)
             self.bodies.reset(envs.tolist())
 
     # ------------------------------------------------------------------ simulation control
@@ -827,33 +660,22 @@ class TwinArms:
         self.cv.zero_()
         self.cv_on[:] = False
         self.ratio_v[:], self.ratio_a[:] = 1.0, 1.0
-        self.coag_pedal[:] = False
-        self.suction_valve.zero_()
+        for instrument in self.instruments.values():
+            instrument.restart(self)
         if clock:
             self.sim_ns, self.ticks = 0, 0
-
-    def needle_pose(self, env: int) -> np.ndarray | None:
-        """The needle's arc frame in the world (4x4), or None where the scene has no needle."""
-        if self.needle_offset is None:
-            return None
-        return self.bodies.needle_poses(torch.tensor([env]))[0].numpy()
-
-    def set_needle_pose(self, env: int, pose: np.ndarray) -> None:
-        """Puts env's needle (arc frame, world 4x4) there now, at rest and out of the jaws (free: it
-        falls from there; closing them over it picks it up again)."""
-        self.needle_held[env] = False
-        with self.engine_lock:
-            self.bodies.hold_needle(torch.tensor([env]), False)
-            self.bodies.set_needle_pose(torch.tensor([env]), torch.as_tensor(pose, dtype=torch.float64)[None])
 
     # ------------------------------------------------------------------ what a tick publishes
     def snapshot(self, *, cartesian: bool = True, jacobian: bool = True) -> "Snapshot":
         """Every env's published state as host numpy arrays, in one device -> host copy."""
         N = self.num_envs
-        names = ["measured", "measured_v", "setpoint", "setpoint_v", "jaw_meas", "jaw_meas_v", "jaw_sp", "jaw_sp_v",
-                 "suction_valve", "suction_removed"]
+        names = ["measured", "measured_v", "setpoint", "setpoint_v", "jaw_meas", "jaw_meas_v", "jaw_sp", "jaw_sp_v"]
         parts = [getattr(self, n) for n in names]
-        widths = [INTERFACE_DOF] * 4 + [1] * 6
+        for instrument in self.instruments.values():
+            for name, value in instrument.fields(self).items():
+                names.append(name)
+                parts.append(value)
+        widths = [p.shape[1] for p in parts]
         if cartesian or jacobian:
             # one Jacobian/FK call for measured and setpoint together, one quaternion conversion
             J2, T2 = self.kin.jacobian(torch.cat([self.measured, self.setpoint]))
@@ -871,8 +693,9 @@ class TwinArms:
                 names += ["spatial_jacobian", "body_jacobian"]
                 widths += [36, 36]
             # the tool's contact wrench: world axes -> the RCM frame -> measured_cp's frame, and the tip's
-            R_world = self.bodies.base[..., :3, :3].to(self.tool_wrench)  # one base, or one per row (ArmRows)
-            local = (R_world.mT @ self.tool_wrench.reshape(N, 2, 3).transpose(1, 2)).transpose(1, 2)  # (N, 2, 3)
+            wrench = self.instruments["contact"].wrench
+            R_world = self.bodies.base[..., :3, :3].to(wrench)  # one base, or one per row (ArmRows)
+            local = (R_world.mT @ wrench.reshape(N, 2, 3).transpose(1, 2)).transpose(1, 2)  # (N, 2, 3)
             spatial = (base[:, None, :3, :3] @ local[..., None]).squeeze(-1)
             body = (T_meas[:, None, :3, :3].transpose(-1, -2) @ local[..., None]).squeeze(-1)
             parts += [spatial.reshape(N, 6), body.reshape(N, 6)]
@@ -886,26 +709,9 @@ class TwinArms:
         return Snapshot(self.sim_ns, fields)
 
 
-class Snapshot:
-    """One tick's published state: `snap.measured[env]` etc. ((N, width) host arrays by name)."""
-
-    def __init__(self, sim_ns: int, fields: dict):
-        self.sim_ns = sim_ns
-        self.fields = fields
-
-    def __getattr__(self, name):
-        try:
-            return self.__dict__["fields"][name]
-        except KeyError:
-            raise AttributeError(name) from None
-
-    def __contains__(self, name):
-        return name in self.fields
-
-
 def _describe_pose(T) -> str:
     p = np.asarray(T)[:3, 3]
     return f"at ({p[0]:.4g}, {p[1]:.4g}, {p[2]:.4g}) m"
 
 
-__all__ = ["ConfigError", "Event", "JointCommand", "Snapshot", "StateReport", "TwinArms", "TwinConfig"]
+__all__ = ["TwinArms", "TwinConfig"]

@@ -50,9 +50,10 @@ from cressim.scene_file import add_scene
 
 from .arm_rows import ArmRows
 from .arm_clearance import INSTRUMENT_RADIUS, SCOPE_RADIUS, ArmClearance
-from .arms import ConfigError, Event, JointCommand, Snapshot, TwinArms, TwinConfig
+from .arms import TwinArms, TwinConfig
 from .camera_images import CameraImages
 from .ecm_arm import EcmArm
+from .messages import ConfigError, Event, JointCommand, Snapshot
 from .mtm import MtmArm, Operator, ScriptedOperator
 from .scene import ECM_HOME
 from .scenery import TABLE_COLOR, TABLE_HALF, TISSUE_COLOR, TISSUE_HALF, CameraSpec, SceneryPlan, look_at_rotation
@@ -199,7 +200,7 @@ class Cart:
         self.num_envs = len(self.psms)  # the node's rows
         self.arm = self.names[0]
         self.psm = self.psms[0].psm
-        self.dynamic, self.suction, self.needle_offset = False, None, None
+        self.dynamic = False
         self.ecm_events = []  # the ECM's events of the last tick, for its topics
         self.clearance = ArmClearance()
         # the PSMs' measured_cp in the endoscope's frame (the dVRK console's), until a client sets one
@@ -261,6 +262,10 @@ class Cart:
                 return [Event(row, e.topic, e.value) for e in getattr(arms, name)(r, *args, **kwargs)]
             return command
         raise AttributeError(name)
+
+    def instrument(self, name: str):
+        """The cart's PSMs carry no instrument plug-ins: their arms are kinematic over the world."""
+        return None
 
     def report(self, row: int):
         arms, r = self._where[row]
@@ -456,7 +461,6 @@ class PsmRow:
 
 MOTION_COMMANDS = ("servo_jp", "move_jp", "servo_cp", "move_cp", "servo_cv", "jaw_servo_jp", "jaw_move_jp")
 ROW_COMMANDS = ("state_command", "servo_jp", "move_jp", "servo_cp", "move_cp", "servo_cv", "jaw_servo_jp",
-                "jaw_move_jp", "suction_servo_jp", "hold", "set_ratio", "ratio_events", "set_flag",
-                "press_coag")
+                "jaw_move_jp", "instrument_command", "hold", "set_ratio", "ratio_events", "set_flag")
 
 __all__ = ["Cart", "CartScenery", "EYES", "ecm_urdf"]

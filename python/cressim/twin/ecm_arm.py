@@ -23,6 +23,7 @@ from cressim.robots.ecm import (ECM_JOINT_NAMES, ECM_LOWER, ECM_UPPER, ECM_VELOC
 
 from .arm_state import ArmState
 from .command_checks import joint_values, pose_matrix
+from .messages import StateReport
 from .trajectory import BatchedTrajectory
 
 ACCELERATION_RATIO = 4.0  # acceleration limit = ratio x velocity limit, per second (as the PSM's default)
@@ -49,7 +50,6 @@ class EcmArm:
         self.time = 0.0
 
     def report(self):
-        from .arms import StateReport  # the one StateReport the node turns into messages
         s = self.state
         return StateReport(s.state, s.is_homed, s.is_busy)
 

@@ -34,6 +34,7 @@ from cressim.robots.mtm import MTM_HOME, mtm_forward_kinematics, mtm_inverse_kin
 
 from .arm_state import ArmState
 from .command_checks import pose_matrix
+from .messages import StateReport
 
 GRIPPER_LIMITS = (-0.35, 1.2)  # rad: the MTM gripper's range (about -20 to 70 degrees)
 HOME = np.eye(4)  # the grip at home: at the base frame's origin, axes aligned with it
@@ -58,7 +59,6 @@ class MtmArm:
         self.commanded_position = None  # where move_cp / servo_cp put the grip (used while no hand holds it)
 
     def report(self):
-        from .arms import StateReport
         s = self.state
         return StateReport(s.state, s.is_homed, s.is_busy)
 

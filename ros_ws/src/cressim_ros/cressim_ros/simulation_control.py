@@ -45,7 +45,7 @@ class SimulationControl:
         for env in range(arms.num_envs):  # a cart's rows are its PSMs, by name
             prefix = env_frame_prefix(env, arms.num_envs)
             self.entities[f"{node.prefixes[env]}{node.arm_names[env]}"] = (env, "arm")
-            if arms.needle_offset is not None:
+            if arms.instrument("needle") is not None:
                 self.entities[f"{prefix}needle"] = (env, "needle")
         self.handles = [node.create_service(t, name, handler) for t, name, handler in (
             (GetSimulatorFeatures, "get_simulator_features", self._features),
@@ -143,7 +143,7 @@ class SimulationControl:
             return response
         env, kind = found
         arms, scene = self.node.arms, self.node.scene
-        T = arms.needle_pose(env) if kind == "needle" else pose7_to_matrix(
+        T = arms.instrument("needle").pose(arms, env) if kind == "needle" else pose7_to_matrix(
             np.array([*scene.base_position, *scene.base_rotation]))
         response.state.header.stamp = self.node.stamp()
         response.state.header.frame_id = "world"
@@ -175,6 +175,7 @@ class SimulationControl:
             if not all(math.isfinite(v) for v in values) or abs(norm - 1.0) > 1e-3:
                 return _result(response, SetEntityState.Response.INVALID_POSE,
                                f"{request.entity}: the pose must be finite with a unit quaternion (|q| = {norm:.6g})")
-            self.node.arms.set_needle_pose(env, pose7_to_matrix(np.array(values) / [1, 1, 1, norm, norm, norm, norm]))
+            arms = self.node.arms
+            arms.instrument("needle").set_pose(arms, env, pose7_to_matrix(np.array(values) / [1, 1, 1, norm, norm, norm, norm]))
         return _result(response, Result.RESULT_OK)
 

@@ -351,7 +351,7 @@ class TwinNode(Node):
             "servo_cv": lambda env, m: arms.servo_cv(env, m.twist),
             "jaw/servo_jp": lambda env, m: arms.jaw_servo_jp(env, m),
             "jaw/move_jp": lambda env, m: arms.jaw_move_jp(env, m),
-            "suction/servo_jp": lambda env, m: arms.suction_servo_jp(env, m),
+            "suction/servo_jp": lambda env, m: arms.instrument_command(env, "suction/servo_jp", m),
             "hold": lambda env, m: arms.hold(env),
             "set_base_frame": self._set_base_frame,
             "trajectory_j/set_ratio": lambda env, m: arms.set_ratio(env, m.data),
@@ -548,7 +548,7 @@ class TwinNode(Node):
         try:
             if self.recorder is not None:
                 self._record(topic, msg)
-            self._emit(self.arms.press_coag(env, len(msg.buttons) > 0 and msg.buttons[0] == 1))
+            self._emit(self.arms.instrument_command(env, "footpedals/coag", len(msg.buttons) > 0 and msg.buttons[0] == 1))
         except Exception:  # noqa: BLE001 - the node must survive any message
             self.get_logger().error(traceback.format_exc(), throttle_duration_sec=LOG_THROTTLE_S)
 
@@ -681,7 +681,7 @@ class TwinNode(Node):
                 msgs["jaw/measured_js"] = _joint_state(stamp, jaw_names, snap.jaw_meas[env], snap.jaw_meas_v[env],
                                                        zeros1)
                 msgs["jaw/setpoint_js"] = _joint_state(stamp, jaw_names, snap.jaw_sp[env], snap.jaw_sp_v[env], zeros1)
-                if arms.suction is not None:
+                if arms.instrument("suction") is not None:
                     msgs["suction/measured_js"] = _joint_state(stamp, ["suction"], snap.suction_valve[env], zeros1,
                                                                array("d", snap.suction_removed[env]))
             prefix, name = self.prefixes[env], self.arm_names[env]
