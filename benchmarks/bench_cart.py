@@ -37,9 +37,9 @@ def _ready(cart):
     for row in range(cart.num_envs):
         cart.state_command(row, "enable")
         cart.state_command(row, "home")
-    cart.ecm.state_command("enable")
-    cart.ecm.state_command("home")
-    while any(arm.states[0].is_busy for arm in cart.psms) or cart.ecm.state.is_busy:
+    cart.ecm.state_command(0, "enable")
+    cart.ecm.state_command(0, "home")
+    while any(arm.states[0].is_busy for arm in cart.psms) or cart.ecm.states[0].is_busy:
         cart.tick()
 
 

@@ -7,7 +7,7 @@ import torch
 from cressim.robots.ecm import ecm_forward_kinematics
 from cressim.robots.kinematics import pose7_to_matrix
 from cressim.twin import TwinConfig, load_scene, parse_scene
-from cressim.twin.cart import Cart
+from cressim.twin.cart import Cart, pairs
 from cressim.twin.scene import SceneError
 
 ECM_Q = (0.08, 0.12, 0.06, 0.2)  # a pose off every axis: the eyes must follow the ECM's tip
@@ -53,7 +53,7 @@ def test_arms_share_one_engine_at_their_setup_joint_bases(make_cart):
         tips.append(got)
     assert np.linalg.norm(tips[0] - tips[1]) > 0.03  # two arms, not one drawn twice
     # the eyes ride on the ECM's tip, baseline apart along its x
-    cart.ecm.measured = np.array(ECM_Q)
+    cart.ecm.measured[0] = torch.as_tensor(ECM_Q)
     with cart.engine_lock:
         cart.step_engine()
     tip = cart.ecm_base @ ecm_forward_kinematics(np.array(ECM_Q))
@@ -227,21 +227,33 @@ def test_ecm_inverse_kinematics_and_move_cp():
         return SimpleNamespace(position=SimpleNamespace(x=x, y=y, z=z),
                                orientation=SimpleNamespace(x=qx, y=qy, z=qz, w=qw))
 
-    ecm = EcmArm((0, 0, 0.05, 0), (0, 0, 0.05, 0))
-    ecm.state_command("enable")
-    ecm.state_command("home")
-    while ecm.state.is_busy or not ecm.state.is_homed:
-        ecm.tick(0.01)
+    ecm = EcmArm((0, 0, 0.05, 0), (0, 0, 0.05, 0), publish_rate=100.0)
+    ecm.state_command(0, "enable")
+    ecm.state_command(0, "home")
+    while ecm.states[0].is_busy or not ecm.states[0].is_homed:
+        ecm.tick()
     goal = np.array([0.2, -0.1, 0.08, 0.3])
-    assert [t for t, _ in ecm.move_cp(pose(ecm_forward_kinematics(goal)))] == ["operating_state"]
+    assert [e.topic for e in ecm.move_cp(0, pose(ecm_forward_kinematics(goal)))] == ["operating_state"]
     events = []
-    while ecm.state.is_busy:
-        events += ecm.tick(0.01)
-    assert ("goal_reached", True) in events and np.allclose(ecm.setpoint, goal, atol=1e-9)
+    while ecm.states[0].is_busy:
+        events += pairs(ecm.tick())
+    assert ("goal_reached", True) in events and np.allclose(ecm.setpoint[0], goal, atol=1e-9)
+    # beside the scope's line, the z no longer along it: the dVRK's ECM re-aligns the goal's z to
+    # the line from the RCM to its position and goes there (its IK turns the scope onto the point)
     off = ecm_forward_kinematics(goal)
-    off[:3, 3] += 0.01 * off[:3, 0]  # beside the scope's line: no joint values put the tip there so
-    (topic, text), = ecm.move_cp(pose(off))
-    assert topic == "error" and "not reachable" in text
+    off[:3, 3] += 0.01 * off[:3, 0]
+    assert [e.topic for e in ecm.move_cp(0, pose(off))] == ["operating_state"]
+    while ecm.states[0].is_busy:
+        ecm.tick()
+    for _ in range(10):  # measured settles (the 5 ms lag)
+        ecm.tick()
+    tip = ecm.local_cp("measured")
+    assert np.allclose(tip[:3, 3], off[:3, 3], atol=1e-6)
+    assert np.allclose(tip[:3, 2], off[:3, 3] / np.linalg.norm(off[:3, 3]), atol=1e-9)  # z along the scope's line
+    far = ecm_forward_kinematics(np.array([0.2, -0.1, ECM_UPPER[2], 0.3]))
+    far[:3, 3] *= 1.5  # past the insertion's limit: no joint values reach it
+    (event,) = ecm.move_cp(0, pose(far))
+    assert event.topic == "error" and "not reachable" in event.value
 
 
 def test_the_camera_pedal_moves_the_ecm_with_the_hands(make_cart):
@@ -255,17 +267,19 @@ def test_the_camera_pedal_moves_the_ecm_with_the_hands(make_cart):
     for row in range(cart.num_envs):
         cart.state_command(row, "enable")
         cart.state_command(row, "home")
-    for arm in [cart.ecm, *cart.mtms]:
+    cart.ecm.state_command(0, "enable")
+    cart.ecm.state_command(0, "home")
+    for arm in cart.mtms:
         arm.state_command("enable")
         arm.state_command("home")
-    while any(arm.states[0].is_busy for arm in cart.psms) or cart.ecm.state.is_busy:
+    while any(arm.states[0].is_busy for arm in cart.psms) or cart.ecm.states[0].is_busy:
         cart.tick()
     op = cart.operator
     op.present, op.hands = True, {"MTML": np.array([-0.05, 0.0, 0.0]), "MTMR": np.array([0.05, 0.0, 0.0])}
     cart.tick()
     psm1 = cart.psms[0].measured.clone()
     tip0 = cart.ecm.local_cp("measured")
-    q0 = cart.ecm.measured.copy()
+    q0 = cart.ecm.measured[0].numpy().copy()
     op.camera = True
     cart.tick()
     assert ("status", "ECM: camera control: the endoscope follows the hands") in cart.ecm_events
@@ -279,16 +293,16 @@ def test_the_camera_pedal_moves_the_ecm_with_the_hands(make_cart):
         cart.tick()
     tip = cart.ecm.local_cp("measured")
     assert np.allclose(tip[:3, 3] - tip0[:3, 3], tip0[:3, :3] @ d, atol=1e-6)
-    assert np.linalg.norm(cart.ecm.measured - q0) > 0.01
+    assert np.linalg.norm(cart.ecm.measured[0].numpy() - q0) > 0.01
     assert torch.allclose(cart.psms[0].measured, psm1, atol=1e-9)  # the PSM held
     op.camera = False
     cart.tick()
     assert ("status", "ECM: camera control released") in cart.ecm_events
-    q1 = cart.ecm.measured.copy()
+    q1 = cart.ecm.measured[0].numpy().copy()
     op.hands = {"MTML": np.array([-0.05, 0.0, 0.0]), "MTMR": np.array([0.05, 0.0, 0.0])}
     for _ in range(5):
         cart.tick()
-    assert np.allclose(cart.ecm.measured, q1, atol=1e-9)  # released: the hands no longer move it
+    assert np.allclose(cart.ecm.measured[0].numpy(), q1, atol=1e-9)  # released: the hands no longer move it
     assert cart.servo_jp(0, JointCommand(position=[0.3, 0.0, 0.12, 0.0, 0.0, 0.0])) == []
 
 

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from cressim.twin import JointCommand
+from cressim.twin.cart import pairs
 
 pytestmark = pytest.mark.ros
 
@@ -38,16 +39,16 @@ def test_cart_node_namespaces_stereo_and_ecm(make_node):
     node._on_console("enable", None)
     node._on_console("home", None)
     cart = node.cart
-    while any(arm.states[0].is_busy for arm in cart.psms) or cart.ecm.state.is_busy:
+    while any(arm.states[0].is_busy for arm in cart.psms) or cart.ecm.states[0].is_busy:
         node._tick()
-    assert cart.ecm.state.is_homed and all(arm.states[0].is_homed for arm in cart.psms)
+    assert cart.ecm.states[0].is_homed and all(arm.states[0].is_homed for arm in cart.psms)
     node._emit(cart.servo_jp(1, JointCommand(position=[0.2, 0.0, 0.11, 0.0, 0.0, 0.0])))
-    node.ecm.emit(cart.ecm.move_jp(JointCommand(position=[0.1, 0.05, 0.06, -1.4])))
+    node.ecm.emit(pairs(cart.ecm.move_jp(0, JointCommand(position=[0.1, 0.05, 0.06, -1.4]))))
     for _ in range(100):
         node._tick()
     assert cart.psms[1].measured[0, 0] == pytest.approx(0.2, abs=1e-3)
     assert cart.psms[0].measured[0, 0] == pytest.approx(0.0, abs=1e-9)
-    assert np.allclose(cart.ecm.measured, [0.1, 0.05, 0.06, -1.4], atol=1e-3)
+    assert np.allclose(cart.ecm.measured[0], [0.1, 0.05, 0.06, -1.4], atol=1e-3)
     links = {(t.header.frame_id, t.child_frame_id) for rs in node.robot_states
              for t in rs.publish(node.stamp(), _transform)}
     assert ("PSM2_pitch_front_link", "PSM2_insertion_link") in links and ("ECM_base", "ECM_yaw_link") in links

@@ -33,7 +33,11 @@ Left out:
   besides the PSM, and runs until Ctrl-C;
 - not `crtk_*_example.py`: crtk_xyz.py (keyboard jogging) and
   crtk_simple_orientation_registration.py (a user moving an input device by hand); of the dVRK
-  scripts, those for an MTM, an ECM, a console, teleoperation or the real hardware.
+  scripts, those for an MTM, a console, teleoperation or the real hardware.
+
+dvrk_arm_test.py -a ECM runs against the patient cart (scenes/patient_cart.yaml): the ECM's
+Cartesian goals keep the start pose's orientation while the tip moves, so they are only reached
+because the twin re-aligns each goal's z to the scope's line as the dVRK's ECM does.
 
 A script passes when it exits 0 within a safety limit (the scripts' own timeouts are their
 business; this limit only catches a hang), its output shows it ran to the end (its last
@@ -108,7 +112,7 @@ class TwinWatch(OwnContextClient):
     setpoint_js and setpoint_cp positions, in arrival order. Subscribes to no command topic, so
     that a script's check_connections still waits for the twin itself."""
 
-    def __init__(self, domain: int):
+    def __init__(self, domain: int, arm: str = ARM):
         from geometry_msgs.msg import PoseStamped
         from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
         from sensor_msgs.msg import JointState
@@ -130,7 +134,7 @@ class TwinWatch(OwnContextClient):
                     self.cv.notify_all()
             return callback
 
-        ns = f"/{ARM}"
+        ns = f"/{arm}"
         self.subscriptions = [
             self.node.create_subscription(String, f"{ns}/error", keep(self.errors, lambda m: m.data), event),
             self.node.create_subscription(Bool, f"{ns}/goal_reached", keep(self.goal_reached, lambda m: m.data), event),
@@ -261,3 +265,32 @@ def test_dvrk_script(name, clients, ros_domain_id, start_twin, tmp_path):
     if not twin.alive():
         problems.append("the twin exited")
     assert not problems, _report(name, rc, output, problems, twin)
+
+
+def test_dvrk_arm_test_drives_the_carts_ecm(clients, ros_domain_id, start_twin, tmp_path):
+    """dvrk_arm_test.py -a ECM, unchanged, against the patient cart: it runs to the end with no
+    failure and no error from the twin, its servo_cp sweeps the scope's tip 4 cm in x and y and
+    its move_cp squares end with goal_reached (every goal re-aligned to the scope's line)."""
+    twin = start_twin(ros_domain_id, "scene:=patient_cart.yaml")
+    watch = TwinWatch(ros_domain_id, "ECM")
+    try:
+        assert watch.wait_samples(1), f"no setpoint_js/setpoint_cp from the ECM:\n{twin.output()}"
+        mark = watch.mark()
+        rc, output = run_python([clients / "dvrk_python/scripts/dvrk_arm_test.py", "-a", "ECM"], clients,
+                                ros_domain_id, tmp_path)
+        assert watch.wait_samples(20), f"the twin stopped publishing:\n{twin.output()}"
+        seen = watch.since(mark)
+    finally:
+        watch.close()
+    problems = [] if rc == 0 else ["no exit status (killed)" if rc is None else f"exit status {rc}"]
+    problems += [f"its output reports a failure: {line.strip()!r}" for line in output.splitlines()
+                 if FAILURE.search(line) and not LATENCY_NOTE.search(line.strip())][:5]
+    problems += [f"it did not get to the end: {text!r} printed {output.count(text)} times, expected {n}"
+                 for text, n in SCRIPTS["dvrk_arm_test"].ends if output.count(text) < n]
+    problems += [f"the twin published on /ECM/error: {e!r}" for e in seen["errors"][:5]]
+    problems += servo_cp_cosine(seen)
+    if sum(seen["goal_reached"]) < 6:
+        problems.append(f"goal_reached true {sum(seen['goal_reached'])} times, expected 6 or more (the move_cp squares)")
+    if not twin.alive():
+        problems.append("the twin exited")
+    assert not problems, _report("dvrk_arm_test -a ECM", rc, output, problems, twin)

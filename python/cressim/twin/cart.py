@@ -144,7 +144,7 @@ class Cart:
 
         # the endoscope's two cameras, kinematic bodies that follow the ECM's tip
         self.ecm = EcmArm(ecm_spec.initial_jp or ECM_HOME, ecm_spec.home_jp or ECM_HOME,
-                          measured_lag=scene.measured_lag, name=ecm_spec.name)
+                          measured_lag=scene.measured_lag, name=ecm_spec.name, publish_rate=self.publish_rate)
         self.baseline = scene.endoscope_baseline
         self.ecm_base = pose7_to_matrix(np.array([*ecm_spec.base_position, *ecm_spec.base_rotation]))
         fx, fy, cx, cy = camera.intrinsics()
@@ -236,7 +236,7 @@ class Cart:
     def ecm_joints(self) -> tuple[torch.Tensor, torch.Tensor]:
         """The ECM's measured joints as ArmBodies takes them: (1, 6) (4 used) and a (1, 1) jaw of 0."""
         q = torch.zeros(1, 6, dtype=torch.float64)
-        q[0, :4] = torch.as_tensor(self.ecm.measured)
+        q[0, :4] = self.ecm.measured[0]
         return q, torch.zeros(1, 1, dtype=torch.float64)
 
     def images(self, products) -> dict:
@@ -294,6 +294,7 @@ class Cart:
     def set_rate(self, publish_rate: float):
         for arms, _ in self.groups:
             arms.set_rate(publish_rate)
+        self.ecm.period_ns = self.groups[0][0].period_ns
         self.publish_rate = publish_rate
 
     def restart(self, *, clock: bool = True):
@@ -342,7 +343,7 @@ class Cart:
         for arms, rows in self.groups:  # all PSMs of an instrument in one batched tick
             events += self._rows(rows, arms.tick())
         dt = self.period_ns * 1e-9
-        self.ecm_events = self.ecm.tick(dt)
+        self.ecm_events = pairs(self.ecm.tick())
         self._follow_camera(changed=False)
         if self.script is not None:
             self.script.apply(self.sim_ns * 1e-9, self.operator)
@@ -374,7 +375,8 @@ class Cart:
         keeps the image level as at the press); the ECM gets it as a servo_jp each tick, within
         its limits. PSM events: the holds at the press."""
         op, ecm = self.operator, self.ecm
-        on = bool(self.mtms) and op.camera and op.present and ecm.state.state == "ENABLED" and ecm.state.is_homed
+        state = ecm.states[0]
+        on = bool(self.mtms) and op.camera and op.present and state.state == "ENABLED" and state.is_homed
         if not on:
             if self._camera_start is not None:
                 self._camera_start = None
@@ -392,7 +394,7 @@ class Cart:
         goal = tip.copy()
         goal[:3, 3] = tip[:3, 3] + tip[:3, :3] @ (hands - start)
         q, _ = ecm_inverse_kinematics(goal)  # the nearest the scope reaches (its z stays as at the press)
-        self.ecm_events += ecm.servo_jp(JointCommand(position=q.tolist()))
+        self.ecm_events += pairs(ecm.servo_jp(0, JointCommand(position=q.tolist())))
         return events
 
     def _clearance(self) -> list:
@@ -403,7 +405,7 @@ class Cart:
             F = self.psm_bases[rows][:, None] @ dh_forward_kinematics(arms.measured, all_frames=True).numpy()
             for r, k in enumerate(rows):
                 capsules[self.names[k]] = (F[r, 2, :3, 3], F[r, 5, :3, 3], INSTRUMENT_RADIUS)  # tool base to jaw pivot
-        F = self.ecm_base @ ecm_forward_kinematics(self.ecm.measured, all_frames=True)
+        F = self.ecm_base @ ecm_forward_kinematics(self.ecm.measured[0].numpy(), all_frames=True)
         capsules[self.ecm.name] = (F[2, :3, 3], F[3, :3, 3], SCOPE_RADIUS)
         onsets, partings = self.clearance.update(capsules)
         events = []
@@ -459,8 +461,13 @@ class PsmRow:
         raise AttributeError(name)
 
 
+def pairs(events) -> list:
+    """An arm model's events as the (topic, value) pairs a single arm's topics take (the ECM's)."""
+    return [(e.topic, e.value) for e in events]
+
+
 MOTION_COMMANDS = ("servo_jp", "move_jp", "servo_cp", "move_cp", "servo_cv", "jaw_servo_jp", "jaw_move_jp")
 ROW_COMMANDS = ("state_command", "servo_jp", "move_jp", "servo_cp", "move_cp", "servo_cv", "jaw_servo_jp",
                 "jaw_move_jp", "instrument_command", "hold", "set_ratio", "ratio_events", "set_flag")
 
-__all__ = ["Cart", "CartScenery", "EYES", "ecm_urdf"]
+__all__ = ["Cart", "CartScenery", "EYES", "ecm_urdf", "pairs"]

@@ -52,7 +52,7 @@ from crtk_msgs.srv import QueryForwardKinematics, QueryInverseKinematics, Trigge
 from cressim.robots import PSM_JOINT_NAMES
 from cressim.robots.kinematics import matrix_to_pose7
 from cressim.twin import ConfigError, Sensor, SensorLoop, StateReport, TwinArms, TwinConfig
-from cressim.twin.cart import EYES, Cart, ecm_urdf
+from cressim.twin.cart import EYES, Cart, ecm_urdf, pairs
 from cressim.twin.command_checks import stale_refusal
 from cressim.twin.sensor_loop import process_threads
 from cressim.twin.scene import DEFAULT_SCENE, SceneError, load_scene
@@ -557,7 +557,7 @@ class TwinNode(Node):
             for env in range(self.num_envs):
                 self._emit(self.arms.state_command(env, command))
             if self.ecm is not None:
-                self.ecm.emit(self.cart.ecm.state_command(command))
+                self.ecm.emit(pairs(self.cart.ecm.state_command(0, command)))
                 for topics in self.console.mtms:
                     topics.emit(topics.mtm.state_command(command))
         except Exception:  # noqa: BLE001
