@@ -75,7 +75,6 @@ class TwinArms(ArmModel):
         default: an engine of its own. `initial_jp`, `home_jp`: (num_envs, 6) per row (a cart's arms each
         have their own; a NaN row homes where it is); default: the scene's for every row.
         `names`: each row's name in messages (a cart's PSM1, PSM2); default `env{i}/arm`."""
-        self.names = names
         scene = config.scene
         self.scene = scene
         self.num_envs, self.arm, self.robot = config.value("num_envs"), config.value("arm"), config.value("robot")
@@ -90,11 +89,10 @@ class TwinArms(ArmModel):
         initial = np.zeros((N, INTERFACE_DOF))
         initial[:, :dof] = np.asarray(scene.initial_jp if initial_jp is None else initial_jp, dtype=np.float64)[..., :dof]
         home = scene.home_jp if home_jp is None else home_jp
-        self.home_q = None if home is None else np.broadcast_to(np.asarray(home, dtype=np.float64),
-                                                                (N, INTERFACE_DOF)).copy()
+        home = None if home is None else np.broadcast_to(np.asarray(home, dtype=np.float64), (N, INTERFACE_DOF))
         lower, upper = np.zeros(INTERFACE_DOF), np.zeros(INTERFACE_DOF)
         lower[:dof], upper[:dof] = self.psm.lower.numpy(), self.psm.upper.numpy()
-        for what, rows in (("initial_jp", initial), ("home_jp", self.home_q)):
+        for what, rows in (("initial_jp", initial), ("home_jp", home)):
             for values in () if rows is None else rows[~np.isnan(rows).any(1)]:
                 problem = limit_refusal(values, PSM_JOINT_NAMES, lower, upper, what=what)
                 if problem:

@@ -44,16 +44,17 @@ def camera_frame(env: int, num_envs: int) -> str:
 
 
 class CameraView(NamedTuple):
-    """One camera as ROS sees it: its namespace, optical frame and CameraInfo's P[3] (-fx B for a
-    stereo pair's right camera, 0 for a single or left one)."""
+    """One camera as ROS sees it: its namespace, optical frame, CameraInfo's P[3] (-fx B for a
+    stereo pair's right camera, 0 for a single or left one) and the env it sees."""
     namespace: str
     frame: str
     p_tx: float = 0.0
+    env: int = 0
 
 
 def env_views(num_envs: int) -> list[CameraView]:
     """The twin's one camera per env."""
-    return [CameraView(camera_namespace(env, num_envs), camera_frame(env, num_envs)) for env in range(num_envs)]
+    return [CameraView(camera_namespace(env, num_envs), camera_frame(env, num_envs), env=env) for env in range(num_envs)]
 
 
 class CameraTopics:

@@ -2,15 +2,17 @@
 the twin publishes, for Foxglove (app.foxglove.dev or the desktop app: "Open connection",
 ws://HOST:PORT). docs/twin.md, "Live view", shows how.
 
-It listens to the twin's own topics (env 0's: one env is what a person watches) on a node of its
-own in the twin's process and hands them on in Foxglove's schemas, so that the 3D, Image and
-Plot panels need no ROS on the viewer's side:
+It listens to the twin's own topics (env 0's: one env is what a person watches; every camera and
+arm of it, a patient cart's two eyes and each arm) on a node of its own in the twin's process and
+hands them on in Foxglove's schemas, so that the 3D, Image and Plot panels need no ROS on the
+viewer's side. For each camera namespace CAM (/camera; a cart's /camera/left, /camera/right) and
+each arm's topic prefix ARM ("" for the single twin; a cart's /PSM1, /PSM2, /ECM):
 
-    /camera/color/image_raw, /camera/depth/image_raw   foxglove.RawImage (rgb8, 32FC1)
-    /camera/color/camera_info                          foxglove.CameraCalibration
-    /tf, /tf_static                                    foxglove.FrameTransforms
-    /joint_states                                      foxglove.JointStates
-    /robot_description                                 the URDF (JSON {"data": ...}, std_msgs/String's shape)
+    CAM/color/image_raw, CAM/depth/image_raw   foxglove.RawImage (rgb8, 32FC1)
+    CAM/color/camera_info                      foxglove.CameraCalibration
+    /tf, /tf_static                            foxglove.FrameTransforms
+    ARM/joint_states                           foxglove.JointStates
+    ARM/robot_description                      the URDF (JSON {"data": ...}, std_msgs/String's shape)
 
 Foxglove keeps no message for late joiners, so the latched topics (the URDF, /tf_static) are kept
 here and logged again whenever a viewer subscribes to them.
@@ -75,46 +77,52 @@ class _Latch(ServerListener):
 
 
 class LiveView:
-    def __init__(self, node, port: int, host: str = "127.0.0.1"):
+    def __init__(self, node, port: int, *, cameras=("/camera",), robots=("",), host: str = "127.0.0.1"):
         self.context = foxglove.Context()
         self.latch = _Latch()
         self.server = foxglove.start_server(name="cressim twin", host=host, port=port, context=self.context,
                                             server_listener=self.latch)
         self.port = self.server.port
         c = self.context
-        self.images = {"/camera/color/image_raw": RawImageChannel("/camera/color/image_raw", context=c),
-                       "/camera/depth/image_raw": RawImageChannel("/camera/depth/image_raw", context=c)}
-        self.calibration = CameraCalibrationChannel("/camera/color/camera_info", context=c)
+        self.images = {f"{cam}/{product}/image_raw": RawImageChannel(f"{cam}/{product}/image_raw", context=c)
+                       for cam in cameras for product in ("color", "depth")}
+        self.calibrations = {f"{cam}/color/camera_info": CameraCalibrationChannel(f"{cam}/color/camera_info", context=c)
+                             for cam in cameras}
         self.tf = FrameTransformsChannel("/tf", context=c)
         self.tf_static = FrameTransformsChannel("/tf_static", context=c)
-        self.joints = JointStatesChannel("/joint_states", context=c)
-        self.urdf = foxglove.Channel("/robot_description", schema=STRING_SCHEMA, context=c)
-        self.latch.channels.update({"/tf_static": self.tf_static, "/robot_description": self.urdf})
-        self.subscriptions = [node.create_subscription(Image, topic, lambda m, t=topic: self._image(t, m), STREAM_QOS)
+        self.joints = {f"{arm}/joint_states": JointStatesChannel(f"{arm}/joint_states", context=c) for arm in robots}
+        self.latch.channels["/tf_static"] = self.tf_static
+        for arm in robots:
+            topic = f"{arm}/robot_description"
+            self.latch.channels[topic] = foxglove.Channel(topic, schema=STRING_SCHEMA, context=c)
+        sub = node.create_subscription
+        self.subscriptions = [sub(Image, topic, lambda m, t=topic: self._image(t, m), STREAM_QOS)
                               for topic in self.images]
+        self.subscriptions += [sub(CameraInfo, topic, lambda m, t=topic: self._camera_info(t, m), STREAM_QOS)
+                               for topic in self.calibrations]
+        self.subscriptions += [sub(RosJointState, topic, lambda m, t=topic: self._joint_states(t, m), STREAM_QOS)
+                               for topic in self.joints]
+        self.subscriptions += [sub(String, f"{arm}/robot_description",
+                                   lambda m, t=f"{arm}/robot_description": self.latch.log(t, {"data": m.data}),
+                                   LATCHED_QOS) for arm in robots]
         self.subscriptions += [
-            node.create_subscription(CameraInfo, "/camera/color/camera_info", self._camera_info, STREAM_QOS),
-            node.create_subscription(TFMessage, "/tf", lambda m: self.tf.log(_transforms(m)), STREAM_QOS),
-            node.create_subscription(TFMessage, "/tf_static", lambda m: self.latch.log("/tf_static", _transforms(m)),
-                                     LATCHED_QOS),
-            node.create_subscription(RosJointState, "/joint_states", self._joint_states, STREAM_QOS),
-            node.create_subscription(String, "/robot_description",
-                                     lambda m: self.latch.log("/robot_description", {"data": m.data}), LATCHED_QOS)]
+            sub(TFMessage, "/tf", lambda m: self.tf.log(_transforms(m)), STREAM_QOS),
+            sub(TFMessage, "/tf_static", lambda m: self.latch.log("/tf_static", _transforms(m)), LATCHED_QOS)]
 
     def _image(self, topic: str, m: Image):
         self.images[topic].log(RawImage(timestamp=_time(m.header.stamp), frame_id=m.header.frame_id, width=m.width,
                                         height=m.height, encoding=m.encoding, step=m.step, data=bytes(m.data)))
 
-    def _camera_info(self, m: CameraInfo):
-        self.calibration.log(CameraCalibration(timestamp=_time(m.header.stamp), frame_id=m.header.frame_id,
+    def _camera_info(self, topic: str, m: CameraInfo):
+        self.calibrations[topic].log(CameraCalibration(timestamp=_time(m.header.stamp), frame_id=m.header.frame_id,
                                                width=m.width, height=m.height, distortion_model=m.distortion_model,
                                                D=list(m.d), K=list(m.k), R=list(m.r), P=list(m.p)))
 
-    def _joint_states(self, m: RosJointState):
+    def _joint_states(self, topic: str, m: RosJointState):
         def at(values, i):
             return float(values[i]) if i < len(values) else None
 
-        self.joints.log(JointStates(timestamp=_time(m.header.stamp), joints=[
+        self.joints[topic].log(JointStates(timestamp=_time(m.header.stamp), joints=[
             JointState(name=name, position=at(m.position, i), velocity=at(m.velocity, i), effort=at(m.effort, i))
             for i, name in enumerate(m.name)]))
 

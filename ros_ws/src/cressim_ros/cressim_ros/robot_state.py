@@ -32,12 +32,14 @@ class RobotStateTopics:
         self.bodies = bodies or arms.bodies
         self.state = state or (lambda: (arms.measured, arms.jaw_meas))
         N = self.num_envs
-        if names is not None:  # a cart's rows: /PSM2/..., frames PSM2_*
+        if names is not None:  # a cart's rows: /PSM2/..., frames PSM2_*, every one in env 0
             self.arm_names, self.env_prefixes = list(names), [""] * N
             self.topic = lambda name, env: f"/{names[env]}{name}"
+            self.first_env_rows = list(range(N))
         else:
             self.arm_names, self.env_prefixes = [arms.arm] * N, [env_frame_prefix(env, N) for env in range(N)]
             self.topic = lambda name, env: env_topic(name, env, N)
+            self.first_env_rows = [0]
         texts = {name: String(data=urdf_text.replace(URDF_PREFIX, f"{name}_")) for name in set(self.arm_names)}
         self.descriptions = [texts[name] for name in self.arm_names]
         self.description_pubs = [node.create_publisher(String, self.topic(ROBOT_DESCRIPTION_TOPIC, env), LATCHED_QOS)

@@ -237,7 +237,10 @@ class TwinNode(Node):
             from .live_view import LiveView  # foxglove-sdk: imported only when asked for
 
             try:
-                self.live_view = LiveView(self, cfg["live_view"])
+                self.live_view = LiveView(self, cfg["live_view"],
+                                          cameras=[v.namespace for v in self.camera.views if v.env == 0],
+                                          robots=[rs.topic("", row) for rs in self.robot_states
+                                                  for row in rs.first_env_rows])
             except Exception as exc:  # noqa: BLE001 - the port taken, say
                 raise ConfigError(f"live_view: port {cfg['live_view']}: {exc}") from None
         self._sync_sensor_groups()
