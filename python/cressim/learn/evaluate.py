@@ -10,7 +10,7 @@ import numpy as np
 import torch
 
 from .policy import load_policy
-from .rollout import resolve_device, sync
+from .device import resolve_device, sync
 from .video import EnvVideo
 
 
