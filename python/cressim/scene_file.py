@@ -82,8 +82,10 @@ import numpy as np
 import yaml
 
 import cressim
+from cressim import io
 from cressim.config import Field, SceneFileError, read_fields
 from cressim.randomization.config import parse_terms
+from cressim.tet_mesh_file import load_tet_mesh
 
 MATERIAL_KEYS = ("color", "metallic", "roughness", "texture", "normal_map", "normal_scale")
 # an entity's keys and the components they make
@@ -195,8 +197,6 @@ class _Loader:
         return p
 
     def texture(self, f: Field) -> cressim.Texture:
-        from cressim import io
-
         kinds = f.keys(("file", "checker"))
         if len(kinds) != 1:
             raise f.fail("give one of: file, checker")
@@ -220,8 +220,6 @@ class _Loader:
             raise f.fail("give one of: file, sphere, box, capsule, plane")
         kind, g = shape[0], kinds[shape[0]]
         if kind == "file":
-            from cressim import io
-
             path = self._file(g)
             try:
                 return io.load_mesh(path, scale=kinds["scale"].float() if "scale" in kinds else 1.0)
@@ -407,8 +405,6 @@ class _Loader:
         if "scale" in c and shape != "mesh":
             raise c["scale"].fail("scale applies to mesh files; size box and cylinder directly")
         if shape == "mesh":
-            from cressim.tet_mesh_file import load_tet_mesh
-
             path, scale = self._file(g), c["scale"].positive() if "scale" in c else 1.0
             try:
                 mesh = load_tet_mesh(path, scale)

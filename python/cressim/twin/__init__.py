@@ -3,8 +3,8 @@ scene file, and the sensor loop that renders off the control tick. The ROS 2 nod
 (ros_ws/src/cressim_ros) only wires topics to these objects; tests drive them directly.
 """
 from cressim.twin.arms import ConfigError, Event, JointCommand, Snapshot, StateReport, TwinArms, TwinConfig
-from cressim.twin.scene import DEFAULT_SCENE, Scene, SceneError, load_scene, parse_scene
 from cressim.twin.sensor_loop import Sensor, SensorLoop
+from cressim.twin_scene_file import DEFAULT_SCENE, Scene, SceneError, load_scene, parse_scene
 
 __all__ = ["ConfigError", "DEFAULT_SCENE", "Event", "JointCommand", "Scene", "SceneError", "Sensor", "SensorLoop",
            "Snapshot", "StateReport", "TwinArms", "TwinConfig", "load_scene", "parse_scene"]

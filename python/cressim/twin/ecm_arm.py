@@ -22,6 +22,7 @@ from cressim.robots.ecm import (ECM_JOINT_NAMES, ECM_LOWER, ECM_UPPER, ECM_VELOC
                                 ecm_inverse_kinematics)
 
 from .arm_state import ArmState
+from .arms import StateReport  # the one StateReport the node turns into messages
 from .command_checks import joint_values, pose_matrix
 from .trajectory import BatchedTrajectory
 
@@ -49,7 +50,6 @@ class EcmArm:
         self.time = 0.0
 
     def report(self):
-        from .arms import StateReport  # the one StateReport the node turns into messages
         s = self.state
         return StateReport(s.state, s.is_homed, s.is_busy)
 
