@@ -57,10 +57,18 @@ def layer_of(module: str, layers=LAYERS) -> tuple[int, str]:
     return best[1], best[2]
 
 
-def problems(edges: list[Import], layers=LAYERS, allowed=ALLOWED) -> list[str]:
+def problems(files: dict[str, Path], edges: list[Import], layers=LAYERS, allowed=ALLOWED) -> list[str]:
     """Every broken rule as `file:line: what`, and every allowance that no longer allows anything."""
-    out, used = [], set()
+    out, used, unplaced = [], set(), set()
+    for module, f in sorted(files.items()):
+        try:
+            layer_of(module, layers)
+        except LookupError:
+            out.append(f"{f}:1: module {module} is in no layer: add it to LAYERS (and docs/layers.md)")
+            unplaced.add(module)
     for e in edges:
+        if e.source in unplaced or e.target in unplaced:
+            continue
         (s_tier, s_layer), (t_tier, t_layer) = layer_of(e.source, layers), layer_of(e.target, layers)
         rule = None
         if e.source.split(".")[0] == "cressim" and e.target.split(".")[0] == "cressim_ros":
@@ -96,27 +104,16 @@ def graph(packages: dict[str, Path] = PACKAGES, extra=COMPILED) -> tuple[dict[st
     return files, imports(files, tuple(packages), set(extra))
 
 
-def test_every_module_is_in_a_layer():
-    files, _ = graph()
-    missing = []
-    for module, f in files.items():
-        try:
-            layer_of(module)
-        except LookupError:
-            missing.append(f"{f}: module {module} is in no layer of LAYERS")
-    assert not missing, "\n".join(missing)
-
-
-def test_no_import_of_a_higher_layer_and_no_cycle():
-    _, edges = graph()
-    found = problems(edges)
+def test_every_module_in_a_layer_no_import_of_a_higher_layer_and_no_cycle():
+    found = problems(*graph())
     assert not found, "\n".join(found)
 
 
 def test_docs_list_the_layers_in_order():
     text = (REPO / "docs" / "layers.md").read_text()
-    listed = re.findall(r"^\| \*\*(.+?)\*\* \|", text, re.M)
-    assert listed == [name for group in LAYERS for name in group], "docs/layers.md's table rows, bottom first"
+    listed = re.findall(r"^\| \*\*(.+?)\*\* \| (\d+) \|", text, re.M)
+    declared = [(name, str(tier)) for tier, group in enumerate(LAYERS) for name in group]
+    assert listed == declared, "docs/layers.md's table: (layer, tier) rows, bottom first, as LAYERS"
 
 
 # --- the checker itself, on planted trees ------------------------------------------------------
@@ -137,8 +134,7 @@ def _tree(root: Path, files: dict[str, str]) -> dict[str, Path]:
 
 def _problems(tmp_path, files: dict[str, str], allowed=None) -> list[str]:
     base = {"pkg/__init__.py": "", "pkg/low.py": "", "pkg/mid/__init__.py": "", "pkg/side.py": "", "pkg/high.py": ""}
-    _, edges = graph(_tree(tmp_path, {**base, **files}), ())
-    return problems(edges, PLANTED, allowed or {})
+    return problems(*graph(_tree(tmp_path, {**base, **files}), ()), PLANTED, allowed or {})
 
 
 def test_a_clean_planted_tree_passes(tmp_path):
@@ -169,8 +165,7 @@ def test_cressim_importing_cressim_ros_fails(tmp_path):
     _tree(tmp_path, {"cressim/__init__.py": "", "cressim/low.py": "import cressim_ros.node\n",
                      "cressim_ros/__init__.py": "", "cressim_ros/node.py": "import cressim.low\n"})
     layers = ({"low": ("cressim",)}, {"ros": ("cressim_ros",)})
-    _, edges = graph({"cressim": tmp_path / "cressim", "cressim_ros": tmp_path / "cressim_ros"}, ())
-    found = problems(edges, layers, {})
+    found = problems(*graph({"cressim": tmp_path / "cressim", "cressim_ros": tmp_path / "cressim_ros"}, ()), layers, {})
     assert any("cressim.low imports cressim_ros.node: cressim never imports cressim_ros" in p for p in found)
     assert any("import cycle" in p for p in found)
 
@@ -180,6 +175,15 @@ def test_an_allowance_hides_its_import_and_fails_once_unused(tmp_path):
     assert _problems(tmp_path, files, {("pkg.low", "pkg.high"): "planted"}) == []
     assert _problems(tmp_path, {}, {("pkg.low", "pkg.high"): "planted"}) == [
         "ALLOWED: pkg.low -> pkg.high (planted) is no longer needed: remove it"]
+
+
+def test_a_module_in_no_layer_is_named(tmp_path):
+    files = {"pkg/__init__.py": "", "pkg/low.py": "", "pkg/stray.py": "from . import low\n"}
+    found = problems(*graph(_tree(tmp_path, files), ()), ({"low": ("pkg", "pkg.low")},), {})
+    assert found == []
+    found = problems(*graph(_tree(tmp_path, files), ()), ({"low": ("pkg.low",)},), {})
+    assert found == [f"{tmp_path / 'pkg/__init__.py'}:1: module pkg is in no layer: add it to LAYERS (and docs/layers.md)",
+                     f"{tmp_path / 'pkg/stray.py'}:1: module pkg.stray is in no layer: add it to LAYERS (and docs/layers.md)"]
 
 
 def test_an_import_of_no_module_is_an_error_naming_file_line(tmp_path):
