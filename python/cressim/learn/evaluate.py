@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from .policy import load_policy
 from .device import resolve_device, sync
+from .policy import load_policy
 from .video import EnvVideo
 
 

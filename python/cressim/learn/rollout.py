@@ -59,4 +59,3 @@ def run_update(venv, alg, steps: int, stats: EpisodeStats | None = None) -> dict
     """A rollout, then the PPO update; returns the mean losses."""
     collect_rollout(venv, alg, steps, stats)
     return alg.update()
-
