@@ -24,7 +24,7 @@ import torch
 from cressim.twin import JointCommand, Sensor, SensorLoop, TwinConfig, load_scene
 from cressim.twin.camera_images import DTYPES, PRODUCTS
 from cressim.twin.cart import Cart
-from cressim.twin.scene import CartArm
+from cressim.twin_scene_file import CartArm
 import dataclasses
 
 from bench_twin import paced

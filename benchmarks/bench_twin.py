@@ -28,7 +28,7 @@ import numpy as np
 import torch
 
 from cressim.twin import JointCommand, Scene, Sensor, SensorLoop, TwinArms, TwinConfig
-from cressim.twin.scene import load_scene
+from cressim.twin_scene_file import load_scene
 from cressim.twin.camera_images import PRODUCTS, CameraImages
 
 

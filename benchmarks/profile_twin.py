@@ -23,7 +23,7 @@ import numpy as np
 import torch
 
 from cressim.twin import TwinArms, TwinConfig
-from cressim.twin.scene import load_scene
+from cressim.twin_scene_file import load_scene
 
 
 def profile(scene: str, dynamics: str, rate: float, iterations: str, ticks: int, host: int = 0,

@@ -167,7 +167,7 @@ def _eval(args: argparse.Namespace) -> int:
 
 
 def _generate(args: argparse.Namespace) -> int:
-    from cressim.record.rollouts import generate
+    from cressim.datasets import generate
 
     rc = _relaunched(args)
     if rc is not None:
@@ -181,7 +181,7 @@ def _generate(args: argparse.Namespace) -> int:
 
 
 def _export(args: argparse.Namespace) -> int:
-    from cressim.record import datasets
+    from cressim import datasets
 
     if args.replay:
         result = datasets.replay(args.source, device=args.device)

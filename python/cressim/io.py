@@ -10,7 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
-import cressim
+# the binding itself, not the `cressim` facade: the facade's sensors import this module
+from cressim._core import Mesh, Texture
 
 
 def save_png(path, image) -> Path:
@@ -200,7 +201,7 @@ def colour_segmentation(seg) -> np.ndarray:
     return np.round(rgb * 255).astype(np.uint8)
 
 
-def load_mesh(path, *, scale: float = 1.0) -> cressim.Mesh:
+def load_mesh(path, *, scale: float = 1.0) -> Mesh:
     """A .obj/.stl/.glb/.ply (anything trimesh reads) as a cressim.Mesh: the file's meshes
     merged, vertex normals from the file or computed, uvs when the file has them (v flipped to
     the image's rows-down convention)."""
@@ -217,11 +218,11 @@ def load_mesh(path, *, scale: float = 1.0) -> cressim.Mesh:
         uvs = np.column_stack([uvs[:, 0], 1.0 - uvs[:, 1]]).astype(np.float32)
     else:
         uvs = None
-    return cressim.Mesh(np.asarray(m.vertices, np.float32) * scale, np.asarray(m.faces, np.uint32),
+    return Mesh(np.asarray(m.vertices, np.float32) * scale, np.asarray(m.faces, np.uint32),
                         np.asarray(m.vertex_normals, np.float32), uvs)
 
 
-def load_mesh_texture(path, which: str = "color") -> cressim.Texture | None:
+def load_mesh_texture(path, which: str = "color") -> Texture | None:
     """An image a mesh file carries, or None. which="color": the base colour (a .glb's material,
     an .obj's map_Kd); "normal": a .glb's normal map (glTF's convention is ours: green toward the
     image's top), for Renderable(normal_map=...)."""
@@ -237,17 +238,17 @@ def load_mesh_texture(path, which: str = "color") -> cressim.Texture | None:
         image = getattr(material, "baseColorTexture", None) or getattr(material, "image", None)
     if image is None:
         return None
-    return cressim.Texture(np.asarray(image.convert("RGBA"), np.uint8))
+    return Texture(np.asarray(image.convert("RGBA"), np.uint8))
 
 
-def load_texture(path) -> cressim.Texture:
+def load_texture(path) -> Texture:
     """A PNG file as a cressim.Texture."""
-    return cressim.Texture(read_png(path))
+    return Texture(read_png(path))
 
 
-def checker_texture(size: int = 64, squares: int = 8, colors=((230, 230, 230), (40, 40, 40))) -> cressim.Texture:
+def checker_texture(size: int = 64, squares: int = 8, colors=((230, 230, 230), (40, 40, 40))) -> Texture:
     """A checkerboard texture, `squares` a side."""
     i = (np.arange(size) * squares // size)
     mask = (i[:, None] + i[None, :]) % 2 == 0
     img = np.where(mask[..., None], np.array(colors[0], np.uint8), np.array(colors[1], np.uint8))
-    return cressim.Texture(img.astype(np.uint8))
+    return Texture(img.astype(np.uint8))

@@ -82,6 +82,10 @@ import numpy as np
 import yaml
 
 import cressim
+from cressim import io
+from cressim.config import Field, SceneFileError, read_fields
+from cressim.randomization.config import parse_terms
+from cressim.tet_mesh_file import load_tet_mesh
 
 MATERIAL_KEYS = ("color", "metallic", "roughness", "texture", "normal_map", "normal_scale")
 # an entity's keys and the components they make
@@ -105,122 +109,6 @@ PROBE_NUMBERS = ("line_length", "line_spacing", "sector_angle", "radius", "sampl
                  "coupling_impedance", "specular_amplitude")
 # an ultrasound tissue region's sizes: box half extents, sphere radius, cylinder radius and half height
 REGION_SIZES = {"box": 3, "sphere": 1, "cylinder": 2}
-
-
-class SceneFileError(ValueError):
-    """A scene file that cannot be loaded; the message starts with file:line: field."""
-
-
-@dataclass
-class Field:
-    """A YAML node and where it is: its file, line, and dotted field path."""
-
-    node: yaml.Node
-    file: str
-    path: str
-
-    def fail(self, message: str) -> SceneFileError:
-        return SceneFileError(f"{self.where}: {self.path or '(top)'}: {message}")
-
-    @property
-    def where(self) -> str:
-        """file:line of the node."""
-        return f"{self.file}:{self.node.start_mark.line + 1}"
-
-    # --- structure -------------------------------------------------------------------------
-    def is_map(self) -> bool:
-        return isinstance(self.node, yaml.MappingNode)
-
-    def items(self) -> dict[str, Field]:
-        if not self.is_map():
-            raise self.fail("expected a mapping (key: value)")
-        out = {}
-        for k, v in self.node.value:
-            key = str(k.value)
-            if key in out:
-                raise Field(k, self.file, self._join(key)).fail("given twice")
-            out[key] = Field(v, self.file, self._join(key))
-        return out
-
-    def list(self) -> list[Field]:
-        if not isinstance(self.node, yaml.SequenceNode):
-            raise self.fail("expected a list")
-        return [Field(v, self.file, f"{self.path}[{i}]") for i, v in enumerate(self.node.value)]
-
-    def keys(self, allowed: tuple[str, ...]) -> dict[str, Field]:
-        """The mapping's fields, refusing keys not in `allowed`."""
-        fields = self.items()
-        for k, f in fields.items():
-            if k not in allowed:
-                raise f.fail(f"unknown field '{k}'; expected one of: {', '.join(allowed)}")
-        return fields
-
-    def _join(self, key: str) -> str:
-        return f"{self.path}.{key}" if self.path else key
-
-    # --- scalars ---------------------------------------------------------------------------
-    def _scalar(self):
-        if not isinstance(self.node, yaml.ScalarNode):
-            raise self.fail("expected a single value")
-        return yaml.safe_load(self.node.value) if self.node.style is None else self.node.value
-
-    def str(self) -> str:
-        v = self._scalar()
-        if not isinstance(v, str):
-            raise self.fail(f"expected a name, got {v!r}")
-        return v
-
-    def float(self) -> float:
-        v = self._scalar()
-        if isinstance(v, str) and self.node.style is None:
-            try:
-                v = float(v)  # YAML 1.1 reads 1e-3 (no dot) as a string
-            except ValueError:
-                pass
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise self.fail(f"expected a number, got {v!r}")
-        return float(v)
-
-    def int(self, minimum: int | None = None) -> int:
-        v = self._scalar()
-        if isinstance(v, bool) or not isinstance(v, int):
-            raise self.fail(f"expected an integer, got {v!r}")
-        if minimum is not None and v < minimum:
-            raise self.fail(f"must be >= {minimum}, got {v}")
-        return v
-
-    def bool(self) -> bool:
-        v = self._scalar()
-        if not isinstance(v, bool):
-            raise self.fail(f"expected true or false, got {v!r}")
-        return v
-
-    def vec(self, n: int | tuple[int, ...], each: str = "float") -> tuple[float, ...]:
-        """n numbers (or one of the sizes n lists), each read by the method `each` names
-        (float, finite, positive), so an error names the number's own field."""
-        sizes = (n,) if isinstance(n, int) else n
-        items = self.list()
-        if len(items) not in sizes:
-            raise self.fail(f"expected {' or '.join(map(str, sizes))} numbers, got {len(items)}")
-        return tuple(getattr(f, each)() for f in items)
-
-    def ints(self, n: int, minimum: int | None = None) -> tuple[int, ...]:
-        items = self.list()
-        if len(items) != n:
-            raise self.fail(f"expected {n} integers, got {len(items)}")
-        return tuple(f.int(minimum) for f in items)
-
-    def positive(self) -> float:
-        v = self.float()
-        if not v > 0 or not math.isfinite(v):
-            raise self.fail(f"must be positive, got {v}")
-        return v
-
-    def finite(self) -> float:
-        v = self.float()
-        if not math.isfinite(v):
-            raise self.fail(f"must be finite, got {v}")
-        return v
 
 
 def _quat_look_at(eye, target, up=(0.0, 0.0, 1.0)) -> tuple[float, ...]:
@@ -281,8 +169,6 @@ class _Loader:
         for name, f in (top["textures"].items() if "textures" in top else {}).items():
             self.textures[name] = self.world.add_texture(self.texture(f))
         if "randomization" in top:  # checked here; used by the env that runs the scene (file_randomization)
-            from cressim.randomization import parse_terms
-
             self.randomization = parse_terms(top["randomization"], self.textures)
         for name, f in (top["meshes"].items() if "meshes" in top else {}).items():
             self.meshes[name] = self.world.add_mesh(self.mesh(f))
@@ -311,8 +197,6 @@ class _Loader:
         return p
 
     def texture(self, f: Field) -> cressim.Texture:
-        from cressim import io
-
         kinds = f.keys(("file", "checker"))
         if len(kinds) != 1:
             raise f.fail("give one of: file, checker")
@@ -336,8 +220,6 @@ class _Loader:
             raise f.fail("give one of: file, sphere, box, capsule, plane")
         kind, g = shape[0], kinds[shape[0]]
         if kind == "file":
-            from cressim import io
-
             path = self._file(g)
             try:
                 return io.load_mesh(path, scale=kinds["scale"].float() if "scale" in kinds else 1.0)
@@ -523,8 +405,6 @@ class _Loader:
         if "scale" in c and shape != "mesh":
             raise c["scale"].fail("scale applies to mesh files; size box and cylinder directly")
         if shape == "mesh":
-            from cressim.tet_mesh_file import load_tet_mesh
-
             path, scale = self._file(g), c["scale"].positive() if "scale" in c else 1.0
             try:
                 mesh = load_tet_mesh(path, scale)
@@ -792,29 +672,5 @@ def add_scene(world: cressim.World, path, *, segmentation_offset: int = 0, skip:
     return AddedScene(dict(loader.labels), list(loader.probes), list(loader.randomization))
 
 
-def file_randomization(path) -> list:
-    """The domain randomization terms (cressim.randomization.Term) of a scene file's
-    `randomization:` section, or of a YAML file that is the list of terms itself; errors name
-    file:line and the field."""
-    from cressim.randomization import parse_terms
-
-    loader = _loader(Path(path))
-    if not loader.root.is_map():
-        return parse_terms(loader.root)
-    # texture choices may name the file's textures: their indices in a world of its own
-    names = loader.root.items()["textures"].items() if "textures" in loader.root.items() else {}
-    top = loader.root.items()
-    return parse_terms(top["randomization"], {n: i for i, n in enumerate(names)}) if "randomization" in top else []
-
-
 def _loader(path: Path, **options) -> _Loader:
-    text = path.read_text()
-    try:
-        node = yaml.compose(text)
-    except yaml.YAMLError as e:
-        mark = getattr(e, "problem_mark", None)
-        where = f"{path}:{mark.line + 1}" if mark else str(path)
-        raise SceneFileError(f"{where}: not valid YAML: {getattr(e, 'problem', e)}") from None
-    if node is None:
-        raise SceneFileError(f"{path}:1: the file is empty")
-    return _Loader(Field(node, str(path), ""), path.parent, **options)
+    return _Loader(read_fields(path), path.parent, **options)

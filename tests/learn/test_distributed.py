@@ -73,7 +73,7 @@ def test_generated_shards_join_into_the_one_process_batch(tmp_path):
     """`cressim generate --nproc 2`: a bag a process and an index; read back with rosbags, the two
     shards side by side are the one-process recording, number for number."""
     pytest.importorskip("rosbags")
-    from cressim.record.rollouts import read
+    from cressim.datasets.rollouts import read
 
     common = ["generate", "CartPole", "--envs", "6", "--steps", "12", "--seed", "2"]
     run_cli(*common, "--out", "one", cwd=tmp_path)

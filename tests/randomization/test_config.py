@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import cressim
-from cressim.randomization import RandomizationError, Randomizer
-from cressim.scene_file import SceneFileError, file_randomization, load_scene
+from cressim.randomization import RandomizationError, Randomizer, file_randomization
+from cressim.scene_file import SceneFileError, load_scene
 
 from .frames import randomized_frame
 

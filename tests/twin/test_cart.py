@@ -8,7 +8,7 @@ from cressim.robots.ecm import ecm_forward_kinematics
 from cressim.robots.kinematics import pose7_to_matrix
 from cressim.twin import TwinConfig, load_scene, parse_scene
 from cressim.twin.cart import Cart, pairs
-from cressim.twin.scene import SceneError
+from cressim.twin_scene_file import SceneError
 
 ECM_Q = (0.08, 0.12, 0.06, 0.2)  # a pose off every axis: the eyes must follow the ECM's tip
 ECM_BASE = (0.0, 0.0, 0.33)

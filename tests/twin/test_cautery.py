@@ -4,7 +4,7 @@ coagulate the tissue at their middle; released, they heat nothing; env 1's pedal
 suction tool and a world without heat refuse the pedal."""
 import numpy as np
 
-from cressim.twin.scene import load_scene
+from cressim.twin_scene_file import load_scene
 
 from arm_moves import jaws_at, run_ticks, settle
 

@@ -8,7 +8,7 @@ from types import SimpleNamespace
 
 from cressim.twin import parse_scene
 from cressim.twin.mtm import Keyframe, MtmArm, Operator, ScriptedOperator
-from cressim.twin.scene import SceneError
+from cressim.twin_scene_file import SceneError
 
 
 def _pose(position, xyzw):

@@ -10,7 +10,7 @@ from cressim.robots.arm_bodies import NEEDLE_WIRE
 from cressim.twin import JointCommand
 
 from cressim.suture import punctures
-from cressim.twin.scene import load_scene
+from cressim.twin_scene_file import load_scene
 
 from arm_moves import jaws_at, run_ticks, settle
 

@@ -44,7 +44,7 @@ def test_docs_show_the_parameter_table():
     """docs/twin.md's parameter table is generated from the node's parameter specs."""
     from pathlib import Path
 
-    from cressim.twin.scene import load_scene
+    from cressim.twin_scene_file import load_scene
     from cressim_ros import params
 
     repo = Path(__file__).resolve().parents[2]

@@ -7,7 +7,7 @@ import pytest
 import torch
 
 from cressim.twin import JointCommand
-from cressim.twin.scene import SceneError, load_scene, parse_scene
+from cressim.twin_scene_file import SceneError, load_scene, parse_scene
 
 from arm_moves import EDGE, jaws_at, run_ticks, settle
 

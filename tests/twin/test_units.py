@@ -8,7 +8,7 @@ import torch
 
 from cressim.twin.arm_state import ArmState
 from cressim.twin.command_checks import joint_values, pose_matrix
-from cressim.twin.scene import SceneError, load_scene, parse_scene
+from cressim.twin_scene_file import SceneError, load_scene, parse_scene
 from cressim.twin.trajectory import BatchedTrajectory
 
 REPO = Path(__file__).resolve().parents[2]

@@ -66,6 +66,7 @@ import numpy as np
 
 import cressim
 from cressim.passes.grasp import Grasp
+from cressim.twin_scene_file import load_scene
 
 from .vector_env import box, VectorEnv, checked_number, tensor_view
 
@@ -93,8 +94,6 @@ class TissueRetract(VectorEnv):
         """`scene`: a twin scene file (its world, arm base and grasp reach); `observation`: "state"
         or "crtk"; the lift that counts as success (m) and the grasp's reach (m, default the
         scene's); `absorbing_success` (module docstring); other keywords go to VectorEnv."""
-        from cressim.twin.scene import load_scene
-
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"TissueRetract: num_envs must be a positive integer, got {num_envs!r}")
         if observation not in OBSERVATIONS:

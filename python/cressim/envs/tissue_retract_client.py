@@ -15,7 +15,7 @@ import numpy as np
 import torch
 
 from cressim.robots import JAW_GRASP_POINT, JAW_LINK, PSM, TIP_LINK, pose7_to_matrix
-from cressim.twin.scene import load_scene
+from cressim.twin_scene_file import load_scene
 
 from .tissue_retract import ACTION_SCALE, FRAME, JAW_CLOSED, JAW_OPEN, SCENE
 

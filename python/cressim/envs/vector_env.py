@@ -25,6 +25,8 @@ from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
 import cressim
+from cressim.randomization import Randomizer, load_terms
+from cressim.scene_file import _quat_look_at
 
 
 def box(shape: tuple, low: float = -np.inf, high: float = np.inf, dtype=np.float32) -> Box:
@@ -133,12 +135,8 @@ class VectorEnv(gymnasium.vector.VectorEnv):
         # the scene file's randomization section (a task that loads one sets scene_randomization), then the task's
         terms = list(self.scene_randomization)
         if randomization is not None:
-            from cressim.randomization import load_terms
-
             terms += load_terms(randomization, f"{name}(randomization=...)")
         if terms:
-            from cressim.randomization import Randomizer
-
             self.randomizer = Randomizer(self.engine, terms, seed=self.seed, env_offset=self.env_offset,
                                          episode_flags=self.episode_flags())
             if self.randomizer.sensor_noise and not self.renders_cameras:  # noise on a stale image would pile up
@@ -255,8 +253,6 @@ class VectorEnv(gymnasium.vector.VectorEnv):
 
     def _add_video_cameras(self, world: cressim.World):
         """A camera (looking from video_view's eye at its target) and a light in each rendered env."""
-        from cressim.scene_file import _quat_look_at
-
         eye, target = self.video_view
         width, height = self.render_size
         for env in self.render_envs:

@@ -17,10 +17,11 @@ from pathlib import Path
 import torch
 
 from .config import ppo_config
+from .device import resolve_device, sync
 from .engine_rollout import EngineRollout
 from .learner import make_learner
 from .plot import plot_throughput
-from .rollout import collect_rollout, resolve_device, sync
+from .rollout import collect_rollout
 from .vec_env import CressimVecEnv
 
 PAPER_SWEEP = (1, 8, 16, 32, 64, 128, 256, 512, 1024, 2048, 4096, 8192)

@@ -17,6 +17,10 @@ from dataclasses import dataclass
 import torch
 import torch.distributed as dist
 
+import cressim
+
+from .device import resolve_device
+
 
 @dataclass(frozen=True)
 class Shard:
@@ -70,8 +74,6 @@ def place(device: str | None = None) -> tuple[Shard, torch.device | None, str | 
     shard and device, and the Vulkan device of that CUDA device; alone: the whole batch on
     `device` (None: the env picks) and the default Vulkan device."""
     if not launched():
-        from .rollout import resolve_device
-
         return Shard(), resolve_device(device), None
     shard, d = start(device)
     return shard, d, vulkan_device_of(d.index) if d.type == "cuda" else None
@@ -135,8 +137,6 @@ def vulkan_device_of(cuda_index: int) -> str:
     """The index (as CRESSIM_DEVICE takes it) of the Vulkan device that is CUDA device
     `cuda_index`: the one with the same UUID, since a host's identical GPUs share a name and the
     two APIs need not number them alike."""
-    import cressim
-
     uuid = re.sub(r"[^0-9a-f]", "", str(torch.cuda.get_device_properties(cuda_index).uuid).lower())
     devices = cressim.list_devices()
     for d in devices:

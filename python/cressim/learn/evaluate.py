@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from .device import resolve_device, sync
 from .policy import load_policy
-from .rollout import resolve_device, sync
 from .video import EnvVideo
 
 

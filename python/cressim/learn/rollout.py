@@ -59,20 +59,3 @@ def run_update(venv, alg, steps: int, stats: EpisodeStats | None = None) -> dict
     """A rollout, then the PPO update; returns the mean losses."""
     collect_rollout(venv, alg, steps, stats)
     return alg.update()
-
-
-def resolve_device(device):
-    """None stays None (the env picks); a bare "cuda" gets the current index, because the env
-    compares its buffers' device (always indexed) with this one."""
-    if device is None:
-        return None
-    device = torch.device(device)
-    if device.type == "cuda" and device.index is None:
-        device = torch.device("cuda", torch.cuda.current_device())
-    return device
-
-
-def sync(device) -> None:
-    """Waits for the torch work queued on `device` (env.step already waits for Vulkan)."""
-    if torch.device(device).type == "cuda":
-        torch.cuda.synchronize(device)

@@ -11,10 +11,11 @@ import torch
 
 from . import distributed
 from .config import ppo_config
+from .device import sync
 from .engine_rollout import EngineRollout
 from .learner import make_learner
 from .plot import plot_training
-from .rollout import EpisodeStats, collect_rollout, sync
+from .rollout import EpisodeStats, collect_rollout
 from .vec_env import CressimVecEnv
 from .video import EnvVideo
 

@@ -16,8 +16,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import yaml
+
+from cressim.config import read_fields
 
 INF = math.inf
 
@@ -124,7 +127,7 @@ class Term:
 
 
 class PyField:
-    """A Python value of a config and its field path, read like scene_file.Field (same methods)."""
+    """A Python value of a config and its field path, read like cressim.config.Field (same methods)."""
 
     def __init__(self, value, origin: str, path: str = ""):
         self.value, self.origin, self.path = value, origin, path
@@ -230,7 +233,7 @@ def _choice(f, textures: dict | None) -> float:
 
 
 def parse_term(f, index: int, textures: dict | None = None) -> Term:
-    """One term from a mapping field (scene_file.Field or PyField); raises naming the field.
+    """One term from a mapping field (cressim.config.Field or PyField); raises naming the field.
     `textures`: a scene file's texture names and indices, which texture choices may name."""
     c = f.keys(TERM_KEYS)
     for key in ("param", "entity"):
@@ -325,14 +328,22 @@ def parse_terms(f, textures: dict | None = None) -> list[Term]:
 def load_terms(config, origin: str = "Randomizer(terms=...)") -> list[Term]:
     """Terms from `config`: a list of term dicts, a path to a YAML file (a scene file's
     `randomization:` section, or a file holding the list), or already parsed Terms."""
-    from pathlib import Path
-
     if config is None:
         return []
     if isinstance(config, (str, Path)):
-        from cressim.scene_file import file_randomization
-
         return file_randomization(Path(config))
     if isinstance(config, (list, tuple)) and all(isinstance(t, Term) for t in config):
         return list(config)
     return parse_terms(PyField(config, origin, "randomization"))
+
+
+def file_randomization(path) -> list[Term]:
+    """The terms of a scene file's `randomization:` section, or of a YAML file that is the list
+    of terms itself; errors name file:line and the field."""
+    root = read_fields(Path(path))
+    if not root.is_map():
+        return parse_terms(root)
+    top = root.items()
+    # texture choices may name the file's textures: their indices in a world of its own
+    names = top["textures"].items() if "textures" in top else {}
+    return parse_terms(top["randomization"], {n: i for i, n in enumerate(names)}) if "randomization" in top else []

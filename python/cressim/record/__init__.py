@@ -1,4 +1,5 @@
-"""Datasets: recording to rosbag2 MCAP bags, reading them back, crash recovery and replay.
+"""Bag I/O: recording to rosbag2 MCAP bags, reading them back, crash recovery and replay of a
+bag against the twin. Bag I/O only: datasets made with the envs are cressim.datasets'.
 
     from cressim.record import BagWriter, read_messages, recover
     with BagWriter("bags/run1") as bag:                 # background thread, zstd chunks

@@ -40,7 +40,7 @@ from .arm_state import FAULT
 from .command_checks import limit_refusal
 from .instruments import build_instruments, command_plugin
 from .messages import ConfigError, Event, Snapshot
-from .scene import Scene, rates_problem
+from cressim.twin_scene_file import Scene, rates_problem
 from .scenery import CameraSpec, SceneryPlan, UltrasoundSpec
 from .sensor_loop import process_threads
 

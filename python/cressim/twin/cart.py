@@ -55,7 +55,7 @@ from .camera_images import CameraImages
 from .ecm_arm import EcmArm
 from .messages import ConfigError, Event, JointCommand, Snapshot
 from .mtm import MtmArm, Operator, ScriptedOperator
-from .scene import ECM_HOME
+from cressim.twin_scene_file import ECM_HOME
 from .scenery import TABLE_COLOR, TABLE_HALF, TISSUE_COLOR, TISSUE_HALF, CameraSpec, SceneryPlan, look_at_rotation
 from .sensor_loop import process_threads
 

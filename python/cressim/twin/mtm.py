@@ -31,12 +31,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from cressim.robots.mtm import MTM_HOME, mtm_forward_kinematics, mtm_inverse_kinematics
+# the scene file's operator script is read below the twin (tasks share that file)
+from cressim.twin_scene_file import GRIPPER_LIMITS, Keyframe
 
 from .arm_state import ArmState
 from .command_checks import pose_matrix
 from .messages import StateReport
 
-GRIPPER_LIMITS = (-0.35, 1.2)  # rad: the MTM gripper's range (about -20 to 70 degrees)
 HOME = np.eye(4)  # the grip at home: at the base frame's origin, axes aligned with it
 
 
@@ -164,14 +165,6 @@ class Operator:
     def pedals(self) -> dict:
         """The console's buttons as the dVRK publishes them (topic tail -> pressed)."""
         return {"clutch": self.clutch, "camera": self.camera, "operator_present": self.present}
-
-
-@dataclass
-class Keyframe:
-    at: float  # s after the script starts
-    hands: dict  # MTM name -> (3,) position (positions and grips are interpolated between keyframes)
-    grips: dict
-    pedals: dict  # clutch / camera / present -> bool, from this keyframe on
 
 
 class ScriptedOperator:

@@ -26,7 +26,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 import numpy as np
-import torch
 import trimesh
 import yaml
 

@@ -13,7 +13,7 @@ import math
 import os
 from dataclasses import dataclass
 
-from cressim.twin.scene import DYNAMICS, ROBOTS, SENSORS, Scene, rates_problem
+from cressim.twin_scene_file import DYNAMICS, ROBOTS, SENSORS, Scene, rates_problem
 
 
 @dataclass(frozen=True)

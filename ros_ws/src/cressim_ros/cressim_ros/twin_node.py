@@ -55,7 +55,7 @@ from cressim.twin import ConfigError, Sensor, SensorLoop, StateReport, TwinArms,
 from cressim.twin.cart import EYES, Cart, ecm_urdf, pairs
 from cressim.twin.command_checks import stale_refusal
 from cressim.twin.sensor_loop import process_threads
-from cressim.twin.scene import DEFAULT_SCENE, SceneError, load_scene
+from cressim.twin_scene_file import DEFAULT_SCENE, SceneError, load_scene
 
 from . import params as P
 from .camera_topics import PRODUCTS, CameraTopics, CameraView, camera_frame

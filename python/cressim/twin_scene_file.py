@@ -1,4 +1,5 @@
-"""The twin's scene description (scenes/psm_twin.yaml): parsing with line-numbered errors.
+"""The twin's scene description (scenes/psm_twin.yaml): parsing with line-numbered errors. Below
+the twin and the tasks, which both read it (a task runs in the twin's world: envs/tissue_retract.py).
 
 The file is small YAML. We parse it with yaml.compose (not safe_load) so that every value
 keeps its node and so its line: a bad field is reported as `psm_twin.yaml:12:3: arm.base.
@@ -24,6 +25,7 @@ SENSORS = ("joints", "cartesian", "velocity", "wrench", "jacobian", "tf", "clock
 
 CART_ARMS = {"ECM": "ecm", "PSM1": "psm", "PSM2": "psm", "PSM3": "psm", "MTML": "mtm", "MTMR": "mtm"}
 ECM_HOME = (0.0, 0.0, 0.05, 0.0)  # rad, m: the endoscope 5 cm in
+GRIPPER_LIMITS = (-0.35, 1.2)  # rad: the MTM gripper's range (about -20 to 70 degrees)
 
 
 @dataclass(frozen=True)
@@ -39,6 +41,15 @@ class CartArm:
     base_rotation: tuple = (0.0, 0.0, 0.0, 1.0)
     initial_jp: tuple | None = None  # None: the arm section's (PSM) or ECM_HOME
     home_jp: tuple | None = None
+
+
+@dataclass
+class Keyframe:
+    """One keyframe of the operator's script (cart.operator), played by cressim.twin.mtm."""
+    at: float  # s after the script starts
+    hands: dict  # MTM name -> (3,) position (positions and grips are interpolated between keyframes)
+    grips: dict
+    pedals: dict  # clutch / camera / present -> bool, from this keyframe on
 
 
 class SceneError(ValueError):
@@ -88,7 +99,7 @@ class Scene:
     needle: dict | None = None
     cart: tuple = ()  # CartArm of a patient cart (cressim.twin.cart); empty: the one `arm`
     endoscope_baseline: float = 0.005  # m between the ECM's two cameras (cart.ECM.endoscope.baseline)
-    operator: tuple = ()  # cressim.twin.mtm.Keyframe of a scripted surgeon (cart.operator)
+    operator: tuple = ()  # Keyframe of a scripted surgeon (cart.operator; cressim.twin.mtm plays them)
     lines: dict = field(default_factory=dict, repr=False)  # field -> "file:line:col" (for later checks)
 
 
@@ -300,8 +311,6 @@ def _parse_cart(p, node, scene):
 def _parse_operator(p, node, mtms) -> tuple:
     """`cart.operator:` a list of keyframes {at: s, clutch/camera/present: bool, MTMx: {position:
     [x, y, z], gripper: rad}}, in time order."""
-    from .mtm import GRIPPER_LIMITS, Keyframe
-
     if not isinstance(node, yaml.SequenceNode):
         p.fail(node, "cart.operator", "a list of keyframes {at, clutch, camera, present, MTML, MTMR} expected")
     frames, last = [], -math.inf

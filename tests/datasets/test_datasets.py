@@ -9,8 +9,8 @@ import pyarrow.parquet as pq
 import pytest
 
 from cressim.io import read_mp4, write_mp4
-from cressim.record import datasets
-from cressim.record.rollouts import generate, read
+from cressim import datasets
+from cressim.datasets.rollouts import generate, read
 
 
 @pytest.fixture(scope="module")
