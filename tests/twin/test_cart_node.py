@@ -59,17 +59,30 @@ def test_cart_node_namespaces_stereo_and_ecm(make_node):
 
 def test_cart_recording_holds_every_arm(make_node, tmp_path):
     import yaml
+    from crtk_msgs.msg import StringStamped
+    from hand_ticked import client_beside
+
+    from cressim.record import read_messages
 
     bag = tmp_path / "bag"
     node = make_node(scene="patient_cart.yaml", record=str(bag))
     for _ in range(10):
         node._tick()
+    # a client's command to the ECM, over DDS: the bag keeps it as it keeps the PSMs' commands
+    with client_beside(node, "cart_recording_client") as (client, until):
+        ecm = client.create_publisher(StringStamped, "/ECM/state_command", 10)
+        until(lambda: ecm.get_subscription_count() > 0, "the twin does not listen on /ECM/state_command")
+        ecm.publish(StringStamped(string="enable"))
+        until(lambda: node.cart.ecm.states[0].state == "ENABLED", "the ECM's enable did not arrive")
+    ticks = node.arms.ticks  # 10, and those the waits above ticked
     node.close()
     meta = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
     counts = {t["topic_metadata"]["name"]: t["message_count"] for t in meta["topics_with_message_count"]}
     for topic in ("/PSM1/measured_js", "/PSM2/measured_cp", "/ECM/measured_js", "/ECM/measured_cp",
                   "/MTMR/measured_cp", "/MTML/gripper/measured_js"):
-        assert counts.get(topic) == 10, (topic, counts.get(topic))
+        assert counts.get(topic) == ticks, (topic, counts.get(topic), ticks)  # a sample a tick
     for topic in ("/ECM/operating_state", "/MTMR/operating_state", "/footpedals/clutch", "/PSM2/robot_description",
                   "/camera/left/color/image_raw", "/camera/right/color/camera_info"):
         assert counts.get(topic, 0) >= 1, topic
+    commands = [msg.string for _, msg in read_messages(bag, "/ECM/state_command", decode=True)]
+    assert commands == ["enable"], commands  # once, though both of the ECM's readers got it

@@ -10,8 +10,8 @@
 `published` topics (operating_state says the state again to each new reader: crtk's readers are
 volatile), a subscription per `handlers` entry (name -> fn(msg) -> events; an exception becomes
 an `error` event, the node goes on), `state_command` also through a transient-local reader (crtk
-latches it; each command once), the `operating_state` and `crtk_version` services. Every message
-is recorded when the node records. QoS and types are cressim.record.schema's (`specs`). The
+latches it; each command once), the `operating_state` and `crtk_version` services. Every message,
+published or received, is recorded when the node records. QoS and types are cressim.record.schema's (`specs`). The
 operating_state that answers `home` waits until the arm's state topics have their readers
 (homed_hold.py), checked each tick by `check_hold` and `release_held` around the tick's samples.
 """
@@ -67,6 +67,8 @@ class CrtkArmTopics:
     def _on(self, name, handler, msg):
         if name == "state_command" and not self._latched.first(name, msg):
             return  # the same command through the other reader
+        if self.node.recorder is not None:  # what the arm was told, as the PSMs' commands are kept
+            self.node._record(f"{self.ns}/{name}", msg)
         try:
             self.emit(handler(msg))
         except Exception as exc:  # noqa: BLE001 - the node must survive any message
