@@ -490,8 +490,12 @@ class TwinNode(Node):
         self._last_error[(env, kind)] = (now, 0)
         line = f"{self.arms.label(env)}: {text}{suffix}"
         self._publish_event(env, level, String(data=line))
-        log = self.get_logger().error if level == "error" else self.get_logger().warning
-        log(line, throttle_duration_sec=LOG_THROTTLE_S)
+        # one call site per severity: rclpy fixes a throttled call site's severity at its first
+        # call and raises if it changes (which failed the tick, and counted the refusal again)
+        if level == "error":
+            self.get_logger().error(line, throttle_duration_sec=LOG_THROTTLE_S)
+        else:
+            self.get_logger().warning(line, throttle_duration_sec=LOG_THROTTLE_S)
 
     def _stale(self, kind: str, msg, info) -> str | None:
         """Why a stamped command was too old when the middleware received it (None: fresh)."""
@@ -644,6 +648,8 @@ class TwinNode(Node):
                 self._next_diagnostics = started + DIAGNOSTICS_PERIOD_S
                 self._publish_diagnostics(stamp)
         except Exception:  # noqa: BLE001 - a failing tick is reported and the next one runs
+            if not self.context.ok():
+                return  # the node is stopping (its context shut down mid-tick): nothing to report
             self.get_logger().error("tick failed: " + traceback.format_exc(), throttle_duration_sec=LOG_THROTTLE_S)
         self._tick_times.append(time.perf_counter() - started)
         now_ns = time.monotonic_ns()
@@ -838,34 +844,44 @@ def _matrix_msg(values) -> Float64MultiArray:
 
 def main(args=None) -> int:
     """Entry point `cressim_twin` (and `python -m cressim_ros`)."""
+    import signal
+
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
-    from rclpy._rclpy_pybind11 import RCLError
+    from rclpy.signals import SignalHandlerOptions
 
     # rclpy.init() of this rclpy (the Jazzy wheels) returns None, not the context manager newer
-    # demos use with `with`; try/finally does the same.
+    # demos use with `with`; try/finally does the same. SIGINT and SIGTERM end the spin loop
+    # between two callbacks, not rclpy's handler: that one shuts the context down at once, in
+    # the middle of a tick's publishing, and the shutdown log could not reach /rosout.
     torch.set_num_threads(1)  # tensors of a few envs: threads only contend with DDS and the engine
-    rclpy.init(args=args)
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    stop = threading.Event()
+
+    def on_signal(signum, frame):
+        stop.set()
+        signal.signal(signal.SIGINT, signal.default_int_handler)  # a second Ctrl-C interrupts the shutdown
+
+    previous = {}
     try:
         try:
             node = TwinNode()
         except ConfigError as exc:
             rclpy.logging.get_logger("cressim_twin").fatal(f"not started: {exc}")
             return 2
+        previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
         executor = SingleThreadedExecutor()
         executor.add_node(node)
         try:
-            executor.spin()
+            while not stop.is_set():
+                executor.spin_once(timeout_sec=0.1)  # the tick's timer wakes it every period
         except (KeyboardInterrupt, ExternalShutdownException):
             pass
-        except RCLError:
-            # SIGINT shut the context down between the executor's check and its wait set: the
-            # same clean stop; any other RCL failure is not
-            if rclpy.ok():
-                raise
         finally:
             node.close()
             node.destroy_node()
     finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
         rclpy.try_shutdown()
     return 0
 
