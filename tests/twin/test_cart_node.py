@@ -72,3 +72,34 @@ def test_cart_recording_holds_every_arm(make_node, tmp_path):
     for topic in ("/ECM/operating_state", "/MTMR/operating_state", "/footpedals/clutch", "/PSM2/robot_description",
                   "/camera/left/color/image_raw", "/camera/right/color/camera_info"):
         assert counts.get(topic, 0) >= 1, topic
+
+
+def test_cart_coag_pedal_is_heard_and_refused_with_reasons(make_node):
+    """The cart's console has the dVRK's coagulation pedal, /footpedals/coag (one for the cart, not
+    one per PSM): a press over DDS reaches every PSM, and the cart's needle drivers over a world
+    without heat-taking tissue each refuse it on their `error`, saying why; counted once each."""
+    from rclpy.qos import DurabilityPolicy, QoSProfile
+    from sensor_msgs.msg import Joy
+    from std_msgs.msg import String
+
+    from hand_ticked import client_beside
+
+    node = make_node(scene="patient_cart.yaml", sensors=["joints"])
+    node.timer.cancel()
+    topics = {name for name, _ in node.get_topic_names_and_types()}
+    assert "/footpedals/coag" in topics and not [t for t in topics if t.endswith("/footpedals/coag") and
+                                                t != "/footpedals/coag"], sorted(topics)
+    with client_beside(node, "cart_pedal_client") as (client, until):
+        errors = {arm: [] for arm in ("PSM1", "PSM2")}
+        for arm, got in errors.items():
+            client.create_subscription(String, f"/{arm}/error", got.append,
+                                       QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL))
+        pedal = client.create_publisher(Joy, "/footpedals/coag", 10)
+        until(lambda: pedal.get_subscription_count() > 0, "the cart does not listen on /footpedals/coag")
+        pedal.publish(Joy(buttons=[1]))
+        until(lambda: all(errors.values()), f"no refusal on every PSM's error: {errors}")
+    for arm, got in errors.items():
+        assert [m.data for m in got] == [f"{arm}: footpedals/coag refused: the world has no tissue that takes heat "
+                                         "(a soft_body with thermal)"], got
+    assert {key: n for key, n in node.refusals.items() if key[1] == "footpedals/coag"} == \
+        {(0, "footpedals/coag"): 1, (1, "footpedals/coag"): 1}

@@ -76,6 +76,7 @@ ERROR_INTERVAL_S = 0.05  # the same refusal (env, kind) goes to `error` at most 
 LOG_THROTTLE_S = 1.0
 DIAGNOSTICS_PERIOD_S = 1.0
 # arm commands the twin cannot carry out: answered on `warning` (clients still find a peer)
+SOUNDS = ("set_volume", "beep", "string_to_speech")  # the console's; the twin has no speaker
 UNSUPPORTED = {"free": "free (a compliant arm)", "servo_jf": "joint effort control",
                "jaw/servo_jf": "jaw effort control", "body/servo_cf": "wrench control",
                "spatial/servo_cf": "wrench control"}
@@ -88,7 +89,8 @@ TOOL_TYPES = {"psm_lnd": "LARGE_NEEDLE_DRIVER:400006", "psm_suction": "CRESSIM_S
 class TwinNode(Node):
     def __init__(self, *, threaded_sensors: bool = True, **kwargs):
         super().__init__("cressim_twin", **kwargs)
-        self.refusals = collections.Counter()  # (env, kind) -> count, reported at shutdown
+        self.refusals = collections.Counter()  # (env, kind) -> count (env None: the console), reported at shutdown
+        self.console_commands = collections.Counter()  # console topic (power_on, beep, ...) -> count
         self._last_error = {}  # (env, kind) -> (wall time, suppressed count)
         self.recorder = None
         self._record_lock = threading.Lock()  # the tick and the sensor thread both record
@@ -375,22 +377,27 @@ class TwinNode(Node):
                             msg_class(spec), f"{ns}/{spec.name}",
                             functools.partial(self._on_command, spec.name, handler, env, latched=True),
                             latched_reader_qos(spec)))
-        console = {"power_on": "enable", "power_off": "disable", "home": "home"}  # every arm
-        for ns in CONSOLE_NAMESPACES:
-            for topic, command in console.items():
-                spec = TOPICS_BY_NAME[f"/console/{topic}"]
-                self._command_subs.append(self.create_subscription(
-                    msg_class(spec), f"{ns}/{topic}", functools.partial(self._on_console, command), qos(spec)))
-        for topic, handler in (("enable", self._on_teleop_enable), ("set_scale", self._on_teleop_scale),
-                               ("select", functools.partial(self._on_teleop_select, "selected")),
-                               ("unselect", functools.partial(self._on_teleop_select, "unselected"))):
-            spec = TOPICS_BY_NAME[f"/console/teleop/{topic}"]
-            self._command_subs.append(self.create_subscription(msg_class(spec), spec.name, handler, qos(spec)))
-        spec = TOPICS_BY_NAME["/footpedals/coag"]
-        for env in range(self.num_envs):
-            topic = env_topic(spec.name, env, self.num_envs)
+        # the console's (also under /system/, dVRK 2.3's name): every arm's power and homing, its sounds
+        console = {**{topic: functools.partial(self._on_console, command)
+                      for topic, command in (("power_on", "enable"), ("power_off", "disable"), ("home", "home"))},
+                   **{sound: functools.partial(self._on_sound, sound) for sound in SOUNDS}}
+        topics = [(f"{ns}/{topic}", f"/console/{topic}", handler)
+                  for ns in CONSOLE_NAMESPACES for topic, handler in console.items()]
+        topics += [(f"/console/teleop/{topic}", f"/console/teleop/{topic}", handler) for topic, handler in (
+            ("enable", self._on_teleop_enable), ("set_scale", self._on_teleop_scale),
+            ("select", functools.partial(self._on_teleop_select, "selected")),
+            ("unselect", functools.partial(self._on_teleop_select, "unselected")))]
+        for topic, name, handler in topics:
+            spec = TOPICS_BY_NAME[name]
             self._command_subs.append(self.create_subscription(
-                msg_class(spec), topic, functools.partial(self._on_coag_pedal, env, topic), qos(spec)))
+                msg_class(spec), topic, functools.partial(self._on_console_command, topic, handler), qos(spec)))
+        # the coagulation pedal: one per env; a cart's console has one for all its PSMs
+        spec = TOPICS_BY_NAME["/footpedals/coag"]
+        pedals = ([(spec.name, range(self.num_envs))] if self.cart else
+                  [(env_topic(spec.name, env, self.num_envs), [env]) for env in range(self.num_envs)])
+        for topic, envs in pedals:
+            self._command_subs.append(self.create_subscription(
+                msg_class(spec), topic, functools.partial(self._on_coag_pedal, list(envs), topic), qos(spec)))
 
     def _create_services(self):
         self._service_handles = []
@@ -546,32 +553,58 @@ class TwinNode(Node):
         arm = "joint-driven (position drives)" if self.arms.dynamic else "kinematic"
         return [(env, "warning", f"{kind} refused: {UNSUPPORTED[kind]} is not simulated; the twin's arm is {arm}")]
 
-    def _on_coag_pedal(self, env, topic, msg):
+    def _on_coag_pedal(self, envs, topic, msg):
         """The dVRK console's coagulation pedal (sensor_msgs/Joy): buttons[0] 1 pressed, anything
-        else (0 released, 2 a quick tap that is over) not."""
+        else (0 released, 2 a quick tap that is over) not. A cart's pedal goes to every PSM: those
+        whose instrument takes it heat; only when none does, each says why it refused."""
         try:
             if self.recorder is not None:
                 self._record(topic, msg)
-            self._emit(self.arms.press_coag(env, len(msg.buttons) > 0 and msg.buttons[0] == 1))
+            pressed = len(msg.buttons) > 0 and msg.buttons[0] == 1
+            answers = [self.arms.press_coag(env, pressed) for env in envs]
+            events = [event for events in answers for event in events]
+            if not all(answers):  # an instrument took it: the others' refusals are no news
+                events = [(env, kind, value) for env, kind, value in events if kind != "error"]
+            self._emit(events)
         except Exception:  # noqa: BLE001 - the node must survive any message
             self.get_logger().error(traceback.format_exc(), throttle_duration_sec=LOG_THROTTLE_S)
 
-    def _on_console(self, command, msg):
+    def _on_console_command(self, topic, handler, msg):
+        """Every console command: recorded, counted, then handled; the node survives any message."""
         try:
-            for env in range(self.num_envs):
-                self._emit(self.arms.state_command(env, command))
-            if self.ecm is not None:
-                self.ecm.emit(self.cart.ecm.state_command(command))
-                for topics in self.console.mtms:
-                    topics.emit(topics.mtm.state_command(command))
+            if self.recorder is not None:
+                self._record(topic, msg)
+            self.console_commands[topic.split("/", 2)[2]] += 1  # /system/beep and /console/beep: beep
+            handler(msg)
         except Exception:  # noqa: BLE001
             self.get_logger().error(traceback.format_exc(), throttle_duration_sec=LOG_THROTTLE_S)
+
+    def _refuse_console(self, kind, text):
+        """A console command refused: logged (throttled) and counted; the console has no `error` topic."""
+        self.refusals[(None, kind)] += 1
+        self.get_logger().warning(f"console {text}", throttle_duration_sec=LOG_THROTTLE_S)
+
+    def _on_console(self, command, msg):
+        for env in range(self.num_envs):
+            self._emit(self.arms.state_command(env, command))
+        if self.ecm is not None:
+            self.ecm.emit(self.cart.ecm.state_command(command))
+            for topics in self.console.mtms:
+                topics.emit(topics.mtm.state_command(command))
+
+    def _on_sound(self, kind, msg):
+        """The console's set_volume, beep and string_to_speech: checked and logged (no speaker here)."""
+        problem, asked = _sound(kind, msg)
+        if problem:
+            self._refuse_console(kind, f"{kind} refused: {problem}")
+        else:
+            self.get_logger().info(f"console {asked} (the twin has no speaker)", throttle_duration_sec=LOG_THROTTLE_S)
 
     def _on_teleop_enable(self, msg):
         if msg.data:
             why = ("the cart runs no teleoperation of its own: run the dVRK's dvrk_teleoperation.py against its MTMs"
                    if self.cart else "the twin has no MTM to teleoperate from (a patient cart has)")
-            self.get_logger().warning(f"console teleop/enable refused: {why}", throttle_duration_sec=LOG_THROTTLE_S)
+            self._refuse_console("teleop/enable", f"teleop/enable refused: {why}")
         self.console_pubs["/console/teleop/enabled"].publish(Bool(data=False))
 
     def _on_teleop_scale(self, msg):
@@ -756,7 +789,7 @@ class TwinNode(Node):
         return dict(node=self.get_name(), period_ms=1e3 / self.cfg["publish_rate"], tick_mean_ms=float(ticks.mean()),
                     tick_max_ms=float(ticks.max()), publish_rate_hz=float(rate),
                     target_rate_hz=float(self.cfg["publish_rate"]), sensors=self.sensors.stats(),
-                    refusals=dict(refusals), num_envs=self.num_envs)
+                    refusals=dict(refusals), console=dict(self.console_commands), num_envs=self.num_envs)
 
     def _sensor_failed(self, sensor, exc):
         if not rclpy.ok():  # a frame that finished while the node shuts down has nowhere to go
@@ -771,14 +804,40 @@ class TwinNode(Node):
         if self.live_view is not None:
             self.live_view.close()
         if self.refusals:
-            summary = ", ".join(f"{self.arms.label(env)} {kind}: {n}" for (env, kind), n in sorted(self.refusals.items()))
+            labels = {(env, kind): f"{'console' if env is None else self.arms.label(env)} {kind}"
+                      for env, kind in self.refusals}
+            summary = ", ".join(f"{labels[key]}: {self.refusals[key]}" for key in sorted(labels, key=labels.get))
             self.get_logger().info(f"refused commands: {summary}")
+        if self.console_commands:
+            self.get_logger().info("console commands: " + ", ".join(f"{k}: {n}" for k, n in
+                                                                    sorted(self.console_commands.items())))
         if self._tick_times:
             s = self.statistics()
             self.get_logger().info(f"tick time over the last {len(self._tick_times)}: mean {s['tick_mean_ms']:.2f} ms, "
                                    f"max {s['tick_max_ms']:.2f} ms; {s['publish_rate_hz']:.1f} ticks/s; sensors "
                                    + ", ".join(f"{k} {v['rendered']} rendered, {v['skipped']} skipped"
                                                for k, v in s["sensors"].items()))
+
+
+def _sound(kind: str, msg) -> tuple[str | None, str]:
+    """(why a console sound command is refused, or None; what it asks) for set_volume (Float64,
+    0..1), beep (Float64MultiArray: duration s, frequency Hz, volume 0..1), string_to_speech."""
+    if kind == "string_to_speech":
+        return (None, f"says {msg.data!r}") if msg.data.strip() else ("nothing to say (an empty string)", "")
+    values = [float(msg.data)] if kind == "set_volume" else list(msg.data)
+    if kind == "beep" and len(values) != 3:
+        return f"{len(values)} values, expected 3 (duration s, frequency Hz, volume 0..1)", ""
+    if not all(math.isfinite(v) for v in values):
+        return f"{values} is not finite", ""
+    volume = values[-1]
+    if not 0.0 <= volume <= 1.0:
+        return f"volume {volume:g} is not within [0, 1]", ""
+    if kind == "set_volume":
+        return None, f"volume {volume:g}"
+    duration, frequency, _ = values
+    if duration <= 0.0 or frequency <= 0.0:
+        return f"duration {duration:g} s and frequency {frequency:g} Hz must be positive", ""
+    return None, f"beep {duration:g} s at {frequency:g} Hz, volume {volume:g}"
 
 
 def _kind_of(text: str) -> str:
