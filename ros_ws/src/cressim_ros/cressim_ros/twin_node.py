@@ -67,7 +67,7 @@ from .recorder import RecordingUnavailable, open_recorder
 from .robot_state import RobotStateTopics
 from .simulation_control import SimulationControl
 from .topics import (CLOCK_QOS, CLOCK_TOPIC, CONSOLE_NAMESPACES, CRTK_VERSION, DIAGNOSTICS_TOPIC, LATCHED_COMMANDS,
-                     LATCHED_QOS, FirstDelivery, latched_reader_qos, on_new_reader,
+                     LATCHED_QOS, LatchedCommandReader, on_new_reader,
                      SENSOR_TOPICS, TF_STATIC_TOPIC, TF_TOPIC, TOPICS_BY_NAME, arm_topics, env_frame_prefix,
                      env_namespaces, env_topic, fill_pose, msg_class, qos)
 from .ultrasound_topics import UltrasoundTopics, ultrasound_frame
@@ -363,20 +363,18 @@ class TwinNode(Node):
             **{name: functools.partial(self._flag, flag) for name, flag in FLAGS.items()},
             **{name: functools.partial(self._unsupported, name) for name in UNSUPPORTED},
         }
-        self._command_subs = []
-        self._latched = FirstDelivery()
+        self._command_subs, self._latched_readers = [], []
         for spec in arm_topics("command"):
             handler = handlers[spec.name]
             for env, namespaces in enumerate(self.namespaces):
                 for ns in namespaces:
                     callback = functools.partial(self._on_command, spec.name, handler, env)
-                    self._command_subs.append(self.create_subscription(msg_class(spec), f"{ns}/{spec.name}",
-                                                                       callback, qos(spec)))
-                    if spec.name in LATCHED_COMMANDS:  # its latched writers' (topics.LATCHED_COMMANDS)
-                        self._command_subs.append(self.create_subscription(
-                            msg_class(spec), f"{ns}/{spec.name}",
-                            functools.partial(self._on_command, spec.name, handler, env, latched=True),
-                            latched_reader_qos(spec)))
+                    if spec.name in LATCHED_COMMANDS:  # crtk latches it (topics.LatchedCommandReader)
+                        self._latched_readers.append(LatchedCommandReader(self, msg_class(spec), f"{ns}/{spec.name}",
+                                                                          qos(spec), callback))
+                    else:
+                        self._command_subs.append(self.create_subscription(msg_class(spec), f"{ns}/{spec.name}",
+                                                                           callback, qos(spec)))
         # the console's (also under /system/, dVRK 2.3's name): every arm's power and homing, its sounds
         console = {**{topic: functools.partial(self._on_console, command)
                       for topic, command in (("power_on", "enable"), ("power_off", "disable"), ("home", "home"))},
@@ -514,14 +512,12 @@ class TwinNode(Node):
                              self.scene.stale_command_after, what=kind)
 
     # ------------------------------------------------------------------ subscriptions
-    def _on_command(self, kind, handler, env, msg, info, *, latched=False):
+    def _on_command(self, kind, handler, env, msg, info, latched=False):
         try:
-            if kind in LATCHED_COMMANDS and not self._latched.first((env, kind), msg):
-                return  # the same command through the other reader (topics.LATCHED_COMMANDS)
             if self.recorder is not None:
                 self._record(f"{self.namespaces[env][0]}/{kind}", msg)
-            # a latched writer's command (crtk's state_command) may come through the transient-local
-            # reader as late as discovery took: it is the writer's last word, not a stale one
+            # a latched writer's command (crtk's state_command) from its history may come as late as
+            # discovery took: it is the writer's last word, not a stale one
             problem = None if latched else self._stale(kind, msg, info)
             if problem:
                 self._refuse(env, kind, problem)
