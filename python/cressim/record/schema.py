@@ -179,7 +179,7 @@ PSM_TOPICS: tuple[TopicSpec, ...] = (
     TopicSpec("/console/power_on", _EMPTY, "command", "as sent", "", "-", "enable every arm (also /system/...)"),
     TopicSpec("/console/home", _EMPTY, "command", "as sent", "", "-", "home every arm (also /system/...)"),
     TopicSpec("/console/set_volume", _F64, "command", "as sent", "", "volume 0..1",
-              "logged and kept: the twin has no speaker (also /system/...)"),
+              "logged: the twin has no speaker (also /system/...)"),
     TopicSpec("/console/beep", "std_msgs/msg/Float64MultiArray", "command", "as sent", "",
               "[duration s, frequency Hz, volume 0..1]", "logged: the twin has no speaker (also /system/...)"),
     TopicSpec("/console/string_to_speech", _STR, "command", "as sent", "", "-",

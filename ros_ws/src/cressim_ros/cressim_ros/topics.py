@@ -7,6 +7,7 @@ from __future__ import annotations
 import collections
 import importlib
 
+from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
@@ -27,6 +28,7 @@ def qos(spec: TopicSpec) -> QoSProfile:
 # never gets it. The dVRK's own reader is volatile, and so is every other client's writer (ours,
 # `ros2 topic pub`): a standing transient-local reader would meet those with an incompatible QoS.
 LATCHED_COMMANDS = ("state_command",)
+RETRY_S = 0.05  # s, steady (paused or not): the graph looked at again while it lags the reader's matches
 
 
 class LatchedCommandReader:
@@ -52,11 +54,23 @@ class LatchedCommandReader:
             msg_type, topic, lambda msg, info: self._deliver(msg, info, False), profile,
             event_callbacks=SubscriptionEventCallbacks(matched=lambda status: self._writers_changed()))
         self.catch_up = None  # the transient-local reader, while a latched writer has not been caught up with
+        self.retry = None  # a timer while the graph knows fewer writers than the reader matched
         self.served = set()  # latched writers (gids) caught up with or being so
         self.seen = collections.deque(maxlen=self.SEEN)
 
     def _writers_changed(self):
-        latched = {bytes(w.endpoint_gid) for w in self.node.get_publishers_info_by_topic(self.topic)
+        try:
+            self._look_at_writers()
+        except Exception as exc:  # noqa: BLE001 - a callback of the node's must not raise
+            if self.node.context.ok():
+                self.node.get_logger().error(f"{self.topic}: looking at its writers failed: {exc}",
+                                             throttle_duration_sec=1.0)
+
+    def _look_at_writers(self):
+        writers = self.node.get_publishers_info_by_topic(self.topic)
+        if len(writers) < self.reader.get_publisher_count() and self.retry is None:  # the graph lags discovery
+            self.retry = self.node.create_timer(RETRY_S, self._retry, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        latched = {bytes(w.endpoint_gid) for w in writers
                    if w.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL}
         if latched - self.served and self.catch_up is None:
             self.catch_up = self.node.create_subscription(self.msg_type, self.topic,
@@ -65,6 +79,11 @@ class LatchedCommandReader:
         self.served = latched  # caught up with, or being so; one gone is forgotten
         if not latched:
             self._end_catch_up()
+
+    def _retry(self):
+        self.node.destroy_timer(self.retry)
+        self.retry = None
+        self._writers_changed()
 
     def _end_catch_up(self):
         if self.catch_up is not None:
