@@ -159,7 +159,8 @@ def test_client_writers_meet_no_incompatible_qos_and_a_latched_command_outlives_
         pub.publish(msg)
 
     try:
-        crtk = writer("/PSM1/state_command", StringStamped, QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL))
+        latched = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL)  # crtk's
+        crtk = writer("/PSM1/state_command", StringStamped, latched)
         command(crtk, "enable")
         node = make_node()
         executors = [SingleThreadedExecutor(context=c) for c in (node.context, context)]

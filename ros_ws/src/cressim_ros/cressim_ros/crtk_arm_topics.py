@@ -10,10 +10,11 @@
 `published` topics (operating_state says the state again to each new reader: crtk's readers are
 volatile), a subscription per `handlers` entry (name -> fn(msg) -> events; an exception becomes
 an `error` event, the node goes on), `state_command` through topics.LatchedCommandReader (crtk
-latches it: what it sent before the readers matched still comes; each command once), the `operating_state` and `crtk_version` services. Every message
-is recorded when the node records. QoS and types are cressim.record.schema's (`specs`). The
-operating_state that answers `home` waits until the arm's state topics have their readers
-(homed_hold.py), checked each tick by `check_hold` and `release_held` around the tick's samples.
+latches it: what it sent before the readers matched still comes; each command once), the
+`operating_state` and `crtk_version` services. Every message is recorded when the node records.
+QoS and types are cressim.record.schema's (`specs`). The operating_state that answers `home`
+waits until the arm's state topics have their readers (homed_hold.py), checked each tick by
+`check_hold` and `release_held` around the tick's samples.
 """
 from __future__ import annotations
 

@@ -75,8 +75,8 @@ from .ultrasound_topics import UltrasoundTopics, ultrasound_frame
 ERROR_INTERVAL_S = 0.05  # the same refusal (env, kind) goes to `error` at most this often
 LOG_THROTTLE_S = 1.0
 DIAGNOSTICS_PERIOD_S = 1.0
-# arm commands the twin cannot carry out: answered on `warning` (clients still find a peer)
 SOUNDS = ("set_volume", "beep", "string_to_speech")  # the console's; the twin has no speaker
+# arm commands the twin cannot carry out: answered on `warning` (clients still find a peer)
 UNSUPPORTED = {"free": "free (a compliant arm)", "servo_jf": "joint effort control",
                "jaw/servo_jf": "jaw effort control", "body/servo_cf": "wrench control",
                "spatial/servo_cf": "wrench control"}
