@@ -63,6 +63,10 @@ def test_cart_recording_holds_every_arm(make_node, tmp_path):
     node = make_node(scene="patient_cart.yaml", record=str(bag))
     for _ in range(10):
         node._tick()
+    from std_msgs.msg import Float64MultiArray  # a console command, as its subscription hands it over
+
+    next(sub for sub in node._command_subs if sub.topic_name == "/system/beep").callback(
+        Float64MultiArray(data=[0.2, 1000.0, 0.5]))
     node.close()
     meta = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
     counts = {t["topic_metadata"]["name"]: t["message_count"] for t in meta["topics_with_message_count"]}
@@ -72,6 +76,7 @@ def test_cart_recording_holds_every_arm(make_node, tmp_path):
     for topic in ("/ECM/operating_state", "/MTMR/operating_state", "/footpedals/clutch", "/PSM2/robot_description",
                   "/camera/left/color/image_raw", "/camera/right/color/camera_info"):
         assert counts.get(topic, 0) >= 1, topic
+    assert counts.get("/system/beep") == 1 and node.console_commands == {"beep": 1}
 
 
 def test_cart_coag_pedal_is_heard_and_refused_with_reasons(make_node):
