@@ -61,6 +61,7 @@ def test_cart_recording_holds_every_arm(make_node, tmp_path):
     import yaml
     from crtk_msgs.msg import StringStamped
     from hand_ticked import client_beside
+    from std_msgs.msg import Float64MultiArray
 
     from cressim.record import read_messages
 
@@ -74,6 +75,9 @@ def test_cart_recording_holds_every_arm(make_node, tmp_path):
         until(lambda: ecm.get_subscription_count() > 0, "the twin does not listen on /ECM/state_command")
         ecm.publish(StringStamped(string="enable"))
         until(lambda: node.cart.ecm.states[0].state == "ENABLED", "the ECM's enable did not arrive")
+    # a console command, as its subscription hands it over
+    next(sub for sub in node._command_subs if sub.topic_name == "/system/beep").callback(
+        Float64MultiArray(data=[0.2, 1000.0, 0.5]))
     ticks = node.arms.ticks  # 10, and those the waits above ticked
     node.close()
     meta = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
@@ -85,4 +89,36 @@ def test_cart_recording_holds_every_arm(make_node, tmp_path):
                   "/camera/left/color/image_raw", "/camera/right/color/camera_info"):
         assert counts.get(topic, 0) >= 1, topic
     commands = [msg.string for _, msg in read_messages(bag, "/ECM/state_command", decode=True)]
-    assert commands == ["enable"], commands  # once, though both of the ECM's readers got it
+    assert commands == ["enable"], commands  # once, whichever of the ECM's readers passed it
+    assert counts.get("/system/beep") == 1 and node.console_commands == {"beep": 1}
+
+
+def test_cart_coag_pedal_is_heard_and_refused_with_reasons(make_node):
+    """The cart's console has the dVRK's coagulation pedal, /footpedals/coag (one for the cart, not
+    one per PSM): a press over DDS reaches every PSM, and the cart's needle drivers over a world
+    without heat-taking tissue each refuse it on their `error`, saying why; counted once each."""
+    from rclpy.qos import DurabilityPolicy, QoSProfile
+    from sensor_msgs.msg import Joy
+    from std_msgs.msg import String
+
+    from hand_ticked import client_beside
+
+    node = make_node(scene="patient_cart.yaml", sensors=["joints"])
+    node.timer.cancel()
+    topics = {name for name, _ in node.get_topic_names_and_types()}
+    assert "/footpedals/coag" in topics and not [t for t in topics if t.endswith("/footpedals/coag") and
+                                                t != "/footpedals/coag"], sorted(topics)
+    with client_beside(node, "cart_pedal_client") as (client, until):
+        errors = {arm: [] for arm in ("PSM1", "PSM2")}
+        for arm, got in errors.items():
+            client.create_subscription(String, f"/{arm}/error", got.append,
+                                       QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL))
+        pedal = client.create_publisher(Joy, "/footpedals/coag", 10)
+        until(lambda: pedal.get_subscription_count() > 0, "the cart does not listen on /footpedals/coag")
+        pedal.publish(Joy(buttons=[1]))
+        until(lambda: all(errors.values()), f"no refusal on every PSM's error: {errors}")
+    for arm, got in errors.items():
+        assert [m.data for m in got] == [f"{arm}: footpedals/coag refused: the world has no tissue that takes heat "
+                                         "(a soft_body with thermal)"], got
+    assert {key: n for key, n in node.refusals.items() if key[1] == "footpedals/coag"} == \
+        {(0, "footpedals/coag"): 1, (1, "footpedals/coag"): 1}

@@ -73,6 +73,13 @@ def test_skipped_frames_warn_over_the_window_when_previous_stats_are_given():
     assert values(camera)["rendered rate (Hz)"] == "45.00"
 
 
+def test_console_commands_are_counted_beside_refusals():
+    stats = healthy(refusals={"beep": 1}, console={"beep": 2, "string_to_speech": 1})
+    commands = by_name(build_diagnostics(stats))["cressim_twin: commands"]
+    assert commands.level == DiagnosticStatus.OK and commands.message == "1 command(s) refused: beep 1"
+    assert values(commands) == {"refused beep": "1", "console beep": "2", "console string_to_speech": "1"}
+
+
 def test_refusals_are_counted_per_kind_and_do_not_warn():
     commands = by_name(build_diagnostics(healthy(refusals={"servo_jp": 3, "move_cp": 1})))["cressim_twin: commands"]
     assert commands.level == DiagnosticStatus.OK

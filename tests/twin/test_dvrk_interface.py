@@ -125,3 +125,74 @@ def test_stale_command_is_refused_at_arrival(wired):
     pub.publish(msg)
     time.sleep(1.5)  # the node is busy elsewhere for longer than the limit: still fresh at arrival
     spin_until(lambda: node.arms.states[0].state == "ENABLED", "enable")
+
+
+def test_client_writers_meet_no_incompatible_qos_and_a_latched_command_outlives_discovery(make_node, ros_domain_id,
+                                                                                          capfd):
+    """crtk's state_command writer is latched (transient local, depth 10): its `enable`, sent
+    before the twin exists (seconds before: older than the stale limit), still enables the arm;
+    then, the writer caught up with (its `home` came through both of the twin's readers), every
+    writer of the dVRK's clients with their real QoS (crtk's volatile depth 10, dvrk's latched
+    settings, dvrk.system's depth 1, a volatile state_command as `ros2 topic pub` sends it)
+    finds a peer and no incompatible QoS, on either side."""
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.event_handler import PublisherEventCallbacks
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.qos import DurabilityPolicy, QoSProfile
+    from crtk_msgs.msg import StringStamped
+
+    from cressim_ros.topics import TOPICS_BY_NAME, arm_topics, msg_class
+
+    context = Context()
+    rclpy.init(context=context, domain_id=ros_domain_id)
+    client = rclpy.create_node("qos_client", context=context)
+    incompatible = []
+
+    def writer(topic, msg_type, profile):
+        events = PublisherEventCallbacks(incompatible_qos=lambda status: incompatible.append((topic, status)))
+        return client.create_publisher(msg_type, topic, profile, event_callbacks=events)
+
+    def command(pub, text):
+        msg = StringStamped(string=text)
+        msg.header.stamp = client.get_clock().now().to_msg()
+        pub.publish(msg)
+
+    try:
+        latched = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL)  # crtk's
+        crtk = writer("/PSM1/state_command", StringStamped, latched)
+        command(crtk, "enable")
+        node = make_node()
+        executors = [SingleThreadedExecutor(context=c) for c in (node.context, context)]
+        executors[0].add_node(node)
+        executors[1].add_node(client)
+
+        def spin_until(predicate, what, spins=3000):
+            for _ in range(spins):
+                if predicate():
+                    return
+                for executor in executors:
+                    executor.spin_once(timeout_sec=0.01)
+            raise AssertionError(f"timed out waiting for {what}")
+
+        spin_until(lambda: node.arms.states[0].state == "ENABLED", "the latched enable")
+        command(crtk, "home")
+        readers = [r for r in node._latched_readers if r.topic == "/PSM1/state_command"]
+        spin_until(lambda: node.arms.states[0].is_homed and readers[0].catch_up is None, "homed, caught up")
+        writers = [writer(f"/PSM1/{t.name}", msg_class(t), QoSProfile(depth=10)) for t in arm_topics("command")]
+        writers += [writer(f"/PSM1/{name}", msg_class(TOPICS_BY_NAME[name]), QoSProfile(
+            depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL))
+            for name in ("body/set_cf_orientation_absolute", "use_gravity_compensation", "trajectory_j/set_ratio")]
+        writers += [writer(f"/system/{name}", msg_class(TOPICS_BY_NAME[f"/console/{name}"]), QoSProfile(depth=1))
+                    for name in ("power_off", "power_on", "home", "set_volume", "beep", "string_to_speech")]
+        spin_until(lambda: all(w.get_subscription_count() for w in writers), "a peer for every writer")
+        volatile = writers[0]  # arm_topics("command") starts with state_command
+        assert volatile.topic_name == "/PSM1/state_command"
+        command(volatile, "disable")
+        spin_until(lambda: node.arms.states[0].state == "DISABLED", "a volatile writer's disable")
+    finally:
+        client.destroy_node()
+        rclpy.try_shutdown(context=context)
+    assert not incompatible, incompatible
+    err = capfd.readouterr().err
+    assert "incompatible QoS" not in err, err[-3000:]

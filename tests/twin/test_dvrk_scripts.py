@@ -23,6 +23,8 @@ Run:
   neither enable nor home the device (a dVRK user does that from the console first), so the
   test does it before them with crtk's own `utils` (enable, home, then move_jp to the pose the
   dVRK scripts start Cartesian motion from: insertion 0.12 m, the other joints 0);
+- `dvrk.system` (code of the test's, as dvrk_system_test.py but with time for discovery): the
+  console's set_volume, string_to_speech and beep, counted by the twin, a bad volume refused;
 
 Left out:
 - crtk_rate_example.py: it uses no device at all (rclpy's Rate at 1 kHz for 10 s);
@@ -43,7 +45,8 @@ A script passes when it exits 0 within a safety limit (the scripts' own timeouts
 business; this limit only catches a hang), its output shows it ran to the end (its last
 lines) and holds none of its own failure reports (a line starting with '!', "failed",
 "error", "exception", a traceback, "timed out"), and on the twin's side: nothing was published
-on `error`, the twin is still running, and for the silent crtk examples, the motion they
+on `error`, the twin is still running, neither side was told of an incompatible QoS (the
+clients' writers with their own QoS), and for the silent crtk examples, the motion they
 command is seen on setpoint_js / setpoint_cp (and goal_reached for move_cp). Assertion messages
 carry the script's full output.
 """
@@ -113,6 +116,7 @@ class TwinWatch(OwnContextClient):
     that a script's check_connections still waits for the twin itself."""
 
     def __init__(self, domain: int, arm: str = ARM):
+        from diagnostic_msgs.msg import DiagnosticArray
         from geometry_msgs.msg import PoseStamped
         from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
         from sensor_msgs.msg import JointState
@@ -123,6 +127,7 @@ class TwinWatch(OwnContextClient):
         self.goal_reached: list[bool] = []
         self.jp: list[list[float]] = []
         self.cp: list[tuple[float, float, float]] = []
+        self.commands: dict[str, int] = {}  # /diagnostics' command counts: "refused beep", "console beep" ...
         event = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
                            durability=DurabilityPolicy.TRANSIENT_LOCAL)  # every one since the twin started
         periodic = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
@@ -143,8 +148,20 @@ class TwinWatch(OwnContextClient):
             self.node.create_subscription(PoseStamped, f"{ns}/setpoint_cp",
                                           keep(self.cp, lambda m: (m.pose.position.x, m.pose.position.y,
                                                                    m.pose.position.z)), periodic),
+            self.node.create_subscription(DiagnosticArray, "/diagnostics", self._diagnostics, periodic),
         ]
         self.start()
+
+    def _diagnostics(self, msg):
+        with self.cv:
+            self.commands = {kv.key: int(kv.value) for status in msg.status for kv in status.values
+                             if kv.key.startswith(("refused ", "console "))}
+            self.cv.notify_all()
+
+    def wait_commands(self, predicate) -> bool:
+        """Wait until the twin's /diagnostics command counts satisfy predicate(counts)."""
+        with self.cv:
+            return self.cv.wait_for(lambda: predicate(self.commands), WAIT_TIMEOUT)
 
     def mark(self) -> dict:
         with self.cv:
@@ -260,6 +277,9 @@ def test_dvrk_script(name, clients, ros_domain_id, start_twin, tmp_path):
     problems += [f"it did not get to the end: {text!r} printed {output.count(text)} times, expected {n}"
                  for text, n in script.ends if output.count(text) < n]
     problems += [f"the twin published on error: {e!r}" for e in seen["errors"][:5]]
+    problems += [f"{who} was told of an incompatible QoS" for who, text in (("the script", output),
+                                                                          ("the twin", twin.output()))
+                 if "incompatible QoS" in text]
     if script.check is not None:
         problems += script.check(seen)
     if not twin.alive():
@@ -294,3 +314,45 @@ def test_dvrk_arm_test_drives_the_carts_ecm(clients, ros_domain_id, start_twin, 
     if not twin.alive():
         problems.append("the twin exited")
     assert not problems, _report("dvrk_arm_test -a ECM", rc, output, problems, twin)
+
+
+# dvrk.system's sounds, with the dVRK's own client (dvrk_system_test.py does the same but gives
+# discovery 2 s, too little on a loaded machine): a volume beyond 1, words, a beep (one message
+# each: its writers keep only the last, so a second one sent at once may replace the first);
+# then it waits to be stopped, so that its messages are not lost as it exits.
+SYSTEM = """
+import time, crtk, dvrk
+ral = crtk.ral('cressim_system')
+system = dvrk.system(ral)
+def run():
+    ral.check_connections(60.0)
+    system.set_volume(1.5)
+    system.string_to_speech('Hello D V R K')
+    system.beep(0.2, 50000.0, 0.5)
+    print('sent', flush=True)
+    while not ral.is_shutdown():
+        time.sleep(0.1)
+ral.spin_and_execute(run)
+"""
+
+
+def test_dvrk_system_sounds(clients, ros_domain_id, start_twin, tmp_path):
+    """The dVRK's `dvrk.system` finds a peer for every topic it publishes (/system/set_volume,
+    beep, string_to_speech among them); each command is counted in /diagnostics, the bad volume
+    refused with its reason in the twin's log; nothing is published on a PSM's `error`."""
+    twin = start_twin(ros_domain_id)
+    watch = TwinWatch(ros_domain_id)
+    want = {"console set_volume": 1, "console string_to_speech": 1, "console beep": 1, "refused set_volume": 1}
+    try:
+        with ScriptRun(clients, ros_domain_id, ["-c", SYSTEM], tmp_path) as run:
+            ok = watch.wait_commands(lambda counts: all(counts.get(k) == n for k, n in want.items()))
+            assert ok, f"counts {watch.commands}, expected {want}\n{run.output()}\n{twin.output()[-3000:]}"
+            assert "sent" in run.output() and not FAILURE.search(run.output()), run.output()
+        errors = watch.since(watch.mark())["errors"]
+    finally:
+        watch.close()
+    output = twin.output()
+    assert "(the twin has no speaker)" in output and "incompatible QoS" not in output, output[-3000:]
+    assert "incompatible QoS" not in run.output(), run.output()
+    assert "console set_volume refused: volume 1.5 is not within [0, 1]" in output, output[-3000:]
+    assert not errors and twin.alive(), errors

@@ -143,6 +143,52 @@ def test_unreachable_cartesian(client):
     assert_still_publishing(twin, arm)
 
 
+def _refusal_totals(ral, after: float) -> dict:
+    """{kind: refusals so far} from the first /diagnostics stamped after `after` (client clock)."""
+    from diagnostic_msgs.msg import DiagnosticArray
+    from cressim_ros.dvrk_client import PERIODIC, _Latest, stamp_s
+
+    if not hasattr(ral, "diagnostics"):
+        ral.diagnostics = _Latest()
+        ral.subscriber(DiagnosticArray, "/diagnostics", ral.diagnostics, PERIODIC)
+    assert ral.diagnostics.wait_for(lambda m: stamp_s(m.header) > after, 60), "no /diagnostics"
+    return {kv.key[len("refused "):]: int(kv.value) for status in ral.diagnostics.msg.status
+            for kv in status.values if kv.key.startswith("refused ")}
+
+
+def test_a_warning_then_errors_keep_the_tick_and_are_counted_once(start_twin, ros_domain_id):
+    """A twin's first refusal a warning (servo_jf), then error-level ones, in a callback (servo_jp
+    beyond its limits, twice) and in the tick (a servo_cp whose batched IK fails there): each is
+    published once, without a suffix of refusals that never were, and counted once in
+    /diagnostics; the tick goes on and the twin reports no failure."""
+    from cressim_ros.dvrk_client import Arm, Ral
+
+    twin = start_twin(ros_domain_id)
+    ral = Ral("severity_client", ros_domain_id)
+    try:
+        arm = Arm(ral, "/PSM1")
+        servo_jf = ral.publisher(JointState, "/PSM1/servo_jf", arm._servo_jp.qos_profile)
+        ral.check_connections(timeout=20)
+        servo_jf.publish(JointState(effort=[0.0] * 6))
+        assert arm.warnings.wait_for(lambda m: "servo_jf refused" in m.data, 10)
+        assert arm.enable(10) and arm.home(30)
+        bad = arm.measured_jp()
+        bad[2] = 0.3  # insertion beyond 0.24 m
+        texts = [expect_error(arm, lambda: arm.servo_jp(bad), "servo_jp refused", "insertion") for _ in range(2)]
+        far = arm.measured_cp()
+        far[:3, 3] = (0.5, 0.5, -0.5)
+        texts.append(expect_error(arm, lambda: arm.servo_cp(far), "servo_cp refused", "not reachable"))
+        assert_still_publishing(twin, arm)
+        assert [m.data for m in arm.errors.history] == texts  # each published once
+        assert not [t for t in texts if "similar" in t], texts
+        counted = _refusal_totals(ral, time.time())
+        assert counted == {"servo_jf": 1, "servo_jp": 2, "servo_cp": 1}, counted
+    finally:
+        ral.shutdown()
+    output = twin.output()
+    assert "tick failed" not in output and "severity" not in output, output[-3000:]
+
+
 def test_stale_command(client):
     twin, ral, arm = client
     msg = JointState(position=[float(v) for v in arm.measured_jp()])

@@ -9,11 +9,13 @@
 `arm` has a `name`, `report()` (a StateReport) and `state_command(text)`. Publishers of the
 `published` topics (operating_state says the state again to each new reader: crtk's readers are
 volatile), a subscription per `handlers` entry (name -> fn(msg) -> events; an exception becomes
-an `error` event, the node goes on), `state_command` also through a transient-local reader (crtk
-latches it; each command once), the `operating_state` and `crtk_version` services. Every message,
-published or received, is recorded when the node records. QoS and types are cressim.record.schema's (`specs`). The
-operating_state that answers `home` waits until the arm's state topics have their readers
-(homed_hold.py), checked each tick by `check_hold` and `release_held` around the tick's samples.
+an `error` event, the node goes on), `state_command` through topics.LatchedCommandReader (crtk
+latches it: what it sent before the readers matched still comes; each command once), the
+`operating_state` and `crtk_version` services. Every message, published or received, is
+recorded when the node records.
+QoS and types are cressim.record.schema's (`specs`). The operating_state that answers `home`
+waits until the arm's state topics have their readers (homed_hold.py), checked each tick by
+`check_hold` and `release_held` around the tick's samples.
 """
 from __future__ import annotations
 
@@ -30,7 +32,7 @@ from std_srvs.srv import Trigger
 from cressim.robots.kinematics import matrix_to_pose7
 
 from .homed_hold import HomedHold, readers_caught_up
-from .topics import CRTK_VERSION, FirstDelivery, fill_pose, latched_reader_qos, msg_class, on_new_reader, qos
+from .topics import CRTK_VERSION, LATCHED_COMMANDS, LatchedCommandReader, fill_pose, msg_class, on_new_reader, qos
 
 
 class CrtkArmTopics:
@@ -43,13 +45,11 @@ class CrtkArmTopics:
                      for name in published}
         self.subs = [node.create_subscription(msg_class(specs[name]), f"{namespace}/{name}",
                                               lambda m, h=handler, n=name: self._on(n, h, m), qos(specs[name]))
-                     for name, handler in handlers.items()]
-        self._latched = FirstDelivery()
+                     for name, handler in handlers.items() if name not in LATCHED_COMMANDS]
+        self.subs += [LatchedCommandReader(node, msg_class(specs[name]), f"{namespace}/{name}", qos(specs[name]),
+                                           lambda m, info, latched, h=handler, n=name: self._on(n, h, m))
+                      for name, handler in handlers.items() if name in LATCHED_COMMANDS]  # crtk latches them
         self.hold = HomedHold()  # one arm: key None
-        self.subs.append(node.create_subscription(
-            msg_class(specs["state_command"]), f"{namespace}/state_command",
-            lambda m: self._on("state_command", handlers["state_command"], m),
-            latched_reader_qos(specs["state_command"])))
         self.services = [node.create_service(TriggerOperatingState, f"{namespace}/operating_state", self._srv_state),
                          node.create_service(Trigger, f"{namespace}/crtk_version", self._srv_version)]
         self.emit([("operating_state", arm.report())])
@@ -65,8 +65,6 @@ class CrtkArmTopics:
         return [(f"{self.ns}/operating_state", self._state_msg(self.arm.report()))]
 
     def _on(self, name, handler, msg):
-        if name == "state_command" and not self._latched.first(name, msg):
-            return  # the same command through the other reader
         if self.node.recorder is not None:  # what the arm was told, as the PSMs' commands are kept
             self.node._record(f"{self.ns}/{name}", msg)
         try:

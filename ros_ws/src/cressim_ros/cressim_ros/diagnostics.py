@@ -10,6 +10,7 @@ stats keys (missing ones are left out of the message):
     num_envs
     sensors         {name: {rate (Hz, simulated time), rendered, skipped, enabled}}, totals
     refusals        {command kind: count}, totals
+    console         {console command (power_on, beep, ...): count received}, totals
     hardware_id     optional, default the node name
 
 WARN when the tick overran its period (max or mean), the tick rate fell below RATE_TOLERANCE of
@@ -74,13 +75,14 @@ def _sensor_status(sensor: str, s: dict, before: dict | None, window_s: float | 
     return _status(f"{name}: {sensor}", hw, problems, f"{rendered} frames rendered", values)
 
 
-def _refusal_status(refusals: dict, name: str, hw: str) -> DiagnosticStatus:
+def _command_status(refusals: dict, console: dict, name: str, hw: str) -> DiagnosticStatus:
     # refusals are the clients' mistakes, reported on `error`; they say nothing of the twin's health
     total = sum(refusals.values())
     summary = ", ".join(f"{kind} {n}" for kind, n in sorted(refusals.items()))
     message = f"{total} command(s) refused: {summary}" if total else "no command refused"
     return _status(f"{name}: commands", hw, [], message,
-                   [(f"refused {kind}", int(n)) for kind, n in sorted(refusals.items())])
+                   [(f"refused {kind}", int(n)) for kind, n in sorted(refusals.items())]
+                   + [(f"console {kind}", int(n)) for kind, n in sorted(console.items())])
 
 
 def build_diagnostics(stats: dict, stamp=None, previous: dict | None = None,
@@ -96,7 +98,7 @@ def build_diagnostics(stats: dict, stamp=None, previous: dict | None = None,
     before = (previous or {}).get("sensors", {})
     for sensor, s in sorted(stats.get("sensors", {}).items()):
         msg.status.append(_sensor_status(sensor, s, before.get(sensor) if previous else None, window_s, name, hw))
-    msg.status.append(_refusal_status(stats.get("refusals", {}), name, hw))
+    msg.status.append(_command_status(stats.get("refusals", {}), stats.get("console", {}), name, hw))
     return msg
 
 

@@ -4,9 +4,11 @@ namespaces of each env.
 """
 from __future__ import annotations
 
+import collections
 import importlib
 
-from rclpy.event_handler import PublisherEventCallbacks
+from rclpy.clock import Clock, ClockType
+from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from cressim.record.schema import PSM_TOPICS, TOPICS_BY_NAME, TopicSpec
@@ -21,33 +23,80 @@ def qos(spec: TopicSpec) -> QoSProfile:
                       durability=durability)
 
 
-# Commands that clients publish latched (crtk's state_command is transient local): each also gets
-# a transient-local reader, which only latched writers match and which receives a command sent
-# before the readers matched (crtk sends `enable` right after creating its publisher; a volatile
-# reader loses it while discovery runs), however late: it is not refused as stale. Both readers
-# see a latched writer's later ones: `FirstDelivery` passes each (stamp, command) once.
+# Commands that clients publish latched: crtk's state_command is transient local, and crtk sends
+# `enable` right after it creates its publisher, so a volatile reader that discovery matches later
+# never gets it. The dVRK's own reader is volatile, and so is every other client's writer (ours,
+# `ros2 topic pub`): a standing transient-local reader would meet those with an incompatible QoS.
 LATCHED_COMMANDS = ("state_command",)
+RETRY_S = 0.05  # s, steady (paused or not): the graph looked at again while it lags the reader's matches
 
 
-def latched_reader_qos(spec: TopicSpec) -> QoSProfile:
-    profile = qos(spec)
-    profile.durability = DurabilityPolicy.TRANSIENT_LOCAL
-    return profile
+class LatchedCommandReader:
+    """A command topic read by a volatile reader, which every writer matches, and, only while a
+    latched writer has not been caught up with, by a transient-local one that gets its history
+    (what it sent before the readers matched). A latched writer is caught up with when a sample
+    comes through both readers (its history comes before its live samples) or it is gone; a new
+    one is seen through the volatile reader's match events and the graph (its writers' QoS).
+    Each sample is passed once: `callback(msg, info, latched)`, latched where it came from the
+    history (the writer's last word, however late discovery made it: not stale).
 
+    Between a latched writer's discovery and its next command, a volatile writer that appears is
+    told of the transient-local reader (rclpy warns of an incompatible QoS): both kinds of
+    client at once, not one alone."""
 
-class FirstDelivery:
-    """Whether a latched command (a StringStamped) is new on its channel, or the same message
-    arriving through the other reader."""
+    SEEN = 64  # samples remembered to pass each once (a latched writer's history is crtk's 10)
 
-    def __init__(self):
-        self.last = {}
+    def __init__(self, node, msg_type, topic: str, profile: QoSProfile, callback):
+        self.node, self.msg_type, self.topic, self.callback = node, msg_type, topic, callback
+        self.latched_profile = QoSProfile(history=profile.history, depth=profile.depth,
+                                          reliability=profile.reliability, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        self.reader = node.create_subscription(
+            msg_type, topic, lambda msg, info: self._deliver(msg, info, False), profile,
+            event_callbacks=SubscriptionEventCallbacks(matched=lambda status: self._writers_changed()))
+        self.catch_up = None  # the transient-local reader, while a latched writer has not been caught up with
+        self.retry = None  # a timer while the graph knows fewer writers than the reader matched
+        self.served = set()  # latched writers (gids) caught up with or being so
+        self.seen = collections.deque(maxlen=self.SEEN)
 
-    def first(self, channel, msg) -> bool:
-        key = (msg.header.stamp.sec, msg.header.stamp.nanosec, msg.string)
-        if self.last.get(channel) == key:
-            return False
-        self.last[channel] = key
-        return True
+    def _writers_changed(self):
+        try:
+            self._look_at_writers()
+        except Exception as exc:  # noqa: BLE001 - a callback of the node's must not raise
+            if self.node.context.ok():
+                self.node.get_logger().error(f"{self.topic}: looking at its writers failed: {exc}",
+                                             throttle_duration_sec=1.0)
+
+    def _look_at_writers(self):
+        writers = self.node.get_publishers_info_by_topic(self.topic)
+        if len(writers) < self.reader.get_publisher_count() and self.retry is None:  # the graph lags discovery
+            self.retry = self.node.create_timer(RETRY_S, self._retry, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        latched = {bytes(w.endpoint_gid) for w in writers
+                   if w.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL}
+        if latched - self.served and self.catch_up is None:
+            self.catch_up = self.node.create_subscription(self.msg_type, self.topic,
+                                                          lambda msg, info: self._deliver(msg, info, True),
+                                                          self.latched_profile)
+        self.served = latched  # caught up with, or being so; one gone is forgotten
+        if not latched:
+            self._end_catch_up()
+
+    def _retry(self):
+        self.node.destroy_timer(self.retry)
+        self.retry = None
+        self._writers_changed()
+
+    def _end_catch_up(self):
+        if self.catch_up is not None:
+            self.node.destroy_subscription(self.catch_up)
+            self.catch_up = None
+
+    def _deliver(self, msg, info, latched: bool):
+        key = (info.get("source_timestamp"), info.get("publication_sequence_number"))
+        if key in self.seen:  # through the other reader too: the latched writers are caught up with
+            self._end_catch_up()
+            return
+        self.seen.append(key)
+        self.callback(msg, info, latched)
 
 
 def on_new_reader(callback) -> PublisherEventCallbacks:
@@ -120,7 +169,7 @@ def env_topic(topic: str, env: int, num_envs: int) -> str:
 __all__ = ["CLOCK_QOS", "CLOCK_TOPIC", "CONSOLE_NAMESPACES", "CRTK_VERSION", "DIAGNOSTICS_TOPIC", "IMAGE_QOS",
            "LATCHED_QOS", "ROBOT_DESCRIPTION_TOPIC", "SENSOR_TOPICS", "SERVICES", "TF_STATIC_TOPIC", "TF_TOPIC",
            "TOPICS_BY_NAME", "arm_topics", "env_frame_prefix", "env_namespaces", "env_topic", "msg_class", "qos",
-           "FirstDelivery", "LATCHED_COMMANDS", "latched_reader_qos", "on_new_reader"]
+           "LATCHED_COMMANDS", "LatchedCommandReader", "on_new_reader"]
 
 
 def fill_pose(pose, p):

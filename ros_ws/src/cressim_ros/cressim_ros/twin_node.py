@@ -67,7 +67,7 @@ from .recorder import RecordingUnavailable, open_recorder
 from .robot_state import RobotStateTopics
 from .simulation_control import SimulationControl
 from .topics import (CLOCK_QOS, CLOCK_TOPIC, CONSOLE_NAMESPACES, CRTK_VERSION, DIAGNOSTICS_TOPIC, LATCHED_COMMANDS,
-                     LATCHED_QOS, FirstDelivery, latched_reader_qos, on_new_reader,
+                     LATCHED_QOS, LatchedCommandReader, on_new_reader,
                      SENSOR_TOPICS, TF_STATIC_TOPIC, TF_TOPIC, TOPICS_BY_NAME, arm_topics, env_frame_prefix,
                      env_namespaces, env_topic, fill_pose, msg_class, qos)
 from .ultrasound_topics import UltrasoundTopics, ultrasound_frame
@@ -75,6 +75,7 @@ from .ultrasound_topics import UltrasoundTopics, ultrasound_frame
 ERROR_INTERVAL_S = 0.05  # the same refusal (env, kind) goes to `error` at most this often
 LOG_THROTTLE_S = 1.0
 DIAGNOSTICS_PERIOD_S = 1.0
+SOUNDS = ("set_volume", "beep", "string_to_speech")  # the console's; the twin has no speaker
 # arm commands the twin cannot carry out: answered on `warning` (clients still find a peer)
 UNSUPPORTED = {"free": "free (a compliant arm)", "servo_jf": "joint effort control",
                "jaw/servo_jf": "jaw effort control", "body/servo_cf": "wrench control",
@@ -88,7 +89,8 @@ TOOL_TYPES = {"psm_lnd": "LARGE_NEEDLE_DRIVER:400006", "psm_suction": "CRESSIM_S
 class TwinNode(Node):
     def __init__(self, *, threaded_sensors: bool = True, **kwargs):
         super().__init__("cressim_twin", **kwargs)
-        self.refusals = collections.Counter()  # (env, kind) -> count, reported at shutdown
+        self.refusals = collections.Counter()  # (env, kind) -> count (env None: the console), reported at shutdown
+        self.console_commands = collections.Counter()  # console topic (power_on, beep, ...) -> count
         self._last_error = {}  # (env, kind) -> (wall time, suppressed count)
         self.recorder = None
         self._record_lock = threading.Lock()  # the tick and the sensor thread both record
@@ -364,36 +366,39 @@ class TwinNode(Node):
             **{name: functools.partial(self._flag, flag) for name, flag in FLAGS.items()},
             **{name: functools.partial(self._unsupported, name) for name in UNSUPPORTED},
         }
-        self._command_subs = []
-        self._latched = FirstDelivery()
+        self._command_subs, self._latched_readers = [], []
         for spec in arm_topics("command"):
             handler = handlers[spec.name]
             for env, namespaces in enumerate(self.namespaces):
                 for ns in namespaces:
                     callback = functools.partial(self._on_command, spec.name, handler, env)
-                    self._command_subs.append(self.create_subscription(msg_class(spec), f"{ns}/{spec.name}",
-                                                                       callback, qos(spec)))
-                    if spec.name in LATCHED_COMMANDS:  # its latched writers' (topics.LATCHED_COMMANDS)
-                        self._command_subs.append(self.create_subscription(
-                            msg_class(spec), f"{ns}/{spec.name}",
-                            functools.partial(self._on_command, spec.name, handler, env, latched=True),
-                            latched_reader_qos(spec)))
-        console = {"power_on": "enable", "power_off": "disable", "home": "home"}  # every arm
-        for ns in CONSOLE_NAMESPACES:
-            for topic, command in console.items():
-                spec = TOPICS_BY_NAME[f"/console/{topic}"]
-                self._command_subs.append(self.create_subscription(
-                    msg_class(spec), f"{ns}/{topic}", functools.partial(self._on_console, command), qos(spec)))
-        for topic, handler in (("enable", self._on_teleop_enable), ("set_scale", self._on_teleop_scale),
-                               ("select", functools.partial(self._on_teleop_select, "selected")),
-                               ("unselect", functools.partial(self._on_teleop_select, "unselected"))):
-            spec = TOPICS_BY_NAME[f"/console/teleop/{topic}"]
-            self._command_subs.append(self.create_subscription(msg_class(spec), spec.name, handler, qos(spec)))
-        spec = TOPICS_BY_NAME["/footpedals/coag"]
-        for env in range(self.num_envs):
-            topic = env_topic(spec.name, env, self.num_envs)
+                    if spec.name in LATCHED_COMMANDS:  # crtk latches it (topics.LatchedCommandReader)
+                        self._latched_readers.append(LatchedCommandReader(self, msg_class(spec), f"{ns}/{spec.name}",
+                                                                          qos(spec), callback))
+                    else:
+                        self._command_subs.append(self.create_subscription(msg_class(spec), f"{ns}/{spec.name}",
+                                                                           callback, qos(spec)))
+        # the console's (also under /system/, dVRK 2.3's name): every arm's power and homing, its sounds
+        console = {**{topic: functools.partial(self._on_console, command)
+                      for topic, command in (("power_on", "enable"), ("power_off", "disable"), ("home", "home"))},
+                   **{sound: functools.partial(self._on_sound, sound) for sound in SOUNDS}}
+        topics = [(f"{ns}/{topic}", f"/console/{topic}", handler)
+                  for ns in CONSOLE_NAMESPACES for topic, handler in console.items()]
+        topics += [(f"/console/teleop/{topic}", f"/console/teleop/{topic}", handler) for topic, handler in (
+            ("enable", self._on_teleop_enable), ("set_scale", self._on_teleop_scale),
+            ("select", functools.partial(self._on_teleop_select, "selected")),
+            ("unselect", functools.partial(self._on_teleop_select, "unselected")))]
+        for topic, name, handler in topics:
+            spec = TOPICS_BY_NAME[name]
             self._command_subs.append(self.create_subscription(
-                msg_class(spec), topic, functools.partial(self._on_coag_pedal, env, topic), qos(spec)))
+                msg_class(spec), topic, functools.partial(self._on_console_command, topic, handler), qos(spec)))
+        # the coagulation pedal: one per env; a cart's console has one for all its PSMs
+        spec = TOPICS_BY_NAME["/footpedals/coag"]
+        pedals = ([(spec.name, range(self.num_envs))] if self.cart else
+                  [(env_topic(spec.name, env, self.num_envs), [env]) for env in range(self.num_envs)])
+        for topic, envs in pedals:
+            self._command_subs.append(self.create_subscription(
+                msg_class(spec), topic, functools.partial(self._on_coag_pedal, list(envs), topic), qos(spec)))
 
     def _create_services(self):
         self._service_handles = []
@@ -493,8 +498,12 @@ class TwinNode(Node):
         self._last_error[(env, kind)] = (now, 0)
         line = f"{self.arms.label(env)}: {text}{suffix}"
         self._publish_event(env, level, String(data=line))
-        log = self.get_logger().error if level == "error" else self.get_logger().warning
-        log(line, throttle_duration_sec=LOG_THROTTLE_S)
+        # one call site per severity: rclpy fixes a throttled call site's severity at its first
+        # call and raises if it changes (which failed the tick, and counted the refusal again)
+        if level == "error":
+            self.get_logger().error(line, throttle_duration_sec=LOG_THROTTLE_S)
+        else:
+            self.get_logger().warning(line, throttle_duration_sec=LOG_THROTTLE_S)
 
     def _stale(self, kind: str, msg, info) -> str | None:
         """Why a stamped command was too old when the middleware received it (None: fresh)."""
@@ -506,14 +515,12 @@ class TwinNode(Node):
                              self.scene.stale_command_after, what=kind)
 
     # ------------------------------------------------------------------ subscriptions
-    def _on_command(self, kind, handler, env, msg, info, *, latched=False):
+    def _on_command(self, kind, handler, env, msg, info, latched=False):
         try:
-            if kind in LATCHED_COMMANDS and not self._latched.first((env, kind), msg):
-                return  # the same command through the other reader (topics.LATCHED_COMMANDS)
             if self.recorder is not None:
                 self._record(f"{self.namespaces[env][0]}/{kind}", msg)
-            # a latched writer's command (crtk's state_command) may come through the transient-local
-            # reader as late as discovery took: it is the writer's last word, not a stale one
+            # a latched writer's command (crtk's state_command) from its history may come as late as
+            # discovery took: it is the writer's last word, not a stale one
             problem = None if latched else self._stale(kind, msg, info)
             if problem:
                 self._refuse(env, kind, problem)
@@ -545,32 +552,58 @@ class TwinNode(Node):
         arm = "joint-driven (position drives)" if self.arms.dynamic else "kinematic"
         return [(env, "warning", f"{kind} refused: {UNSUPPORTED[kind]} is not simulated; the twin's arm is {arm}")]
 
-    def _on_coag_pedal(self, env, topic, msg):
+    def _on_coag_pedal(self, envs, topic, msg):
         """The dVRK console's coagulation pedal (sensor_msgs/Joy): buttons[0] 1 pressed, anything
-        else (0 released, 2 a quick tap that is over) not."""
+        else (0 released, 2 a quick tap that is over) not. A cart's pedal goes to every PSM: those
+        whose instrument takes it heat; only when none does, each says why it refused."""
         try:
             if self.recorder is not None:
                 self._record(topic, msg)
-            self._emit(self.arms.instrument_command(env, "footpedals/coag", len(msg.buttons) > 0 and msg.buttons[0] == 1))
+            pressed = len(msg.buttons) > 0 and msg.buttons[0] == 1
+            answers = [self.arms.instrument_command(env, "footpedals/coag", pressed) for env in envs]
+            events = [event for events in answers for event in events]
+            if not all(answers):  # an instrument took it: the others' refusals are no news
+                events = [(env, kind, value) for env, kind, value in events if kind != "error"]
+            self._emit(events)
         except Exception:  # noqa: BLE001 - the node must survive any message
             self.get_logger().error(traceback.format_exc(), throttle_duration_sec=LOG_THROTTLE_S)
 
-    def _on_console(self, command, msg):
+    def _on_console_command(self, topic, handler, msg):
+        """Every console command: recorded, counted, then handled; the node survives any message."""
         try:
-            for env in range(self.num_envs):
-                self._emit(self.arms.state_command(env, command))
-            if self.ecm is not None:
-                self.ecm.emit(pairs(self.cart.ecm.state_command(0, command)))
-                for topics in self.console.mtms:
-                    topics.emit(topics.mtm.state_command(command))
+            if self.recorder is not None:
+                self._record(topic, msg)
+            self.console_commands[topic.split("/", 2)[2]] += 1  # /system/beep and /console/beep: beep
+            handler(msg)
         except Exception:  # noqa: BLE001
             self.get_logger().error(traceback.format_exc(), throttle_duration_sec=LOG_THROTTLE_S)
+
+    def _refuse_console(self, kind, text):
+        """A console command refused: logged (throttled) and counted; the console has no `error` topic."""
+        self.refusals[(None, kind)] += 1
+        self.get_logger().warning(f"console {text}", throttle_duration_sec=LOG_THROTTLE_S)
+
+    def _on_console(self, command, msg):
+        for env in range(self.num_envs):
+            self._emit(self.arms.state_command(env, command))
+        if self.ecm is not None:
+            self.ecm.emit(pairs(self.cart.ecm.state_command(0, command)))
+            for topics in self.console.mtms:
+                topics.emit(topics.mtm.state_command(command))
+
+    def _on_sound(self, kind, msg):
+        """The console's set_volume, beep and string_to_speech: checked and logged (no speaker here)."""
+        problem, asked = _sound(kind, msg)
+        if problem:
+            self._refuse_console(kind, f"{kind} refused: {problem}")
+        else:
+            self.get_logger().info(f"console {asked} (the twin has no speaker)", throttle_duration_sec=LOG_THROTTLE_S)
 
     def _on_teleop_enable(self, msg):
         if msg.data:
             why = ("the cart runs no teleoperation of its own: run the dVRK's dvrk_teleoperation.py against its MTMs"
                    if self.cart else "the twin has no MTM to teleoperate from (a patient cart has)")
-            self.get_logger().warning(f"console teleop/enable refused: {why}", throttle_duration_sec=LOG_THROTTLE_S)
+            self._refuse_console("teleop/enable", f"teleop/enable refused: {why}")
         self.console_pubs["/console/teleop/enabled"].publish(Bool(data=False))
 
     def _on_teleop_scale(self, msg):
@@ -647,6 +680,8 @@ class TwinNode(Node):
                 self._next_diagnostics = started + DIAGNOSTICS_PERIOD_S
                 self._publish_diagnostics(stamp)
         except Exception:  # noqa: BLE001 - a failing tick is reported and the next one runs
+            if not self.context.ok():
+                return  # the node is stopping (its context shut down mid-tick): nothing to report
             self.get_logger().error("tick failed: " + traceback.format_exc(), throttle_duration_sec=LOG_THROTTLE_S)
         self._tick_times.append(time.perf_counter() - started)
         now_ns = time.monotonic_ns()
@@ -753,7 +788,7 @@ class TwinNode(Node):
         return dict(node=self.get_name(), period_ms=1e3 / self.cfg["publish_rate"], tick_mean_ms=float(ticks.mean()),
                     tick_max_ms=float(ticks.max()), publish_rate_hz=float(rate),
                     target_rate_hz=float(self.cfg["publish_rate"]), sensors=self.sensors.stats(),
-                    refusals=dict(refusals), num_envs=self.num_envs)
+                    refusals=dict(refusals), console=dict(self.console_commands), num_envs=self.num_envs)
 
     def _sensor_failed(self, sensor, exc):
         if not rclpy.ok():  # a frame that finished while the node shuts down has nowhere to go
@@ -768,14 +803,40 @@ class TwinNode(Node):
         if self.live_view is not None:
             self.live_view.close()
         if self.refusals:
-            summary = ", ".join(f"{self.arms.label(env)} {kind}: {n}" for (env, kind), n in sorted(self.refusals.items()))
+            labels = {(env, kind): f"{'console' if env is None else self.arms.label(env)} {kind}"
+                      for env, kind in self.refusals}
+            summary = ", ".join(f"{labels[key]}: {self.refusals[key]}" for key in sorted(labels, key=labels.get))
             self.get_logger().info(f"refused commands: {summary}")
+        if self.console_commands:
+            self.get_logger().info("console commands: " + ", ".join(f"{k}: {n}" for k, n in
+                                                                    sorted(self.console_commands.items())))
         if self._tick_times:
             s = self.statistics()
             self.get_logger().info(f"tick time over the last {len(self._tick_times)}: mean {s['tick_mean_ms']:.2f} ms, "
                                    f"max {s['tick_max_ms']:.2f} ms; {s['publish_rate_hz']:.1f} ticks/s; sensors "
                                    + ", ".join(f"{k} {v['rendered']} rendered, {v['skipped']} skipped"
                                                for k, v in s["sensors"].items()))
+
+
+def _sound(kind: str, msg) -> tuple[str | None, str]:
+    """(why a console sound command is refused, or None; what it asks) for set_volume (Float64,
+    0..1), beep (Float64MultiArray: duration s, frequency Hz, volume 0..1), string_to_speech."""
+    if kind == "string_to_speech":
+        return (None, f"says {msg.data!r}") if msg.data.strip() else ("nothing to say (an empty string)", "")
+    values = [float(msg.data)] if kind == "set_volume" else list(msg.data)
+    if kind == "beep" and len(values) != 3:
+        return f"{len(values)} values, expected 3 (duration s, frequency Hz, volume 0..1)", ""
+    if not all(math.isfinite(v) for v in values):
+        return f"{values} is not finite", ""
+    volume = values[-1]
+    if not 0.0 <= volume <= 1.0:
+        return f"volume {volume:g} is not within [0, 1]", ""
+    if kind == "set_volume":
+        return None, f"volume {volume:g}"
+    duration, frequency, _ = values
+    if duration <= 0.0 or frequency <= 0.0:
+        return f"duration {duration:g} s and frequency {frequency:g} Hz must be positive", ""
+    return None, f"beep {duration:g} s at {frequency:g} Hz, volume {volume:g}"
 
 
 def _kind_of(text: str) -> str:
@@ -841,34 +902,44 @@ def _matrix_msg(values) -> Float64MultiArray:
 
 def main(args=None) -> int:
     """Entry point `cressim_twin` (and `python -m cressim_ros`)."""
+    import signal
+
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
-    from rclpy._rclpy_pybind11 import RCLError
+    from rclpy.signals import SignalHandlerOptions
 
     # rclpy.init() of this rclpy (the Jazzy wheels) returns None, not the context manager newer
-    # demos use with `with`; try/finally does the same.
+    # demos use with `with`; try/finally does the same. SIGINT and SIGTERM end the spin loop
+    # between two callbacks, not rclpy's handler: that one shuts the context down at once, in
+    # the middle of a tick's publishing, and the shutdown log could not reach /rosout.
     torch.set_num_threads(1)  # tensors of a few envs: threads only contend with DDS and the engine
-    rclpy.init(args=args)
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    stop = threading.Event()
+
+    def on_signal(signum, frame):
+        stop.set()
+        signal.signal(signal.SIGINT, signal.default_int_handler)  # a second Ctrl-C interrupts the shutdown
+
+    previous = {}
     try:
         try:
             node = TwinNode()
         except ConfigError as exc:
             rclpy.logging.get_logger("cressim_twin").fatal(f"not started: {exc}")
             return 2
+        previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
         executor = SingleThreadedExecutor()
         executor.add_node(node)
         try:
-            executor.spin()
+            while not stop.is_set():
+                executor.spin_once(timeout_sec=0.1)  # the tick's timer wakes it every period
         except (KeyboardInterrupt, ExternalShutdownException):
             pass
-        except RCLError:
-            # SIGINT shut the context down between the executor's check and its wait set: the
-            # same clean stop; any other RCL failure is not
-            if rclpy.ok():
-                raise
         finally:
             node.close()
             node.destroy_node()
     finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
         rclpy.try_shutdown()
     return 0
 
