@@ -203,7 +203,7 @@ def _parse_arm(f: Field, scene: Scene) -> None:
     arm = f.keys(("name", "robot", "dynamics", "base", "initial_jp", "initial_jaw", "home_jp", "measured_lag",
                   "trajectory", "stale_command_after", "grasp", "suction", "cautery", "needle"))
     if "name" in arm:
-        scene.arm = _ros_name(arm["name"])
+        scene.arm = ros_name(arm["name"])
     if "robot" in arm:
         scene.robot = arm["robot"].choice(ROBOTS)
     if "dynamics" in arm:
@@ -261,7 +261,8 @@ def _parse_arm(f: Field, scene: Scene) -> None:
             scene.acceleration_ratio = traj["acceleration_ratio"].number(1e-3, 1e3)
 
 
-def _ros_name(f: Field) -> str:
+def ros_name(f: Field) -> str:
+    """A ROS name (the arm's namespace and frame prefix)."""
     value = f.str()
     if not value or not (value[0].isalpha() and all(c.isalnum() or c == "_" for c in value)):
         raise f.fail(f"{value!r} is not a valid ROS name (letters, digits, _; a letter first)")
