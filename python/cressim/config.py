@@ -181,10 +181,12 @@ class Field:
         if isinstance(v, bool) or not (isinstance(v, int) or hasattr(v, "__index__")):
             raise self.fail(f"expected an integer, got {v!r}")
         v = int(v)
-        if high is not None and not (low if low is not None else -math.inf) <= v <= high:
+        if low is not None and high is not None and not low <= v <= high:
             raise self.fail(f"{v} is outside [{low}, {high}]")
         if low is not None and v < low:
             raise self.fail(f"must be >= {low}, got {v}")
+        if high is not None and v > high:
+            raise self.fail(f"must be <= {high}, got {v}")
         return v
 
     def bool(self) -> bool:

@@ -51,6 +51,7 @@ def test_a_world_and_its_twin_in_one_file_drive_the_arm(tmp_path):
 
 def test_the_one_file_keeps_each_readers_checks(tmp_path):
     text = one_file(tmp_path).read_text()
+    assert parse_scene(text.replace("envs: 1", "envs: 2")).num_envs == 2  # the world's envs are the twin's
     bad = text + "num_envs: 2\n"  # the world says envs: 1
     with pytest.raises(SceneError, match=r"retraction.yaml:9:7: envs: 1 envs, but num_envs is 2"):
         parse_scene(bad, str(tmp_path / "retraction.yaml"))

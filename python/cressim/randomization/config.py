@@ -1,5 +1,6 @@
 """Domain randomization terms: what to randomize, how, and when, read and checked from a task's
-config (Python dicts) or a scene file's `randomization:` section (YAML, errors with file:line).
+config (Python dicts, errors named with their origin) or a scene file's `randomization:` section
+(YAML, errors with file:line:column), both by cressim.config's field reader.
 
 A term::
 
@@ -107,7 +108,7 @@ class Term:
     operation: str
     when: str
     every: int
-    where: str  # file:line (or field path) for later errors
+    where: str  # file:line:column (or the origin) and field path, for later errors
     choices: tuple | None = None
 
     @property
