@@ -87,6 +87,10 @@ from cressim.config import Field, SceneFileError, read_fields
 from cressim.randomization.config import parse_terms
 from cressim.tet_mesh_file import load_tet_mesh
 
+# the scene format's top-level sections: the world's, read here, and the twin's, read by
+# cressim.twin_scene_file (one file may hold both: a task's world and its twin)
+ENGINE_SECTIONS = ("envs", "layout", "environment", "meshes", "textures", "materials", "entities", "randomization")
+TWIN_SECTIONS = ("arm", "cart", "num_envs", "rates", "camera", "sensors", "record", "world")
 MATERIAL_KEYS = ("color", "metallic", "roughness", "texture", "normal_map", "normal_scale")
 # an entity's keys and the components they make
 COMPONENTS = {"transform": "Transform", "renderable": "Renderable", "camera": "Camera", "light": "Light",
@@ -155,8 +159,7 @@ class _Loader:
     def load(self, world: cressim.World | None = None) -> cressim.World:
         """A new world, or the file's entities added to every env of `world` (its envs and
         layout then stand; the file's are checked but not used)."""
-        top = self.root.keys(("envs", "layout", "environment", "meshes", "textures", "materials", "entities",
-                              "randomization"))
+        top = self.root.keys(ENGINE_SECTIONS + TWIN_SECTIONS)  # the twin's, if any, are read by the twin
         envs = top["envs"].int(1) if "envs" in top else 1
         layout = {}
         if "layout" in top:

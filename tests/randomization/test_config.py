@@ -189,9 +189,9 @@ def test_scene_file_randomization_is_checked_with_file_and_line(tmp_path):
                      "  - param: friction\n"
                      "    entity: ball\n"
                      "    range: [0.9, 0.1]\n")
-    with pytest.raises(SceneFileError, match=rf"{scene}:10: randomization\[1\]\.range: low must be <= high"):
+    with pytest.raises(SceneFileError, match=rf"{scene}:10:12: randomization\[1\]\.range: low must be <= high"):
         load_scene(scene)
-    with pytest.raises(SceneFileError, match=rf"{scene}:10: "):
+    with pytest.raises(SceneFileError, match=rf"{scene}:10:12: "):
         file_randomization(scene)
     scene.write_text(scene.read_text().replace("[0.9, 0.1]", "[0.1, 0.9]\n    when: interval\n    every: 30"))
     load_scene(scene)
@@ -212,7 +212,7 @@ def test_scene_file_randomization_is_checked_with_file_and_line(tmp_path):
     assert file_randomization(textured)[0].choices == (1.0, 0.0, -1.0)
     load_scene(textured)
     textured.write_text(textured.read_text().replace("[checker, plain", "[checker, wood"))
-    with pytest.raises(SceneFileError, match=rf"{textured}:8: randomization\[0\]\.choices\[1\]: no texture named "
+    with pytest.raises(SceneFileError, match=rf"{textured}:8:78: randomization\[0\]\.choices\[1\]: no texture named "
                                              "'wood'; the textures are: plain, checker"):
         load_scene(textured)
 

@@ -68,7 +68,7 @@ def test_a_yaml_file_configures_the_task_and_its_errors_name_file_and_line(tmp_p
     env.reset()
     assert ((env.randomized("mass/pole") >= 0.8) & (env.randomized("mass/pole") <= 1.2)).all()
     path.write_text("- param: mass\n  entity: pole\n  range: [0.8, 1.2]\n  operation: scale\n  every: 3\n")
-    with pytest.raises(SceneFileError, match=rf"{path}:5: \[0\]\.every: 'every' is for when: interval"):
+    with pytest.raises(SceneFileError, match=rf"{path}:5:10: \[0\]\.every: 'every' is for when: interval"):
         cressim.envs.make("CartPole", num_envs=2, randomization=path)
     with pytest.raises(ValueError, match=r"CartPole\(randomization=...\): randomization\[0\].entity: expected a name"):
         cressim.envs.make("CartPole", num_envs=2, randomization=[dict(param="mass", entity=3, range=[1, 2])])

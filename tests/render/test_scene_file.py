@@ -45,15 +45,15 @@ def test_cressim_render_writes_images(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("text, line, message", [
-    ("envs: 1\nentities:\n  - name: a\n    renderable: {mesh: nothing}\n", 4,
+    ("envs: 1\nentities:\n  - name: a\n    renderable: {mesh: nothing}\n", "4:24",
      "entities[0].renderable.mesh: no mesh 'nothing'"),
-    ("envs: 1\nentities:\n  - name: a\n    transform: {position: [0, 1]}\n", 4,
+    ("envs: 1\nentities:\n  - name: a\n    transform: {position: [0, 1]}\n", "4:27",
      "entities[0].transform.position: expected 3 numbers, got 2"),
-    ("envs: 1\nentities:\n  - name: a\n    light: {kind: lamp}\n", 4, "entities[0].light: Light kind 'lamp'"),
-    ("envs: two\n", 1, "envs: expected an integer"),
-    ("envs: 1\nentities:\n  - name: a\n    renderable: {mesh: {sphere: {radius: 0.1}}, normal_map: bumps}\n", 4,
+    ("envs: 1\nentities:\n  - name: a\n    light: {kind: lamp}\n", "4:12", "entities[0].light: Light kind 'lamp'"),
+    ("envs: two\n", "1:7", "envs: expected an integer"),
+    ("envs: 1\nentities:\n  - name: a\n    renderable: {mesh: {sphere: {radius: 0.1}}, normal_map: bumps}\n", "4:61",
      "entities[0].renderable.normal_map: no texture 'bumps'"),
-    ("envs: 1\nentities:\n  - name: a\n\n    camra: {width: 8}\n", 5,
+    ("envs: 1\nentities:\n  - name: a\n\n    camra: {width: 8}\n", "5:5",
      "entities[0].camra: unknown field 'camra'"),
 ])
 def test_errors_name_file_line_and_field(tmp_path, text, line, message):

@@ -21,7 +21,7 @@ def write(tmp_path, text):
        - name: tissue
          soft_body:
            box: {half_extents: [0.1, 0.1, 0.1], cells: [2.7, 2, 2]}
-     """, 4, "entities[0].soft_body.box.cells[0]: expected an integer, got 2.7"),
+     """, "4:52", "entities[0].soft_body.box.cells[0]: expected an integer, got 2.7"),
     ("""
      entities:
        - name: blood
@@ -30,13 +30,13 @@ def write(tmp_path, text):
              counts: [2, 2, 2]
              spacing: 0
              origin: [0, 0, 0]
-     """, 6, "entities[0].fluid.block.spacing: must be positive, got 0.0"),
+     """, "6:18", "entities[0].fluid.block.spacing: must be positive, got 0.0"),
     ("""
      entities:
        - name: blood
          fluid:
            block: {counts: [2, 2.5, 2], spacing: 0.1, origin: [0, 0, 0]}
-     """, 4, "entities[0].fluid.block.counts[1]: expected an integer, got 2.5"),
+     """, "4:27", "entities[0].fluid.block.counts[1]: expected an integer, got 2.5"),
 ])
 def test_loader_errors_keep_the_line(tmp_path, text, line, message):
     path = write(tmp_path, text)
@@ -56,7 +56,7 @@ def test_loader_errors_keep_the_line(tmp_path, text, line, message):
          collider:
            shapes: [{sphere: {radius: 0.05}}]
            restitution: 5
-     """, 9, "Collider.restitution", "Collider.restitution must be in [0, 1], got 5"),
+     """, "9:20", "Collider.restitution", "Collider.restitution must be in [0, 1], got 5"),
     ("""
      entities:
        - name: ball
@@ -64,7 +64,7 @@ def test_loader_errors_keep_the_line(tmp_path, text, line, message):
            density: 500
            mass: -1
          collider: {shapes: [{sphere: {radius: 0.05}}]}
-     """, 5, "RigidBody.mass", "RigidBody.mass must be >= 0"),
+     """, "5:13", "RigidBody.mass", "RigidBody.mass must be >= 0"),
     ("""
      entities:
        - name: ball
@@ -74,14 +74,14 @@ def test_loader_errors_keep_the_line(tmp_path, text, line, message):
              - sphere: {radius: 0.05}
              - box:
                  half_extents: [0.1, 0.1, .inf]
-     """, 8, "Collider.shapes[1].size[2]", "Collider.shapes[1].size[2] must be finite, got inf"),
+     """, "8:27", "Collider.shapes[1].size[2]", "Collider.shapes[1].size[2] must be finite, got inf"),
     ("""
      entities:
        - name: tissue
          soft_body:
            box: {half_extents: [0.1, 0.1, 0.1], cells: [1, 1, 1]}
            fixed: [999]
-     """, 5, "SoftBody.fixed", "SoftBody.fixed names particle 999 of 8"),
+     """, "5:14", "SoftBody.fixed", "SoftBody.fixed names particle 999 of 8"),
     ("""
      materials:
        shiny:
@@ -90,7 +90,7 @@ def test_loader_errors_keep_the_line(tmp_path, text, line, message):
      entities:
        - name: crate
          renderable: {mesh: {box: {half_extents: [0.1, 0.1, 0.1]}}, material: shiny}
-     """, 4, "Renderable.metallic", "Renderable.metallic must be in [0, 1], got 2"),
+     """, "4:15", "Renderable.metallic", "Renderable.metallic must be in [0, 1], got 2"),
     ("""
      layout: {max_cameras_per_env: 1}
      entities:
@@ -98,7 +98,7 @@ def test_loader_errors_keep_the_line(tmp_path, text, line, message):
          camera: {width: 8, height: 8}
        - name: cam1
          camera: {width: 8, height: 8}
-     """, 5, "", "env 0 has more cameras than SceneLayout.max_cameras_per_env = 1"),
+     """, "5:5", "", "env 0 has more cameras than SceneLayout.max_cameras_per_env = 1"),
 ])
 def test_prepare_errors_keep_the_line(tmp_path, text, line, field, message):
     path = write(tmp_path, text)
@@ -119,4 +119,4 @@ def test_cressim_render_reports_the_line(tmp_path, capsys):
             light: {intensity: -3}
         """)
     assert main(["render", str(path), "--out", str(tmp_path)]) == 2
-    assert f"{path}:3: entity 0 'lamp' in env 0: Light.intensity must be >= 0, got -3" in capsys.readouterr().err
+    assert f"{path}:3:24: entity 0 'lamp' in env 0: Light.intensity must be >= 0, got -3" in capsys.readouterr().err

@@ -87,25 +87,25 @@ def test_soft_body_from_a_gmsh_file(tmp_path, make_engine):
          soft_body:
            mesh: meshes/box.vtk
            scale: -1
-     """, 5, "entities[0].soft_body.scale: must be positive, got -1.0"),
+     """, "5:14", "entities[0].soft_body.scale: must be positive, got -1.0"),
     ("""
      entities:
        - name: flap
          soft_body:
            box: {half_extents: [0.01, 0.01, 0.01], cells: [1, 1, 1]}
            scale: 2
-     """, 5, "entities[0].soft_body.scale: scale applies to mesh files"),
+     """, "5:14", "entities[0].soft_body.scale: scale applies to mesh files"),
     ("""
      entities:
        - name: flap
          soft_body:
            mesh: meshes/box.obj
-     """, 4, "entities[0].soft_body.mesh: cannot read the tet mesh: "),
+     """, "4:13", "entities[0].soft_body.mesh: cannot read the tet mesh: "),
     ("""
      entities:
        - name: flap
          soft_body: {box: {half_extents: [0.01, 0.01, 0.01], cells: [1, 1, 1]}, mesh: meshes/box.vtk}
-     """, 3, "entities[0].soft_body: a soft_body needs one of: box, cylinder, mesh"),
+     """, "3:16", "entities[0].soft_body: a soft_body needs one of: box, cylinder, mesh"),
 ])
 def test_mesh_field_errors_name_the_line(tmp_path, text, line, message):
     box_vtk(tmp_path)
@@ -121,7 +121,7 @@ def test_a_malformed_mesh_file_names_both_lines(tmp_path):
     lines[6] = "0.01 oops 0"
     vtk.write_text("\n".join(lines))
     path, error = loader_error(tmp_path, "entities:\n  - name: flap\n\n    soft_body: {mesh: meshes/box.vtk}\n")
-    assert error.startswith(f"{path}:4: entities[0].soft_body.mesh: cannot read the tet mesh: "
+    assert error.startswith(f"{path}:4:23: entities[0].soft_body.mesh: cannot read the tet mesh: "
                             f"{vtk}:7: POINTS: expected a number, got 'oops'"), error
 
 
@@ -155,15 +155,15 @@ def test_a_fixed_region_holds_strand_points(tmp_path, make_engine):
 
 
 @pytest.mark.parametrize("fixed, line, message", [
-    ("below: {axis: z, value: -0.5}", 6,
+    ("below: {axis: z, value: -0.5}", "6:9",
      "entities[0].soft_body.fixed: the region holds none of the 18 particles (entity frame: x [-0.02, 0.02]"),
-    ("above: {axis: w, value: 0}", 6, "entities[0].soft_body.fixed.above.axis: expected x, y or z, got 'w'"),
-    ("above: {axis: z, value: .nan}", 6, "entities[0].soft_body.fixed.above.value: must be finite, got nan"),
-    ("box: {center: [0, 0, 0], half_extents: [0.01, 0, 0.01]}", 6,
+    ("above: {axis: w, value: 0}", "6:23", "entities[0].soft_body.fixed.above.axis: expected x, y or z, got 'w'"),
+    ("above: {axis: z, value: .nan}", "6:33", "entities[0].soft_body.fixed.above.value: must be finite, got nan"),
+    ("box: {center: [0, 0, 0], half_extents: [0.01, 0, 0.01]}", "6:55",
      "entities[0].soft_body.fixed.box.half_extents[1]: must be positive, got 0.0"),
-    ("box: {center: [0, 0, 0]}", 6, "entities[0].soft_body.fixed.box: box needs 'half_extents'"),
-    ("below: {axis: z, value: 0}\nabove: {axis: z, value: 0}", 6, "entities[0].soft_body.fixed: give one region"),
-    ("inside: {}", 6, "entities[0].soft_body.fixed.inside: unknown field 'inside'"),
+    ("box: {center: [0, 0, 0]}", "6:14", "entities[0].soft_body.fixed.box: box needs 'half_extents'"),
+    ("below: {axis: z, value: 0}\nabove: {axis: z, value: 0}", "6:9", "entities[0].soft_body.fixed: give one region"),
+    ("inside: {}", "6:9", "entities[0].soft_body.fixed.inside: unknown field 'inside'"),
 ])
 def test_fixed_region_errors_name_the_line(tmp_path, fixed, line, message):
     box_vtk(tmp_path)
@@ -217,15 +217,15 @@ def test_an_emitter_alone_is_a_fluid(tmp_path, make_engine):
 
 
 @pytest.mark.parametrize("fields, line, message", [
-    ("emit_rate: -1", 5, "entities[0].fluid.emit_rate: must be >= 0, got -1"),
-    ("emit_rate: 2.5", 5, "entities[0].fluid.emit_rate: expected an integer, got 2.5"),
-    ("emit_width: 0", 5, "entities[0].fluid.emit_width: must be >= 1, got 0"),
-    ("emit_origin: [0, .inf, 0]", 5, "entities[0].fluid.emit_origin[1]: must be finite, got inf"),
-    ("emit_velocity: [0, 0]", 5, "entities[0].fluid.emit_velocity: expected 3 numbers, got 2"),
-    ("emit_rate: 2\nbudget: 20\nemit_velocity: [0, 0, 0]", 7, "entities[0].fluid.emit_velocity: must not be zero"),
-    ("emit_rate: 2\nbudget: 8", 6, "entities[0].fluid.budget: an emitter needs a budget above the block's 8"),
-    ("emit_rate: 2", 4, "entities[0].fluid: an emitter needs a budget above the block's 8"),
-    ("budget: 3", 5, "entities[0].fluid.budget: must hold the block's 8 particles, got 3"),
+    ("emit_rate: -1", "5:18", "entities[0].fluid.emit_rate: must be >= 0, got -1"),
+    ("emit_rate: 2.5", "5:18", "entities[0].fluid.emit_rate: expected an integer, got 2.5"),
+    ("emit_width: 0", "5:19", "entities[0].fluid.emit_width: must be >= 1, got 0"),
+    ("emit_origin: [0, .inf, 0]", "5:24", "entities[0].fluid.emit_origin[1]: must be finite, got inf"),
+    ("emit_velocity: [0, 0]", "5:22", "entities[0].fluid.emit_velocity: expected 3 numbers, got 2"),
+    ("emit_rate: 2\nbudget: 20\nemit_velocity: [0, 0, 0]", "7:22", "entities[0].fluid.emit_velocity: must not be zero"),
+    ("emit_rate: 2\nbudget: 8", "6:15", "entities[0].fluid.budget: an emitter needs a budget above the block's 8"),
+    ("emit_rate: 2", "4:7", "entities[0].fluid: an emitter needs a budget above the block's 8"),
+    ("budget: 3", "5:15", "entities[0].fluid.budget: must hold the block's 8 particles, got 3"),
 ])
 def test_emitter_errors_name_the_line(tmp_path, fields, line, message):
     path, error = loader_error(tmp_path, textwrap.dedent("""
@@ -239,7 +239,7 @@ def test_emitter_errors_name_the_line(tmp_path, fields, line, message):
 
 def test_a_fluid_needs_particles_or_an_emitter(tmp_path):
     path, error = loader_error(tmp_path, "entities:\n  - name: blood\n    fluid: {radius: 0.01, budget: 10}\n")
-    assert error.startswith(f"{path}:3: entities[0].fluid: a fluid needs 'block'"), error
+    assert error.startswith(f"{path}:3:12: entities[0].fluid: a fluid needs 'block'"), error
 
 
 # --- ultrasound --------------------------------------------------------------------------------
@@ -317,18 +317,18 @@ def test_a_soft_tissue_carries_scatterers_in_its_tets_around_its_inclusion(tmp_p
 
 
 @pytest.mark.parametrize("old, new, line, message", [
-    ("kind: linear", "kind: convex", 13, "entities[1].ultrasound_probe.kind: expected linear or sector, got 'convex'"),
-    ("scanlines: 32", "scanlines: 0", 14, "entities[1].ultrasound_probe.scanlines: must be >= 1, got 0"),
-    ("focal_depth: 0.02", "focal_depth: .nan", 20, "entities[1].ultrasound_probe.focal_depth: must be finite"),
-    ("rf_output: false", "rf_output: 1", 21, "entities[1].ultrasound_probe.rf_output: expected true or false"),
-    ("width: 48", "depth: 48", 17, "entities[1].ultrasound_probe.depth: unknown field 'depth'"),
-    ("region: sphere", "region: cube", 5, "entities[0].ultrasound_tissue.region: expected one of box, sphere"),
-    ("size: [0.005]", "size: [0.005, 0.01]", 6, "entities[0].ultrasound_tissue.size: expected 1 numbers, got 2"),
-    ("size: [0.005]", "size: [-0.005]", 6, "entities[0].ultrasound_tissue.size[0]: must be positive"),
-    ("count: 300", "count: -3", 7, "entities[0].ultrasound_tissue.count: must be >= 0, got -3"),
-    ("seed: 3", "seed: 3\n      inclusions: [{center: [0, 0, 0]}]", 10,
+    ("kind: linear", "kind: convex", "13:13", "entities[1].ultrasound_probe.kind: expected linear or sector, got 'convex'"),
+    ("scanlines: 32", "scanlines: 0", "14:18", "entities[1].ultrasound_probe.scanlines: must be >= 1, got 0"),
+    ("focal_depth: 0.02", "focal_depth: .nan", "20:20", "entities[1].ultrasound_probe.focal_depth: must be finite"),
+    ("rf_output: false", "rf_output: 1", "21:18", "entities[1].ultrasound_probe.rf_output: expected true or false"),
+    ("width: 48", "depth: 48", "17:7", "entities[1].ultrasound_probe.depth: unknown field 'depth'"),
+    ("region: sphere", "region: cube", "5:15", "entities[0].ultrasound_tissue.region: expected one of box, sphere"),
+    ("size: [0.005]", "size: [0.005, 0.01]", "6:13", "entities[0].ultrasound_tissue.size: expected 1 numbers, got 2"),
+    ("size: [0.005]", "size: [-0.005]", "6:14", "entities[0].ultrasound_tissue.size[0]: must be positive"),
+    ("count: 300", "count: -3", "7:14", "entities[0].ultrasound_tissue.count: must be >= 0, got -3"),
+    ("seed: 3", "seed: 3\n      inclusions: [{center: [0, 0, 0]}]", "10:20",
      "entities[0].ultrasound_tissue.inclusions[0]: an inclusion needs 'radius'"),
-    ("seed: 3", "seed: 3\n      inclusions: [{center: [0, 0, 0], radius: 0}]", 10,
+    ("seed: 3", "seed: 3\n      inclusions: [{center: [0, 0, 0], radius: 0}]", "10:48",
      "entities[0].ultrasound_tissue.inclusions[0].radius: must be positive, got 0"),
 ])
 def test_ultrasound_loader_errors_name_the_line(tmp_path, old, new, line, message):
@@ -337,13 +337,13 @@ def test_ultrasound_loader_errors_name_the_line(tmp_path, old, new, line, messag
 
 
 @pytest.mark.parametrize("old, new, line, field, message", [
-    ("center_frequency: 5e6", "center_frequency: -5e6", 19, "UltrasoundProbe.center_frequency",
+    ("center_frequency: 5e6", "center_frequency: -5e6", "19:25", "UltrasoundProbe.center_frequency",
      "must be positive, got -5e+06"),
-    ("line_spacing: 0.0005", "line_spacing: 0", 15, "UltrasoundProbe.line_spacing", "must be positive, got 0"),
-    ("attenuation: 0.7", "attenuation: -1", 8, "UltrasoundTissue.attenuation", "must be >= 0, got -1"),
-    ("count: 300", "count: 0", 5, "UltrasoundTissue", "give either density or count"),
+    ("line_spacing: 0.0005", "line_spacing: 0", "15:21", "UltrasoundProbe.line_spacing", "must be positive, got 0"),
+    ("attenuation: 0.7", "attenuation: -1", "8:20", "UltrasoundTissue.attenuation", "must be >= 0, got -1"),
+    ("count: 300", "count: 0", "5:7", "UltrasoundTissue", "give either density or count"),
     ("seed: 3", "seed: 3\n      inclusions:\n        - center: [0, 0, 0]\n          radius: 0.001\n"
-                "          amplitude_scale: -2", 13, "UltrasoundTissue.inclusions[0].amplitude_scale",
+                "          amplitude_scale: -2", "13:28", "UltrasoundTissue.inclusions[0].amplitude_scale",
      "must be >= 0, got -2"),
 ])
 def test_ultrasound_prepare_errors_name_the_line(tmp_path, make_engine, old, new, line, field, message):

@@ -33,7 +33,7 @@ def test_default_scene_parses():
     ("rates:\n  physics: 800\n  particles: 250\n", "x.yaml:3:14", "integer multiple"),
     ("rates:\n  physics: 200\n  particles: 400\n", "x.yaml:3:14", "above the physics rate"),
     ("arm:\n  robot: psm_foo\n", "x.yaml:2:10", "not one of"),
-    ("num_envs: two\n", "x.yaml:1:11", "an integer expected"),
+    ("num_envs: two\n", "x.yaml:1:11", "expected an integer"),
     ("arm:\n  base:\n    rotation: [0, 0, 0, 2]\n", "x.yaml:3:15", "norm"),
     ("arm: [\n", "x.yaml:2:1", "not valid YAML"),
     ("sensors: [joints, radar]\n", "x.yaml:1:19", "radar"),

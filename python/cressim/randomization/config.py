@@ -1,5 +1,6 @@
 """Domain randomization terms: what to randomize, how, and when, read and checked from a task's
-config (Python dicts) or a scene file's `randomization:` section (YAML, errors with file:line).
+config (Python dicts, errors named with their origin) or a scene file's `randomization:` section
+(YAML, errors with file:line:column), both by cressim.config's field reader.
 
 A term::
 
@@ -18,9 +19,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-import yaml
-
-from cressim.config import read_fields
+from cressim.config import Field, FieldError, read_fields
 
 INF = math.inf
 
@@ -88,9 +87,9 @@ TERM_KEYS = ("param", "entity", "distribution", "range", "mean", "std", "clip", 
              "name")
 
 
-class RandomizationError(ValueError):
-    """A randomization config that cannot be used; the message names where (file:line or the
-    field) and what."""
+# a randomization config that cannot be used: the one error of configuration (file:line:column,
+# or the origin of a Python config, then the field), also for a term that does not fit a world
+RandomizationError = FieldError
 
 
 @dataclass(frozen=True)
@@ -109,7 +108,7 @@ class Term:
     operation: str
     when: str
     every: int
-    where: str  # file:line (or field path) for later errors
+    where: str  # file:line:column (or the origin) and field path, for later errors
     choices: tuple | None = None
 
     @property
@@ -126,78 +125,10 @@ class Term:
         return self.clip
 
 
-class PyField:
-    """A Python value of a config and its field path, read like cressim.config.Field (same methods)."""
-
-    def __init__(self, value, origin: str, path: str = ""):
-        self.value, self.origin, self.path = value, origin, path
-
-    @property
-    def where(self) -> str:
-        return self.origin
-
-    def fail(self, message: str) -> RandomizationError:
-        return RandomizationError(f"{self.origin}: {self.path or '(top)'}: {message}")
-
-    def is_list(self) -> bool:
-        return isinstance(self.value, (list, tuple))
-
-    def is_map(self) -> bool:
-        return isinstance(self.value, dict)
-
-    def items(self) -> dict:
-        if not isinstance(self.value, dict):
-            raise self.fail(f"expected a mapping (key: value), got {self.value!r}")
-        return {str(k): PyField(v, self.origin, f"{self.path}.{k}" if self.path else str(k))
-                for k, v in self.value.items()}
-
-    def keys(self, allowed: tuple) -> dict:
-        fields = self.items()
-        for k, f in fields.items():
-            if k not in allowed:
-                raise f.fail(f"unknown field '{k}'; expected one of: {', '.join(allowed)}")
-        return fields
-
-    def list(self) -> list:
-        if not self.is_list():
-            raise self.fail(f"expected a list, got {self.value!r}")
-        return [PyField(v, self.origin, f"{self.path}[{i}]") for i, v in enumerate(self.value)]
-
-    def str(self) -> str:
-        if not isinstance(self.value, str):
-            raise self.fail(f"expected a name, got {self.value!r}")
-        return self.value
-
-    def float(self) -> float:
-        v = self.value
-        if isinstance(v, bool) or not isinstance(v, (int, float)) and not hasattr(v, "__float__"):
-            raise self.fail(f"expected a number, got {v!r}")
-        return float(v)
-
-    def int(self, minimum: int | None = None) -> int:
-        v = self.value
-        if isinstance(v, bool) or not isinstance(v, int) and not (hasattr(v, "__index__")):
-            raise self.fail(f"expected an integer, got {v!r}")
-        if minimum is not None and v < minimum:
-            raise self.fail(f"must be >= {minimum}, got {v}")
-        return int(v)
-
-
-def _is_list(f) -> bool:
-    return f.is_list() if isinstance(f, PyField) else isinstance(f.node, yaml.SequenceNode)
-
-
-def _finite(f) -> float:
-    v = f.float()
-    if not math.isfinite(v):
-        raise f.fail(f"must be finite, got {v}")
-    return v
-
-
 def _pairs(f, size: int, what: str) -> tuple[tuple, tuple]:
     """[a, b] for every component, or one [a, b] per component: ((a...), (b...))."""
     items = f.list()
-    if items and all(_is_list(i) for i in items):
+    if items and all(i.is_list() for i in items):
         if len(items) != size:
             raise f.fail(f"expected one [{what}] pair per component ({size}), got {len(items)}")
         pairs = [(i, i.list()) for i in items]
@@ -206,34 +137,34 @@ def _pairs(f, size: int, what: str) -> tuple[tuple, tuple]:
     for field, p in pairs:
         if len(p) != 2:
             raise field.fail(f"expected [{what}], two numbers, got {len(p)}")
-    return tuple(_finite(p[0]) for _, p in pairs), tuple(_finite(p[1]) for _, p in pairs)
+    return tuple(p[0].finite() for _, p in pairs), tuple(p[1].finite() for _, p in pairs)
 
 
 def _numbers(f, size: int) -> tuple:
     """A number for every component, or a list of one per component."""
-    if _is_list(f):
+    if f.is_list():
         items = f.list()
         if len(items) != size:
             raise f.fail(f"expected {size} numbers (one per component), got {len(items)}")
-        return tuple(_finite(i) for i in items)
-    return (_finite(f),) * size
+        return tuple(i.finite() for i in items)
+    return (f.finite(),) * size
 
 
 def _choice(f, textures: dict | None) -> float:
     """A choice: a number, or (a texture) a scene file's texture name."""
-    if textures is not None and not _is_list(f) and not f.is_map():
+    if textures is not None and not f.is_list() and not f.is_map():
         try:
-            return _finite(f)
+            return f.finite()
         except ValueError:
             name = f.str()
             if name not in textures:
                 raise f.fail(f"no texture named '{name}'; the textures are: {', '.join(textures) or '(none)'}") from None
             return float(textures[name])
-    return _finite(f)
+    return f.finite()
 
 
 def parse_term(f, index: int, textures: dict | None = None) -> Term:
-    """One term from a mapping field (cressim.config.Field or PyField); raises naming the field.
+    """One term from a mapping field (a cressim.config.Field of YAML or of Python values); raises naming the field.
     `textures`: a scene file's texture names and indices, which texture choices may name."""
     c = f.keys(TERM_KEYS)
     for key in ("param", "entity"):
@@ -334,7 +265,7 @@ def load_terms(config, origin: str = "Randomizer(terms=...)") -> list[Term]:
         return file_randomization(Path(config))
     if isinstance(config, (list, tuple)) and all(isinstance(t, Term) for t in config):
         return list(config)
-    return parse_terms(PyField(config, origin, "randomization"))
+    return parse_terms(Field.of(config, origin, "randomization"))
 
 
 def file_randomization(path) -> list[Term]:

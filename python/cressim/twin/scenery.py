@@ -27,9 +27,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 import numpy as np
 import trimesh
-import yaml
 
 import cressim
+from cressim.config import Field, read_file
 from cressim.robots.kinematics import rotation_xyzw
 from cressim.scene_file import add_scene
 
@@ -114,14 +114,14 @@ class SceneryPlan:
     ultrasound: UltrasoundSpec | None = None
     world: str = ""  # an engine scene file; empty: the rigid table and block
 
-    def _file(self) -> dict:
-        if not self.world:
-            return {}
-        with open(self.world) as f:  # checked in full when the world loads (cressim.scene_file)
-            return yaml.safe_load(f) or {}
+    def _file(self) -> dict[str, Field]:
+        """The world file's sections, peeked at (checked in full when the world loads: cressim.scene_file)."""
+        root = read_file(self.world) if self.world else None
+        return root.items() if root is not None and root.is_map() else {}
 
-    def _entities(self) -> list:
-        return self._file().get("entities") or []
+    def _entities(self) -> list[dict[str, Field]]:
+        f = self._file().get("entities")
+        return [e.items() for e in f.list() if e.is_map()] if f is not None and f.is_list() else []
 
     def layout_limits(self, num_bodies: int) -> dict:
         if not self.world:  # the arm's bodies, the table and the tissue
@@ -141,7 +141,8 @@ class SceneryPlan:
 
     def has_heat(self) -> bool:
         """Whether a soft body of the world carries heat (`thermal`), so an instrument can burn it."""
-        return any(isinstance(e.get("soft_body"), dict) and "thermal" in e["soft_body"] for e in self._entities())
+        return any("soft_body" in e and e["soft_body"].is_map() and "thermal" in e["soft_body"].items()
+                   for e in self._entities())
 
     def physics_settings(self) -> dict:
         if not self.simulated():

@@ -3,17 +3,25 @@
 `check` is the one validator: it runs on the start-up values (a bad value stops the node with
 the reason before anything is built) and in the set-parameters callback (a bad change is
 refused with the reason, returned in SetParametersResult.reason, and the node keeps running
-with its old values). Structural parameters (scene, robot, dynamics, arm, num_envs,
+with its old values). `check_params_files` reads the values of `--params-file` files before
+the node starts, so a bad one is named with its file:line:column. Each value is read by
+cressim.config's field reader (`read`); what stays here is what only ROS has: the parameters'
+names, meaning and whether they change at run time, and the parameters file's layout. Structural parameters (scene, robot, dynamics, arm, num_envs,
 physics_rate, particle_rate) size or build the engine and the topic graph, so they cannot change while the
 node runs.
 """
 from __future__ import annotations
 
-import math
 import os
+import re
+import sys
 from dataclasses import dataclass
 
-from cressim.twin_scene_file import DYNAMICS, ROBOTS, SENSORS, Scene, rates_problem
+from cressim.config import Field, FieldError, read_file
+from cressim.twin.messages import ConfigError
+from cressim.twin_scene_file import DYNAMICS, ROBOTS, SENSORS, Scene, rates_problem, ros_name
+
+NODE = "cressim_twin"
 
 
 @dataclass(frozen=True)
@@ -74,52 +82,79 @@ def check(changes: dict, current: dict, *, running: bool) -> str | None:
             return f"unknown parameter {name!r}; the twin has {', '.join(sorted(BY_NAME))}, use_sim_time"
         if running and not spec.runtime and value != current.get(name):
             return f"{name} cannot change while the node runs (it sizes the engine and topics): restart the node"
-        problem = _check_one(spec, value)
-        if problem:
-            return f"{name}: {problem}"
+        try:
+            read(spec, Field.of(value, "parameter", name))
+        except FieldError as exc:
+            return f"{exc.field}: {exc.reason}"
     problem = rates_problem(merged["physics_rate"], merged["publish_rate"], merged["particle_rate"])
     return f"{problem[0]}: {problem[1]} (the engine runs whole substeps per published tick)" if problem else None
 
 
-def _check_one(spec: Spec, value) -> str | None:
+def read(spec: Spec, f: Field):
+    """The value of parameter `spec` in field `f` (of a parameters file, or a value ROS gives),
+    checked by the one field reader; raises FieldError naming where and why."""
     if spec.kind is float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            return f"a finite number expected, got {value!r}"
-        high = spec.high or MAX_RATE
-        if spec.zero and value == 0:
-            return None
-        if not 0.0 < value <= high:
-            return f"{value:g} Hz is outside (0, {high:g}]"
-    elif spec.kind is int:
-        if isinstance(value, bool) or not isinstance(value, int):
-            return f"an integer expected, got {value!r}"
-        high = int(spec.high) or 8192
-        if spec.zero and value == 0:
-            return None
-        if not 1 <= value <= high:
-            return f"{value} is outside [1, {high}]"
-    elif spec.kind is list:
-        if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):
-            return f"a list of strings expected, got {value!r}"
-        unknown = [v for v in value if v not in SENSORS]
-        if unknown:
-            return f"unknown sensor group(s) {', '.join(unknown)}; expected some of {', '.join(SENSORS)}"
-    elif spec.kind is str:
-        if not isinstance(value, str):
-            return f"a string expected, got {value!r}"
-        if spec.name == "robot" and value not in ROBOTS:
-            return f"{value!r} is not one of {', '.join(ROBOTS)}"
-        if spec.name == "dynamics" and value not in DYNAMICS:
-            return f"{value!r} is not one of {', '.join(DYNAMICS)}"
-        if spec.name == "arm" and not (value[:1].isalpha() and all(c.isalnum() or c == "_" for c in value)):
-            return f"{value!r} is not a valid ROS name (letters, digits, _; a letter first)"
-        if spec.name == "record" and value:
-            parent = os.path.dirname(os.path.abspath(value))
-            if not os.path.isdir(parent):
-                return f"folder {parent} does not exist"
-            if os.path.exists(value):
-                return f"{value} exists already (a recording is never overwritten)"
-    return None
+        v = f.finite()
+        return v if spec.zero and v == 0 else f.number(0.0, spec.high or MAX_RATE, "Hz", open_low=True)
+    if spec.kind is int:
+        v = f.int()
+        return v if spec.zero and v == 0 else f.int(1, int(spec.high) or 8192)
+    if spec.kind is list:
+        return [g.choice(SENSORS) for g in f.list()]
+    if spec.name == "robot":
+        return f.choice(ROBOTS)
+    if spec.name == "dynamics":
+        return f.choice(DYNAMICS)
+    if spec.name == "arm":
+        return ros_name(f)
+    value = f.str()
+    if spec.name == "record" and value:
+        parent = os.path.dirname(os.path.abspath(value))
+        if not os.path.isdir(parent):
+            raise f.fail(f"folder {parent} does not exist")
+        if os.path.exists(value):
+            raise f.fail(f"{value} exists already (a recording is never overwritten)")
+    return value
+
+
+def check_params_files(args=None, node: str = NODE) -> None:
+    """Checks the node's values in every `--params-file` of the ROS arguments (`args`, else
+    sys.argv) with file:line:column, before rclpy would take a bad one (a string for num_envs
+    stops the node with a traceback there) or ignore a misspelt one; raises ConfigError."""
+    argv = sys.argv if args is None else args
+    files = [argv[i + 1] for i, a in enumerate(argv[:-1]) if a == "--params-file"]
+    try:
+        for path in files:
+            root = read_file(path)
+            if root is not None:
+                _check_sections(root, "", node)
+    except FieldError as exc:
+        raise ConfigError(str(exc)) from None
+
+
+def _check_sections(f: Field, prefix: str, node: str) -> None:
+    """A parameters file's mapping: node names (namespaced, nested or with wildcards) down to
+    `ros__parameters`. Sections for other nodes are not this node's to check."""
+    for key, g in f.items().items():
+        if key != "ros__parameters":
+            if g.is_map():
+                _check_sections(g, f"{prefix}/{key.strip('/')}", node)
+            continue
+        if not _matches(prefix, node):
+            continue
+        explicit = "*" not in prefix  # a wildcard section holds other nodes' parameters too
+        params = g.keys(tuple(BY_NAME) + ("use_sim_time",)) if explicit else g.items()
+        for name, value in params.items():
+            if name == "use_sim_time":
+                value.bool()
+            elif name in BY_NAME:
+                read(BY_NAME[name], value)
+
+
+def _matches(pattern: str, node: str) -> bool:
+    """rcl's node-name matching: `*` one name, `/**` any namespaces."""
+    rule = re.escape(pattern).replace(r"/\*\*", "(/[^/]+)*").replace(r"\*", "[^/]*")
+    return re.fullmatch(rule, "/" + node.strip("/")) is not None
 
 
 def markdown(scene: Scene) -> str:
@@ -136,4 +171,4 @@ def markdown(scene: Scene) -> str:
     return "\n".join(rows) + "\n"
 
 
-__all__ = ["BY_NAME", "SPECS", "Spec", "check", "defaults", "markdown"]
+__all__ = ["BY_NAME", "NODE", "SPECS", "Spec", "check", "check_params_files", "defaults", "markdown", "read"]

@@ -922,6 +922,7 @@ def main(args=None) -> int:
     previous = {}
     try:
         try:
+            P.check_params_files(args)  # file:line:column of a bad value in a --params-file
             node = TwinNode()
         except ConfigError as exc:
             rclpy.logging.get_logger("cressim_twin").fatal(f"not started: {exc}")
