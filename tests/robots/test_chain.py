@@ -106,9 +106,36 @@ def test_batches_dtypes_and_shapes(tree):
     assert torch.equal(J[..., 3], torch.zeros_like(J[..., 3]))
 
 
+def walk_steps(steps, ranges, i, qk):
+    """Link i's pose from the HLSL backend's table, walked in numpy as link_poses.hlsl walks it
+    (each step's origin, then the joint's motion)."""
+    T = np.eye(4)
+    first, count = ranges[i]
+    for s in steps[first: first + count].astype(np.float64):
+        x, y, z, w = s[1]
+        R = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                      [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                      [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+        O = np.eye(4)
+        O[:3, :3], O[:3, 3] = R, s[0, :3]
+        T = T @ O
+        if s[0, 3] == FIXED:
+            continue
+        value = s[2, 3] * qk[int(s[3, 0])] + s[3, 1]
+        M = np.eye(4)
+        if s[0, 3] == REVOLUTE:
+            a = s[2, :3]
+            K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+            M[:3, :3] = np.eye(3) + math.sin(value) * K + (1 - math.cos(value)) * K @ K
+        else:
+            M[:3, 3] = s[2, :3] * value
+        T = T @ M
+    return T
+
+
 def test_steps_are_the_torch_chain(tree):
-    """The HLSL backend's table walked here in numpy as link_poses.hlsl walks it (origin, then the
-    joint's motion) gives the torch backend's link poses."""
+    """The HLSL backend's table walked as link_poses.hlsl walks it gives the torch backend's
+    link poses."""
     chain = Chain(tree, tip="tool")
     links = ["base", "arm", "finger", "tool"]
     steps, ranges = chain.steps(links)
@@ -117,28 +144,36 @@ def test_steps_are_the_torch_chain(tree):
     expected = chain.link_poses(q)
     for k, qk in enumerate(q):
         for i, link in enumerate(links):
-            T = np.eye(4)
-            first, count = ranges[i]
-            for s in steps[first: first + count].astype(np.float64):
-                x, y, z, w = s[1]
-                R = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                              [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                              [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
-                O = np.eye(4)
-                O[:3, :3], O[:3, 3] = R, s[0, :3]
-                T = T @ O
-                if s[0, 3] == FIXED:
-                    continue
-                value = s[2, 3] * qk[int(s[3, 0])] + s[3, 1]
-                M = np.eye(4)
-                if s[0, 3] == REVOLUTE:
-                    a = s[2, :3]
-                    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
-                    M[:3, :3] = np.eye(3) + math.sin(value) * K + (1 - math.cos(value)) * K @ K
-                else:
-                    M[:3, 3] = s[2, :3] * value
-                T = T @ M
+            T = walk_steps(steps, ranges, i, qk)
             assert np.abs(T - expected[k, chain.links.index(link)]).max() < 1e-6, link
+
+
+def test_the_parallelogram_compiles_to_one_hinge():
+    """Asked for the tip and the shaft only, the PSM's three parallelogram joints (pitch, pitch_top
+    -1, pitch_front) become one hinge about the RCM: 6 frames to the tip, not 8; FK, Jacobian and
+    the HLSL steps equal the uncompiled chain's (every link asked for)."""
+    from cressim.robots.dvrk import PSM_JOINTS
+    from cressim.robots.psm import BASE_LINK, SHAFT_LINK, TIP_LINK, robot_dir
+
+    path = robot_dir() / "psm_lnd.urdf"
+    lean = Chain(path, sources=PSM_JOINTS, base=BASE_LINK, tip=TIP_LINK, links=(SHAFT_LINK, TIP_LINK))
+    full = Chain(path, sources=(*PSM_JOINTS, "jaw"), base=BASE_LINK, tip=TIP_LINK)
+    assert len(lean.tip_path) == 6 and len(full.tip_path) == 8
+    q = random_q(100, [-1.5, -0.9, 0, -4.5, -1.3, -1.3], [1.5, 0.9, 0.24, 4.5, 1.3, 1.3], seed=4)
+    qj = np.concatenate([q, np.zeros((100, 1))], 1)
+    assert np.abs(lean.forward(q) - full.forward(qj)).max() < 1e-9
+    assert np.abs(lean.jacobian(q)[0] - full.jacobian(qj)[0][..., :6]).max() < 1e-9
+    expected = full.link_poses(qj)[:, [full.links.index(SHAFT_LINK), full.links.index(TIP_LINK)]]
+    assert np.abs(lean.link_poses(q) - expected).max() < 1e-9
+    # a link at the end of the merged run (the parallelogram's front bar) stays where it was
+    front = Chain(path, sources=PSM_JOINTS, base=BASE_LINK, links=("PSM1_pitch_front_link",))
+    assert len(front._fparent) == 2
+    assert np.abs(front.link_poses(q)[:, 0] - full.link_poses(qj)[:, full.links.index("PSM1_pitch_front_link")]).max() < 1e-9
+    steps, ranges = lean.steps([SHAFT_LINK, TIP_LINK])
+    assert ranges[1, 1] == 7  # 6 frames and the fixed step to the tip
+    for k in range(5):
+        for i in range(2):
+            assert np.abs(walk_steps(steps, ranges, i, q[k]) - expected[k, i]).max() < 1e-6
 
 
 def test_ecm_chain_equals_the_dvrk_dh_table():

@@ -52,7 +52,7 @@ import torch
 
 import cressim
 from .arm_visuals import ArmVisuals
-from .chain import PRISMATIC, REVOLUTE, Chain, load_urdf, rotation_xyzw
+from .chain import PRISMATIC, REVOLUTE, Chain, load_urdf, rotation_xyzw, screw_motion
 from .dvrk import JAW, PSM_JOINTS
 from .kinematics import matrix_to_pose7
 from .link_poses import LinkPoses
@@ -150,19 +150,6 @@ def _drive(name, kind, joint):
     return (effort / SATURATION[kind], effort / (2 * velocity), effort)
 
 
-def _screw(direction, point, kind, value) -> np.ndarray:
-    """4x4: a turn by `value` about the axis through `point` along `direction`, or a shift along it."""
-    T = np.eye(4)
-    if kind == REVOLUTE:
-        K = np.array([[0.0, -direction[2], direction[1]], [direction[2], 0.0, -direction[0]],
-                      [-direction[1], direction[0], 0.0]])
-        T[:3, :3] = np.eye(3) + math.sin(value) * K + (1 - math.cos(value)) * K @ K
-        T[:3, 3] = point - T[:3, :3] @ point
-    else:
-        T[:3, 3] = value * np.asarray(direction)
-    return T
-
-
 def _nearest_on(line, other):
     """The point of `line` ((direction, point, kind)) nearest `other`; None where they are parallel."""
     a1, p1, _ = line
@@ -199,7 +186,7 @@ def _frame_along(T, axis) -> np.ndarray:
         if c < 0:
             out[:3, :3] = out[:3, :3] @ np.diag([1.0, -1.0, -1.0])
         return out
-    out[:3, :3] = _screw(n / s, np.zeros(3), REVOLUTE, math.atan2(s, c))[:3, :3] @ out[:3, :3]
+    out[:3, :3] = screw_motion(n / s, np.zeros(3), REVOLUTE, math.atan2(s, c))[:3, :3] @ out[:3, :3]
     return out
 
 
@@ -631,7 +618,7 @@ class ArmBodies:
             before0 = np.eye(4) if k == 0 else F[0, index[k - 1]]
             for m in range(1, 9):
                 before = np.eye(4) if k == 0 else F[m, index[k - 1]]
-                motion = _screw(direction, point, kind, float(q[m - 1, k]))
+                motion = screw_motion(direction, point, kind, float(q[m - 1, k]))
                 expected = before @ np.linalg.solve(before0, motion @ F[0, index[k]])
                 if np.abs(expected - F[m, index[k]]).max() > 1e-6:
                     raise ValueError(f"dynamic arm: the links joint {self.joints[k]} moves do not turn about "

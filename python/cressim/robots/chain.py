@@ -20,6 +20,7 @@ Torch tensors keep their dtype and device; numpy in gives numpy out (float64).
 """
 from __future__ import annotations
 
+import math
 import os
 from pathlib import Path
 from typing import Sequence
@@ -29,6 +30,7 @@ import torch
 import yourdfpy
 
 FIXED, REVOLUTE, PRISMATIC = 0, 1, 2
+MERGE_TOLERANCE = 1e-10  # m (and rad): a run of joints is one screw when it moves as one within this
 _TYPES = {"fixed": FIXED, "revolute": REVOLUTE, "continuous": REVOLUTE, "prismatic": PRISMATIC}
 
 
@@ -129,9 +131,6 @@ class Chain:
         missing = [n for n in self.links if n not in link_at]
         if missing:
             raise ValueError(f"links {missing} are not below {self.base}")
-        self._link_frame = [link_at[n][0] for n in self.links]
-        self._link_const = np.stack([link_at[n][1] for n in self.links]) if self.links else np.zeros((0, 4, 4))
-        self._link_at = link_at
 
         # per source column: the URDF limits of its own joint (nan where no URDF joint is it)
         limit = [joints[n].limit if n in joints else None for n in self.sources]
@@ -140,37 +139,98 @@ class Chain:
         self.velocity = np.array([l.velocity if l is not None and l.velocity is not None else np.nan for l in limit])
         self.effort = np.array([l.effort if l is not None and l.effort is not None else np.nan for l in limit])
 
-        # the moving joint's transform: pre @ (I + s A + (1 - c) B + v C)
-        n = len(self.joint_names)
-        A, B, C = np.zeros((n, 4, 4)), np.zeros((n, 4, 4)), np.zeros((n, 4, 4))
-        for i, (kind, a) in enumerate(zip(self.joint_types, self.axes)):
-            if kind == REVOLUTE:
-                K = _skew(a)
-                A[i, :3, :3], B[i, :3, :3] = K, K @ K
-            else:
-                C[i, :3, 3] = a
-        pre = np.stack(self._pre) if n else np.zeros((0, 4, 4))
-        self._parts = np.stack([pre, pre @ A, pre @ B, pre @ C], 1) if n else np.zeros((0, 4, 4, 4))
-        G = np.zeros((n, len(self.sources)))
-        G[np.arange(n), self.columns] = self.gains
-        self._G = G
-        self._revolute = np.array([k == REVOLUTE for k in self.joint_types], dtype=np.float64)
-
-        # the tip: the moving joints on its way from the base (ancestors first)
         self.tip = tip
         self.tip_offset = None if tip_offset is None else np.asarray(tip_offset, dtype=np.float64)
-        if tip is not None:
-            if tip not in link_at:
-                raise ValueError(f"tip link {tip!r} is not below {self.base}")
-            frame, const = link_at[tip]
+        if tip is not None and tip not in link_at:
+            raise ValueError(f"tip link {tip!r} is not below {self.base}")
+        self._compile(link_at, {*self.links, *([tip] if tip else [])})
+        self._on = {}  # (dtype, device, key) -> constants as tensors there
+
+    def _compile(self, link_at, wanted):
+        """The frames the backends compute: one per moving joint, turned so that it moves about (or
+        along) its z; a run of joints one value drives whose links are not wanted (the PSM's
+        parallelogram, for the tip) becomes one frame when its motion is one screw."""
+        n = len(self.joint_names)
+        frames = []  # dicts: parent (index + 1, 0 the base), pre, kind, column, gain, offset
+        post = [np.eye(4)] * (n + 1)  # each frame's constant after its motion, folded into what hangs on it
+        for i in range(n):
+            R = _z_to(self.axes[i])
+            frames.append(dict(parent=self._parent[i], pre=post[self._parent[i]] @ self._pre[i] @ R, kind=self.joint_types[i],
+                               column=self.columns[i], gain=self.gains[i], offset=self.offsets[i]))
+            post[i + 1] = R.T
+        at = {name: (f, post[f] @ const) for name, (f, const) in link_at.items()}
+        # merge a run of frames into its top one: one value drives them, each but the last is its
+        # parent's only child frame and carries no wanted link, and together they move as one screw
+        def mergeable(f):  # frame index f (1-based): may be inside a run, or end one
+            return (frames[f - 1] is not None and sum(1 for g in frames if g is not None and g["parent"] == f) == 1
+                    and not any(at_f == f and name in wanted for name, (at_f, _) in at.items()))
+
+        merged = True
+        while merged:
+            merged = False
+            for j, fj in enumerate(frames):
+                if fj is None:
+                    continue
+                run = [j + 1]  # frame indices, bottom up
+                while (frames[run[-1] - 1]["parent"] and frames[frames[run[-1] - 1]["parent"] - 1]["column"] == fj["column"]
+                       and mergeable(frames[run[-1] - 1]["parent"])):
+                    run.append(frames[run[-1] - 1]["parent"])
+                for top in range(len(run) - 1, 0, -1):  # the longest run first
+                    chosen = run[: top + 1][::-1]
+                    joint = _merge([frames[f - 1] for f in chosen])
+                    if joint is None:
+                        continue
+                    first = chosen[0]
+                    frames[first - 1] = dict(joint[0], parent=frames[first - 1]["parent"])
+                    for f in frames:  # what hung on the run's end hangs on its top, after the constant
+                        if f is not None and f["parent"] == j + 1:
+                            f["parent"], f["pre"] = first, joint[1] @ f["pre"]
+                    # links inside the run (none wanted) are gone with its frames
+                    at = {name: ((first, joint[1] @ c) if f == j + 1 else (f, c)) for name, (f, c) in at.items()
+                          if f not in chosen[:-1]}
+                    for f in chosen[1:]:
+                        frames[f - 1] = None
+                    merged = True
+                    break
+                if merged:
+                    break
+        # renumber the frames left
+        index = {0: 0}
+        for i, f in enumerate(frames):
+            if f is not None:
+                index[i + 1] = len(index)
+        kept = [f for f in frames if f is not None]
+        self._fparent = [index[f["parent"]] for f in kept]
+        self._fkind = [f["kind"] for f in kept]
+        self._fcolumn = [f["column"] for f in kept]
+        self._fgain = [f["gain"] for f in kept]
+        self._foffset = [f["offset"] for f in kept]
+        self._fpre = np.stack([f["pre"] for f in kept]) if kept else np.zeros((0, 4, 4))
+        self._link_at = {name: (index[f], c) for name, (f, c) in at.items() if f in index}
+        self._link_frame = [self._link_at[name][0] for name in self.links]
+        self._link_const = np.stack([self._link_at[name][1] for name in self.links]) if self.links else np.zeros((0, 4, 4))
+        # the moving frame's transform: pre @ (I + sin(v) A + (1 - cos(v)) B + v C), about or along z
+        m = len(kept)
+        A, B, C = np.zeros((m, 4, 4)), np.zeros((m, 4, 4)), np.zeros((m, 4, 4))
+        revolute = np.array([k == REVOLUTE for k in self._fkind], dtype=bool)
+        A[revolute, 0, 1], A[revolute, 1, 0] = -1.0, 1.0
+        B[revolute, 0, 0], B[revolute, 1, 1] = -1.0, -1.0
+        C[~revolute, 2, 3] = 1.0
+        pre = self._fpre
+        self._parts = np.stack([pre, pre @ A, pre @ B, pre @ C], 1) if m else np.zeros((0, 4, 4, 4))
+        G = np.zeros((m, len(self.sources)))
+        G[np.arange(m), self._fcolumn] = self._fgain
+        self._G, self._revolute = G, revolute.astype(np.float64)
+        if self.tip is not None:
+            frame, const = self._link_at[self.tip]
             self._tip_const = const if self.tip_offset is None else const @ self.tip_offset
             path = []
             while frame:
                 path.append(frame - 1)
-                frame = self._parent[frame - 1]
+                frame = self._fparent[frame - 1]
             self.tip_path = tuple(reversed(path))
-        self._jumps = _jumps(self._parent)
-        self._on = {}  # (dtype, device, key) -> constants as tensors there
+            G = self._G[list(self.tip_path)]
+            self._path_identity = G.shape[0] == G.shape[1] and np.array_equal(G, np.eye(G.shape[0]))
 
     def __repr__(self):
         return f"Chain({self.base} -> {self.tip}, {len(self.joint_names)} moving joints, sources {self.sources})"
@@ -181,15 +241,11 @@ class Chain:
         if at not in self._on:
             if key == "path":
                 idx = list(self.tip_path)
-                data = dict(parts=self._parts[idx], G=self._G[idx], rev=self._revolute[idx],
-                            axis=np.stack([self.axes[i] for i in idx]) if idx else np.zeros((0, 3)),
-                            tip=self._tip_const, offset=np.asarray([self.offsets[i] for i in idx]))
-                jumps = _jumps(list(range(len(idx))))  # the way is serial: each hangs from the one before
+                data = dict(parts=self._parts[idx], G=self._G[idx], rev=self._revolute[idx, None],
+                            tip=self._tip_const, offset=np.asarray([self._foffset[i] for i in idx]))
             else:
-                data = dict(parts=self._parts, G=self._G, link=self._link_const, offset=np.asarray(self.offsets))
-                jumps = self._jumps
+                data = dict(parts=self._parts, G=self._G, link=self._link_const, offset=np.asarray(self._foffset))
             self._on[at] = {k: torch.as_tensor(v, dtype=like.dtype, device=like.device) for k, v in data.items()}
-            self._on[at]["jumps"] = [torch.as_tensor(j, device=like.device) for j in jumps]
         return self._on[at]
 
     @staticmethod
@@ -207,24 +263,18 @@ class Chain:
         included: what robot_state_publisher reads from /joint_states."""
         qt, was_numpy = self._io(q)
         self._check(qt)
-        G = torch.as_tensor(self._G, dtype=qt.dtype, device=qt.device)
-        v = qt @ G.T + torch.as_tensor(self.offsets, dtype=qt.dtype, device=qt.device)
+        G = np.zeros((len(self.joint_names), len(self.sources)))
+        G[np.arange(len(self.joint_names)), self.columns] = self.gains
+        v = qt @ torch.as_tensor(G.T, dtype=qt.dtype, device=qt.device) + torch.as_tensor(
+            self.offsets, dtype=qt.dtype, device=qt.device)
         return v.numpy() if was_numpy else v
 
     @staticmethod
-    def _frames(q, c):
-        """(M, 1 + J, 4, 4): the base (identity) and the moving joints of `c` after their motion.
-
-        Each joint's transform from the frame it hangs from, then pointer jumping: every frame
-        times the one it hangs from, which then hangs from that one's parent, ... : log2(depth)
-        batched products instead of one per joint."""
+    def _locals(q, c):
+        """(M, J, 4, 4): each frame of `c` from the frame it hangs from, after its motion."""
         v = q @ c["G"].T + c["offset"]  # (M, J)
         coef = torch.stack([torch.ones_like(v), torch.sin(v), 1.0 - torch.cos(v), v], -1)
-        local = torch.einsum("mjk,jkab->mjab", coef, c["parts"])
-        F = torch.cat([torch.eye(4, dtype=q.dtype, device=q.device).expand(q.shape[0], 1, 4, 4), local], 1)
-        for parent in c["jumps"]:
-            F = F[:, parent] @ F
-        return F
+        return torch.einsum("mjk,jkab->mjab", coef, c["parts"])
 
     # ------------------------------------------------------------------ torch backend
     def forward(self, q):
@@ -244,18 +294,24 @@ class Chain:
         lead = qt.shape[:-1]
         qt = qt.reshape(-1, qt.shape[-1])
         c = self._const("path", qt)
-        F = self._frames(qt, c)[:, 1:]  # (M, J, 4, 4)
-        tip = F[:, -1] @ c["tip"] if F.shape[1] else c["tip"].expand(qt.shape[0], 4, 4)
+        local = self._locals(qt, c)
+        frames, T = [], None
+        for i in range(local.shape[1]):  # the way is serial: each frame hangs from the one before
+            T = local[:, i] if T is None else T @ local[:, i]
+            frames.append(T)
+        tip = T @ c["tip"] if T is not None else c["tip"].expand(qt.shape[0], 4, 4)
         if not jacobian:
             tip = tip.reshape(*lead, 4, 4)
             return tip.numpy() if was_numpy else tip
-        if F.shape[1]:
-            z = (F[..., :3, :3] @ c["axis"][..., None])[..., 0]  # joint axes in the base (M, J, 3)
+        if frames:
+            F = torch.stack(frames, 1)  # (M, J, 4, 4)
+            z = F[..., :3, 2]  # every frame moves about or along its z
             lever = tip[:, None, :3, 3] - F[..., :3, 3]
-            rev = c["rev"][:, None]
-            v = rev * torch.linalg.cross(z, lever, dim=-1) + (1.0 - rev) * z
-            Jj = torch.cat([v, rev * z], dim=-1).transpose(-1, -2)  # (M, 6, J)
-            J = Jj @ c["G"]  # chain rule through the mimic joints
+            rev = c["rev"]
+            v = torch.where(rev > 0, torch.linalg.cross(z, lever, dim=-1), z)
+            J = torch.cat([v, rev * z], dim=-1).transpose(-1, -2)
+            if not self._path_identity:  # chain rule through the gains (the PSM's interface: identity)
+                J = J @ c["G"]
         else:
             J = qt.new_zeros(qt.shape[0], 6, len(self.sources))
         J, tip = J.reshape(*lead, 6, len(self.sources)), tip.reshape(*lead, 4, 4)
@@ -268,7 +324,11 @@ class Chain:
         lead = qt.shape[:-1]
         qt = qt.reshape(-1, qt.shape[-1])
         c = self._const("all", qt)
-        F = self._frames(qt, c)[:, self._link_frame] @ c["link"]
+        local = self._locals(qt, c)
+        frames = [torch.eye(4, dtype=qt.dtype, device=qt.device).expand(qt.shape[0], 4, 4)]
+        for i, parent in enumerate(self._fparent):
+            frames.append(frames[parent] @ local[:, i])
+        F = torch.stack(frames, 1)[:, self._link_frame] @ c["link"]
         F = F.reshape(*lead, len(self.links), 4, 4)
         return F.numpy() if was_numpy else F
 
@@ -283,44 +343,114 @@ class Chain:
         """The table link_poses.hlsl walks: steps ((S, 4, 4) float32) and each link's (first step,
         count) ((L, 2) uint32). A step is 4 float4: (origin xyz, type: 0 fixed, 1 revolute,
         2 prismatic), origin quaternion (xyzw), (axis xyz, gain), (source column, offset, -, -).
-        Each link's steps: the moving joints on its way (fixed joints folded into their origins),
+        Each link's steps: the compiled frames on its way (fixed joints folded into their origins),
         then one fixed step to the link."""
         steps, ranges = [], []
 
-        def step(origin, kind=FIXED, axis=(0.0, 0.0, 0.0), gain=0.0, column=0, offset=0.0):
+        def step(origin, kind=FIXED, gain=0.0, column=0, offset=0.0):
             s = np.zeros((4, 4), np.float64)
             s[0, :3], s[0, 3] = origin[:3, 3], kind
             s[1] = rotation(origin[:3, :3])
-            s[2, :3], s[2, 3] = axis, gain
+            s[2, :3], s[2, 3] = (0.0, 0.0, 1.0 if kind != FIXED else 0.0), gain
             s[3, 0], s[3, 1] = column, offset
             return s
 
         for link in links:
             if link not in self._link_at:
-                raise ValueError(f"link {link!r} is not below {self.base}")
+                raise ValueError(f"link {link!r} is not one of the links this chain compiled")
             frame, const = self._link_at[link]
             path = []
             while frame:
                 path.append(frame - 1)
-                frame = self._parent[frame - 1]
+                frame = self._fparent[frame - 1]
             first = len(steps)
             for i in reversed(path):
-                steps.append(step(self._pre[i], self.joint_types[i], self.axes[i], self.gains[i], self.columns[i],
-                                  self.offsets[i]))
+                steps.append(step(self._fpre[i], self._fkind[i], self._fgain[i], self._fcolumn[i], self._foffset[i]))
             steps.append(step(const))
             ranges.append((first, len(steps) - first))
         return (np.asarray(steps, np.float32).reshape(-1, 4, 4), np.asarray(ranges, np.uint32).reshape(-1, 2))
 
 
-def _jumps(parent: Sequence[int]) -> list[np.ndarray]:
-    """Pointer jumping's schedule for frames 1..J hanging from parent[i] (0: the base): the index
-    each frame is multiplied by at each round (the base hangs from itself)."""
-    p = np.array([0, *parent], dtype=np.int64)
-    rounds = []
-    while (p != 0).any():
-        rounds.append(p.copy())
-        p = p[p]
-    return rounds
+def screw_motion(axis, point, kind, value) -> np.ndarray:
+    """4x4: a turn by `value` about the axis through `point` along the unit `axis`, or a shift
+    along it (kind PRISMATIC)."""
+    T = np.eye(4)
+    if kind == REVOLUTE:
+        K = _skew(axis)
+        T[:3, :3] = np.eye(3) + math.sin(value) * K + (1 - math.cos(value)) * K @ K
+        T[:3, 3] = point - T[:3, :3] @ point
+    else:
+        T[:3, 3] = value * np.asarray(axis, dtype=np.float64)
+    return T
+
+
+def _z_to(axis) -> np.ndarray:
+    """4x4 rotation taking z onto the unit `axis` (the least turn; a half turn about x for -z)."""
+    z = np.array([0.0, 0.0, 1.0])
+    n = np.cross(z, axis)
+    s, c = float(np.linalg.norm(n)), float(axis[2])
+    T = np.eye(4)
+    if s < 1e-12:
+        if c < 0:
+            T[:3, :3] = np.diag([1.0, -1.0, -1.0])
+        return T
+    return screw_motion(n / s, np.zeros(3), REVOLUTE, math.atan2(s, c))
+
+
+def _motion(kind, v) -> np.ndarray:
+    return screw_motion((0.0, 0.0, 1.0), np.zeros(3), kind, v)
+
+
+_HAT = {REVOLUTE: np.array([[0.0, -1, 0, 0], [1, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0]]),
+        PRISMATIC: np.array([[0.0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 1], [0, 0, 0, 0]])}
+
+
+def _merge(run):
+    """Frames `run` (top down, z-aligned, driven by one source column q) as one:
+    C(q) = M_1(v_1) pre_2 M_2(v_2) ... = S(q) C(0) with S one screw, v_i = g_i q + o_i. Returns (the
+    merged frame, the constant C(0) after its motion, turned back from the new frame), or None
+    where C is not one screw."""
+    def parts(q):  # the factors of C(q)
+        out = []
+        for i, f in enumerate(run):
+            if i:
+                out.append(f["pre"])
+            out.append(_motion(f["kind"], f["gain"] * q + f["offset"]))
+        return out
+
+    def product(ms):
+        T = np.eye(4)
+        for m in ms:
+            T = T @ m
+        return T
+
+    factors = parts(0.0)
+    K = product(factors)
+    dC = np.zeros((4, 4))
+    for i, f in enumerate(run):  # d/dq of M_i(v_i) = g_i M_i Hat
+        k = 2 * i  # M_i's place among the factors
+        dC += f["gain"] * product(factors[: k + 1]) @ _HAT[f["kind"]] @ product(factors[k + 1:])
+    xi = dC @ np.linalg.inv(K)
+    w, v = np.array([xi[2, 1], xi[0, 2], xi[1, 0]]), xi[:3, 3]
+    rate = float(np.linalg.norm(w))
+    if rate > 1e-9:
+        axis, kind = w / rate, REVOLUTE
+        if abs(axis @ v) > 1e-9 * max(1.0, float(np.linalg.norm(v))):
+            return None  # a helical motion: no joint of ours
+        point = np.cross(w, v) / rate ** 2
+    else:
+        rate = float(np.linalg.norm(v))
+        if rate < 1e-12:
+            return None
+        axis, kind, point = v / rate, PRISMATIC, np.zeros(3)
+    for q in (-2.0, -0.7, 0.3, 1.1, 2.5):  # within 0.1 nm (the URDF's numbers have 12 digits)
+        if np.abs(screw_motion(axis, point, kind, rate * q) @ K - product(parts(q))).max() > MERGE_TOLERANCE:
+            return None
+    shift = np.eye(4)
+    shift[:3, 3] = point
+    R = _z_to(axis)
+    frame = dict(pre=run[0]["pre"] @ shift @ R, kind=kind, column=run[0]["column"], gain=rate, offset=0.0)
+    return frame, R.T @ np.linalg.inv(shift) @ K
 
 
 def load_urdf(path: str | os.PathLike) -> yourdfpy.URDF:

@@ -83,11 +83,10 @@ class PSM:
         self.jaw_limits = (joints[JAW].limit.lower, joints[JAW].limit.upper) if self.has_jaw else None
 
         # the links from the base to the tool tip (the jaw blades, off that way, need no jaw value)
-        parent_of = {j.child: j.parent for j in self.urdf.robot.joints}
-        way = [TIP_LINK]
-        while way[-1] in parent_of:
-            way.append(parent_of[way[-1]])
-        self.chain = Chain(self.urdf, sources=self.joint_names, base=BASE_LINK, tip=TIP_LINK, links=way[::-1])
+        # the DH frames' links the IK reads, and the tip (the parallelogram's bars not asked for, its
+        # three mimic joints compile to one hinge about the RCM)
+        self.chain = Chain(self.urdf, sources=self.joint_names, base=BASE_LINK, tip=TIP_LINK,
+                           links=[n for n in (SHAFT_LINK, WRIST_LINK, JAW_LINK, TIP_LINK) if n in self.urdf.link_map])
         self._shaft = _shaft_facts(self.chain, self.dof)
 
     def __repr__(self):
@@ -139,7 +138,8 @@ class PSM:
         return self.chain.forward(self._q(q))
 
     def link_pose(self, link: str, q) -> torch.Tensor:
-        """Pose of a link on the base-to-tip chain in PSM1_base: (..., dof) -> (..., 4, 4)."""
+        """Pose in PSM1_base of the insertion, wrist pitch, wrist yaw (JAW_LINK) or tip link:
+        (..., dof) -> (..., 4, 4)."""
         return self.chain.link_pose(link, self._q(q))
 
     def jacobian(self, q, *, return_pose: bool = False):
