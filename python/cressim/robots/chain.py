@@ -16,7 +16,8 @@ joint's transform is origin @ (I + sin(v) A + (1 - cos(v)) B + v C) with constan
 rotation about the axis or a shift along it), folded with the origin. A batch then costs a
 handful of tensor ops plus one matrix product per moving joint on the way: the twin computes FK
 and the Jacobian of a few arms every tick, where per-link tensor code costs a hundred small ops.
-Torch tensors keep their dtype and device; numpy in gives numpy out (float64).
+Torch tensors keep their dtype and device; anything else is evaluated in numpy (float64) by the
+same code (one arm's joint vector a tick: numpy's calls cost a third of torch's).
 """
 from __future__ import annotations
 
@@ -236,8 +237,8 @@ class Chain:
         return f"Chain({self.base} -> {self.tip}, {len(self.joint_names)} moving joints, sources {self.sources})"
 
     # ------------------------------------------------------------------ compiled constants
-    def _const(self, key, like: torch.Tensor):
-        at = (like.dtype, like.device, key)
+    def _const(self, key, xp, like):
+        at = (xp.name, like.dtype, getattr(like, "device", None), key)
         if at not in self._on:
             if key == "path":
                 idx = list(self.tip_path)
@@ -245,38 +246,36 @@ class Chain:
                             tip=self._tip_const, offset=np.asarray([self._foffset[i] for i in idx]))
             else:
                 data = dict(parts=self._parts, G=self._G, link=self._link_const, offset=np.asarray(self._foffset))
-            self._on[at] = {k: torch.as_tensor(v, dtype=like.dtype, device=like.device) for k, v in data.items()}
+            self._on[at] = {k: xp.array(v, like) for k, v in data.items()}
         return self._on[at]
 
-    @staticmethod
-    def _io(q):
-        if torch.is_tensor(q):
-            return q, False
-        return torch.as_tensor(np.asarray(q, dtype=np.float64)), True
-
-    def _check(self, q):
+    def _input(self, q):
+        """(q as a (M, C) array, its leading shape, the array library): torch tensors stay torch;
+        anything else is numpy float64 (one arm's vector costs a third of torch's time there)."""
+        xp = _TORCH if torch.is_tensor(q) else _NUMPY
+        if xp is _NUMPY:
+            q = np.asarray(q, dtype=np.float64)
         if q.shape[-1] != len(self.sources):
             raise ValueError(f"expected (..., {len(self.sources)}) values of {self.sources}, got {tuple(q.shape)}")
+        return q.reshape(-1, q.shape[-1]), q.shape[:-1], xp
 
     def values(self, q):
         """(..., C) -> (..., J): every moving URDF joint's value (chain.joint_names), mimic joints
         included: what robot_state_publisher reads from /joint_states."""
-        qt, was_numpy = self._io(q)
-        self._check(qt)
+        qm, lead, xp = self._input(q)
         G = np.zeros((len(self.joint_names), len(self.sources)))
         G[np.arange(len(self.joint_names)), self.columns] = self.gains
-        v = qt @ torch.as_tensor(G.T, dtype=qt.dtype, device=qt.device) + torch.as_tensor(
-            self.offsets, dtype=qt.dtype, device=qt.device)
-        return v.numpy() if was_numpy else v
+        v = qm @ xp.array(G.T, qm) + xp.array(np.asarray(self.offsets), qm)
+        return v.reshape(*lead, len(self.joint_names))
 
     @staticmethod
-    def _locals(q, c):
+    def _locals(q, c, xp):
         """(M, J, 4, 4): each frame of `c` from the frame it hangs from, after its motion."""
         v = q @ c["G"].T + c["offset"]  # (M, J)
-        coef = torch.stack([torch.ones_like(v), torch.sin(v), 1.0 - torch.cos(v), v], -1)
-        return torch.einsum("mjk,jkab->mjab", coef, c["parts"])
+        coef = xp.stack([xp.ones_like(v), xp.sin(v), 1.0 - xp.cos(v), v], -1)
+        return xp.einsum("mjk,jkab->mjab", coef, c["parts"])
 
-    # ------------------------------------------------------------------ torch backend
+    # ------------------------------------------------------------------ evaluation (torch or numpy)
     def forward(self, q):
         """(..., C) -> (..., 4, 4): the tip (times tip_offset) in the base link."""
         return self._tip(q, jacobian=False)
@@ -289,48 +288,39 @@ class Chain:
     def _tip(self, q, jacobian):
         if self.tip is None:
             raise ValueError("this chain has no tip link")
-        qt, was_numpy = self._io(q)
-        self._check(qt)
-        lead = qt.shape[:-1]
-        qt = qt.reshape(-1, qt.shape[-1])
-        c = self._const("path", qt)
-        local = self._locals(qt, c)
+        qm, lead, xp = self._input(q)
+        c = self._const("path", xp, qm)
+        local = self._locals(qm, c, xp)
         frames, T = [], None
         for i in range(local.shape[1]):  # the way is serial: each frame hangs from the one before
             T = local[:, i] if T is None else T @ local[:, i]
             frames.append(T)
-        tip = T @ c["tip"] if T is not None else c["tip"].expand(qt.shape[0], 4, 4)
+        tip = T @ c["tip"] if T is not None else xp.expand(c["tip"], (qm.shape[0], 4, 4))
         if not jacobian:
-            tip = tip.reshape(*lead, 4, 4)
-            return tip.numpy() if was_numpy else tip
+            return tip.reshape(*lead, 4, 4)
         if frames:
-            F = torch.stack(frames, 1)  # (M, J, 4, 4)
+            F = xp.stack(frames, 1)  # (M, J, 4, 4)
             z = F[..., :3, 2]  # every frame moves about or along its z
             lever = tip[:, None, :3, 3] - F[..., :3, 3]
             rev = c["rev"]
-            v = torch.where(rev > 0, torch.linalg.cross(z, lever, dim=-1), z)
-            J = torch.cat([v, rev * z], dim=-1).transpose(-1, -2)
+            v = xp.where(rev > 0, xp.cross(z, lever), z)
+            J = xp.swap(xp.cat([v, rev * z], -1))
             if not self._path_identity:  # chain rule through the gains (the PSM's interface: identity)
                 J = J @ c["G"]
         else:
-            J = qt.new_zeros(qt.shape[0], 6, len(self.sources))
-        J, tip = J.reshape(*lead, 6, len(self.sources)), tip.reshape(*lead, 4, 4)
-        return (J.numpy(), tip.numpy()) if was_numpy else (J, tip)
+            J = xp.zeros((qm.shape[0], 6, len(self.sources)), qm)
+        return J.reshape(*lead, 6, len(self.sources)), tip.reshape(*lead, 4, 4)
 
     def link_poses(self, q):
         """(..., C) -> (..., L, 4, 4): every link of chain.links in the base link."""
-        qt, was_numpy = self._io(q)
-        self._check(qt)
-        lead = qt.shape[:-1]
-        qt = qt.reshape(-1, qt.shape[-1])
-        c = self._const("all", qt)
-        local = self._locals(qt, c)
-        frames = [torch.eye(4, dtype=qt.dtype, device=qt.device).expand(qt.shape[0], 4, 4)]
+        qm, lead, xp = self._input(q)
+        c = self._const("all", xp, qm)
+        local = self._locals(qm, c, xp)
+        frames = [xp.expand(xp.array(np.eye(4), qm), (qm.shape[0], 4, 4))]
         for i, parent in enumerate(self._fparent):
             frames.append(frames[parent] @ local[:, i])
-        F = torch.stack(frames, 1)[:, self._link_frame] @ c["link"]
-        F = F.reshape(*lead, len(self.links), 4, 4)
-        return F.numpy() if was_numpy else F
+        F = xp.stack(frames, 1)[:, self._link_frame] @ c["link"]
+        return F.reshape(*lead, len(self.links), 4, 4)
 
     def link_pose(self, link: str, q):
         """(..., C) -> (..., 4, 4): one link's pose in the base link (one of chain.links)."""
@@ -369,6 +359,71 @@ class Chain:
             steps.append(step(const))
             ranges.append((first, len(steps) - first))
         return (np.asarray(steps, np.float32).reshape(-1, 4, 4), np.asarray(ranges, np.uint32).reshape(-1, 2))
+
+
+class _TORCH:
+    """The array operations the evaluation uses, in torch (tensors keep their dtype and device)."""
+    name = "torch"
+    stack, einsum, sin, cos, ones_like, where = torch.stack, torch.einsum, torch.sin, torch.cos, torch.ones_like, torch.where
+
+    @staticmethod
+    def array(a, like):
+        return torch.as_tensor(a, dtype=like.dtype, device=like.device)
+
+    @staticmethod
+    def cat(xs, dim):
+        return torch.cat(xs, dim=dim)
+
+    @staticmethod
+    def cross(a, b):
+        return torch.linalg.cross(a, b, dim=-1)
+
+    @staticmethod
+    def swap(x):
+        return x.transpose(-1, -2)
+
+    @staticmethod
+    def expand(x, shape):
+        return x.expand(*shape)
+
+    @staticmethod
+    def zeros(shape, like):
+        return like.new_zeros(shape)
+
+
+class _NUMPY:
+    """The same operations in numpy (float64)."""
+    name = "numpy"
+    einsum, sin, cos, ones_like, where = np.einsum, np.sin, np.cos, np.ones_like, np.where
+
+    @staticmethod
+    def array(a, like):
+        return np.asarray(a, dtype=np.float64)
+
+    @staticmethod
+    def stack(xs, dim):
+        return np.stack(xs, axis=dim)
+
+    @staticmethod
+    def cat(xs, dim):
+        return np.concatenate(xs, axis=dim)
+
+    @staticmethod
+    def cross(a, b):  # np.cross costs ten times this on small arrays
+        a0, a1, a2, b0, b1, b2 = a[..., 0], a[..., 1], a[..., 2], b[..., 0], b[..., 1], b[..., 2]
+        return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+    @staticmethod
+    def swap(x):
+        return np.swapaxes(x, -1, -2)
+
+    @staticmethod
+    def expand(x, shape):
+        return np.broadcast_to(x, shape)
+
+    @staticmethod
+    def zeros(shape, like):
+        return np.zeros(shape)
 
 
 def screw_motion(axis, point, kind, value) -> np.ndarray:

@@ -22,6 +22,12 @@ ECM_OLD_JOINTS = ("outer_yaw", "outer_pitch", "insertion", "outer_roll")
 MTM_JOINTS = ("outer_yaw", "shoulder_pitch", "elbow_pitch", "wrist_platform", "wrist_pitch", "wrist_yaw",
               "wrist_roll")
 
+
+def suj_joints(arm: str) -> tuple[str, ...]:
+    """The setup joints of `arm` (ECM, PSM1..3) in robots/dvrk_suj: the column (m), then 5 hinges."""
+    return tuple(f"{arm}_suj_{k}" for k in range(1, 7))
+
+
 JOINT_UNITS = {"yaw": "rad", "pitch": "rad", "insertion": "m", "roll": "rad", "wrist_pitch": "rad",
                "wrist_yaw": "rad", "jaw": "rad"}
 
@@ -38,4 +44,4 @@ def canonical_joint_name(name: str) -> str:
 
 
 __all__ = ["ARM_KINDS", "ECM_ARMS", "ECM_JOINTS", "ECM_OLD_JOINTS", "JAW", "JAW_JOINTS", "JOINT_UNITS", "MTM_ARMS",
-           "MTM_JOINTS", "PSM_ARMS", "PSM_JOINTS", "PSM_OLD_JOINTS", "canonical_joint_name"]
+           "MTM_JOINTS", "PSM_ARMS", "PSM_JOINTS", "PSM_OLD_JOINTS", "canonical_joint_name", "suj_joints"]
