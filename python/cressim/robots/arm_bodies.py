@@ -19,10 +19,10 @@ a link's pose relative to it is constant over random joint values. Joint k's axi
 that takes reference link k - 1 to reference link k (the PSM's parallelogram of mimic joints
 turns the pitch_front link about the RCM: one hinge there), checked to be one fixed axis. The
 links that ride on no body (the parallelogram's back, top and bottom bars) and the mount stay
-kinematic and follow FK of the measured joints, one tick behind. Joint coordinates are the dVRK's joint values (the bodies are authored at q = 0
-and posed at the initial values by the engine's reset), so the engine's limits are the URDF
-limits, and measured values are `joint.positions` / `joint.velocities` gathered with one index
-tensor for all envs.
+kinematic and follow FK of the measured joints, one tick behind. Joint coordinates are the
+arm joints' values (the bodies are authored at q = 0 and posed at the initial values by the
+engine's reset), so the engine's limits are the URDF limits, and measured values are
+`joint.positions` / `joint.velocities` gathered with one index tensor for all envs.
 
 What the engine's XPBD solver (Gauss-Seidel over the joints, 1-4 iterations) needed, found by
 experiment (docs/twin.md, "Dynamic arm", has the numbers):
@@ -194,7 +194,7 @@ class _Body:
     """A body being authored: links, world pose at q = 0, mass properties."""
 
     def __init__(self, name, frame):
-        self.name, self.frame, self.links = name, frame, []  # frame: 0 base/kinematic, 1..dof DH, "jaw_*"
+        self.name, self.frame, self.links = name, frame, []  # frame: 0 kinematic, k arm joint k, "jaw:<joint>"
         self.pose = np.eye(4)
         self.mass, self.inertia = 0.0, (0.0, 0.0, 0.0)
 
@@ -706,8 +706,8 @@ class ArmBodies:
         self._g_force = torch.tensor(np.outer(mass, self.gravity), **self._on)  # (B, 3)
         self._g_com = torch.tensor(np.array(com), **self._on)  # (B, 3) in the body's reference frame
         arm = joint_specs[: self.dof]
-        self._g_axis = torch.tensor(np.array([ref0[k + 1][:3, :3].T @ np.asarray(s["axis"]) for k, s in enumerate(arm)]),
-                                    **self._on)  # (dof, 3)
+        axes = [ref0[k + 1][:3, :3].T @ np.asarray(s["axis"]) for k, s in enumerate(arm)]
+        self._g_axis = torch.tensor(np.array(axes), **self._on)  # (dof, 3)
         self._g_anchor = torch.tensor(np.array([np.linalg.solve(ref0[k + 1], np.append(s["anchor"], 1.0))[:3]
                                                 for k, s in enumerate(arm)]), **self._on)
         # carried[i, b]: arm joint i (0-based) moves body b

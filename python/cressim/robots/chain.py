@@ -103,7 +103,8 @@ class Chain:
             for j in reversed(children.get(link, [])):
                 kind = _TYPES.get(j.type)
                 if kind is None:
-                    raise ValueError(f"URDF joint {j.name}: type {j.type!r} is not fixed, revolute, continuous or prismatic")
+                    raise ValueError(f"URDF joint {j.name}: type {j.type!r} is not fixed, revolute, continuous "
+                                     "or prismatic")
                 origin = const @ (j.origin if j.origin is not None else np.eye(4))
                 if kind == FIXED:
                     link_at[j.child] = (frame, origin)
@@ -156,8 +157,9 @@ class Chain:
         post = [np.eye(4)] * (n + 1)  # each frame's constant after its motion, folded into what hangs on it
         for i in range(n):
             R = _z_to(self.axes[i])
-            frames.append(dict(parent=self._parent[i], pre=post[self._parent[i]] @ self._pre[i] @ R, kind=self.joint_types[i],
-                               column=self.columns[i], gain=self.gains[i], offset=self.offsets[i]))
+            frames.append(dict(parent=self._parent[i], pre=post[self._parent[i]] @ self._pre[i] @ R,
+                               kind=self.joint_types[i], column=self.columns[i], gain=self.gains[i],
+                               offset=self.offsets[i]))
             post[i + 1] = R.T
         at = {name: (f, post[f] @ const) for name, (f, const) in link_at.items()}
         # merge a run of frames into its top one: one value drives them, each but the last is its
@@ -173,9 +175,11 @@ class Chain:
                 if fj is None:
                     continue
                 run = [j + 1]  # frame indices, bottom up
-                while (frames[run[-1] - 1]["parent"] and frames[frames[run[-1] - 1]["parent"] - 1]["column"] == fj["column"]
-                       and mergeable(frames[run[-1] - 1]["parent"])):
-                    run.append(frames[run[-1] - 1]["parent"])
+                while True:
+                    up = frames[run[-1] - 1]["parent"]
+                    if not (up and frames[up - 1]["column"] == fj["column"] and mergeable(up)):
+                        break
+                    run.append(up)
                 for top in range(len(run) - 1, 0, -1):  # the longest run first
                     chosen = run[: top + 1][::-1]
                     joint = _merge([frames[f - 1] for f in chosen])
@@ -209,7 +213,8 @@ class Chain:
         self._fpre = np.stack([f["pre"] for f in kept]) if kept else np.zeros((0, 4, 4))
         self._link_at = {name: (index[f], c) for name, (f, c) in at.items() if f in index}
         self._link_frame = [self._link_at[name][0] for name in self.links]
-        self._link_const = np.stack([self._link_at[name][1] for name in self.links]) if self.links else np.zeros((0, 4, 4))
+        self._link_const = (np.stack([self._link_at[name][1] for name in self.links]) if self.links
+                            else np.zeros((0, 4, 4)))
         # the moving frame's transform: pre @ (I + sin(v) A + (1 - cos(v)) B + v C), about or along z
         m = len(kept)
         A, B, C = np.zeros((m, 4, 4)), np.zeros((m, 4, 4)), np.zeros((m, 4, 4))
@@ -364,7 +369,8 @@ class Chain:
 class _TORCH:
     """The array operations the evaluation uses, in torch (tensors keep their dtype and device)."""
     name = "torch"
-    stack, einsum, sin, cos, ones_like, where = torch.stack, torch.einsum, torch.sin, torch.cos, torch.ones_like, torch.where
+    stack, einsum, sin, cos = torch.stack, torch.einsum, torch.sin, torch.cos
+    ones_like, where = torch.ones_like, torch.where
 
     @staticmethod
     def array(a, like):
