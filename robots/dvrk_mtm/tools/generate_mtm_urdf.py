@@ -19,8 +19,8 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 ROBOT_DIR = HERE.parent
-DH_FILE = ROBOT_DIR.parents[1] / "python" / "cressim" / "robots" / "dvrk_dh.py"
-JOINTS = ("outer_yaw", "shoulder_pitch", "elbow_pitch", "wrist_platform", "wrist_pitch", "wrist_yaw", "wrist_roll")
+ROBOTS_PY = ROBOT_DIR.parents[1] / "python" / "cressim" / "robots"
+DH_FILE = ROBOTS_PY / "dvrk_dh.py"
 
 
 def load(name, path):
@@ -67,9 +67,9 @@ def urdf_xml(name, links, joints, note) -> str:
     return "\n".join(body)
 
 
-def mtm_urdf(side: str, dh) -> str:
+def mtm_urdf(side: str, dh, names) -> str:
     links, joints, parent = [f"{side}_base"], [], f"{side}_base"
-    for joint, row in zip(JOINTS, dh.MTM_DH[side]):
+    for joint, row in zip(names.MTM_JOINTS, dh.MTM_DH[side]):
         axis_link, frame_link = f"{side}_{joint}_axis", f"{side}_{joint}_link"
         links += [axis_link, frame_link]
         joints.append(joint_xml(joint, "revolute", parent, axis_link, limits=(row.lower, row.upper)))
@@ -79,10 +79,10 @@ def mtm_urdf(side: str, dh) -> str:
 
 
 def write_all(out_dir=ROBOT_DIR) -> None:
-    dh = load("mtm_dh", DH_FILE)
-    for side in ("MTML", "MTMR"):
+    dh, names = load("mtm_dh", DH_FILE), load("dvrk_names", ROBOTS_PY / "dvrk.py")
+    for side in names.MTM_ARMS:
         path = Path(out_dir) / f"{side.lower()}.urdf"
-        path.write_text(mtm_urdf(side, dh))
+        path.write_text(mtm_urdf(side, dh, names))
         print("wrote", path)
 
 

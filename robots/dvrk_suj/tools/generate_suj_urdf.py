@@ -33,7 +33,7 @@ def _load(name, path):
 
 
 writer = _load("mtm_urdf_writer", MTM_TOOLS)  # its URDF writers
-ARMS = ("ECM", "PSM1", "PSM2", "PSM3")
+ARMS = ("ECM", "PSM1", "PSM2", "PSM3")  # the Classic cart's (the tables' keys)
 
 
 def rx(a):
@@ -52,7 +52,7 @@ def shift(x=0.0, z=0.0):
     return T
 
 
-def suj_urdf(dh) -> str:
+def suj_urdf(dh, names) -> str:
     links, joints = ["cart"], []
     for arm in ARMS:
         mount = f"{arm}_suj_mount"
@@ -63,7 +63,7 @@ def suj_urdf(dh) -> str:
             child = f"{arm}_suj_{k}_link"
             links.append(child)
             origin = rx(link.alpha) @ shift(x=link.a) @ rz(link.offset) @ shift(z=link.d)
-            joints.append(writer.joint_xml(f"{arm}_suj_{k}", "prismatic" if link.prismatic else "continuous",
+            joints.append(writer.joint_xml(names.suj_joints(arm)[k - 1], "prismatic" if link.prismatic else "continuous",
                                            parent, child, origin))
             parent = child
         links.append(f"{arm}_base")
@@ -73,9 +73,9 @@ def suj_urdf(dh) -> str:
 
 
 def write_all(out_dir=ROBOT_DIR) -> None:
-    dh = writer.load("suj_dh", writer.DH_FILE)
+    dh, names = writer.load("suj_dh", writer.DH_FILE), writer.load("dvrk_names", writer.ROBOTS_PY / "dvrk.py")
     path = Path(out_dir) / "suj_classic.urdf"
-    path.write_text(suj_urdf(dh))
+    path.write_text(suj_urdf(dh, names))
     print("wrote", path)
 
 
