@@ -14,7 +14,7 @@ Two figures per row:
 tick, the flap's particles with it); `--physics-rate 800` as a dynamic arm holding tissue needs,
 `--particle-rate 200` the flap's particles at 200 Hz meanwhile.
 
-Usage (GPU machine, after benchmarks/gpu_build.sh; needs yourdfpy, pytorch-kinematics, trimesh):
+Usage (GPU machine, after benchmarks/gpu_build.sh; needs yourdfpy, trimesh):
     PYTHONPATH=python python3 benchmarks/bench_twin.py --envs 1,64,1024 --json benchmarks/results/twin_<gpu>.json
 On the development machine (lavapipe) use small counts: --envs 1 --seconds 5.
 """

@@ -41,11 +41,15 @@ def test_joint_names_and_the_numpy_fk_used_for_the_sample():
     assert schema.canonical_joint("jaw") == "jaw"
     from cressim.record.synthetic import _forward_kinematics
 
-    try:
-        from cressim.robots.dh import dh_forward_kinematics
-    except ImportError:  # the robots package is optional here
-        return
+    from cressim.robots.dvrk_dh import dh_forward_kinematics
     rng = np.random.default_rng(0)
     q = rng.uniform(-0.6, 0.6, (32, 6))
     q[:, 2] = rng.uniform(0.0, 0.24, 32)
     np.testing.assert_allclose(_forward_kinematics(q), dh_forward_kinematics(q), atol=1e-12)
+    # the "real arm" (the DH table) and the twin's URDF chain agree
+    from cressim.robots.kinematics import ArmKinematics
+    from cressim.robots.psm import PSM
+
+    import torch
+    kin = ArmKinematics(PSM("psm_lnd.urdf", dtype=torch.float64), "cpu")
+    np.testing.assert_allclose(_forward_kinematics(q), kin.forward(torch.as_tensor(q)).numpy(), atol=1e-9)

@@ -1,7 +1,7 @@
 """Let the robot tests import `cressim.robots` where the compiled engine is not built.
 
 `cressim/__init__.py` imports the compiled `cressim._core`; the robot models need only torch,
-numpy, yourdfpy and pytorch-kinematics. Where the engine is built (the project's venv) this
+numpy and yourdfpy. Where the engine is built (the project's venv) this
 file does nothing. Where it is not (a robots-only venv), the package is registered without
 running its `__init__`, so `import cressim.robots` still finds python/cressim/robots.
 """

@@ -1,4 +1,5 @@
-"""The PSM URDFs against the dVRK DH table; FK, Jacobian and IK of cressim.robots.PSM."""
+"""The PSM URDFs against the dVRK DH table (cressim.robots.dvrk_dh, the ground truth); FK, Jacobian
+and IK of cressim.robots.PSM and ArmKinematics."""
 import importlib.util
 import math
 import sys
@@ -8,18 +9,9 @@ import pytest
 import torch
 import yourdfpy
 
-from cressim.robots import (
-    BASE_LINK,
-    JAW_LIMITS,
-    PSM,
-    PSM_DH,
-    PSM_JOINT_NAMES,
-    PSM_OLD_JOINT_NAMES,
-    TIP_LINK,
-    canonical_joint_name,
-    dh_forward_kinematics,
-    robot_dir,
-)
+from cressim.robots import BASE_LINK, PSM, TIP_LINK, ArmKinematics, canonical_joint_name, robot_dir
+from cressim.robots.dvrk import PSM_JOINTS, PSM_OLD_JOINTS
+from cressim.robots.dvrk_dh import JAW_LIMITS, PSM_DH, dh_forward_kinematics
 
 N = 1000
 POSITION_TOL = 1e-4  # 0.1 mm
@@ -82,7 +74,7 @@ def test_urdfs_match_their_generator(tmp_path, monkeypatch):
 def test_limits_and_efforts_match_dh_table(lnd, suction):
     for psm in (lnd, suction):
         rows = PSM_DH[: psm.dof]
-        assert psm.joint_names == PSM_JOINT_NAMES[: psm.dof]
+        assert psm.joint_names == PSM_JOINTS[: psm.dof]
         assert torch.allclose(psm.lower, torch.tensor([r.lower for r in rows], dtype=psm.dtype))
         assert torch.allclose(psm.upper, torch.tensor([r.upper for r in rows], dtype=psm.dtype))
         assert torch.allclose(psm.effort, torch.tensor([r.effort for r in rows], dtype=psm.dtype))
@@ -90,12 +82,16 @@ def test_limits_and_efforts_match_dh_table(lnd, suction):
     assert suction.dof == 4 and not suction.has_jaw
 
 
-def test_pytorch_kinematics_fk_equals_dh(lnd):
+def test_chain_fk_equals_dh(lnd):
     q = random_q(lnd, N)
     T = lnd.forward_kinematics(q)
     assert T.shape == (N, 4, 4) and T.dtype == torch.float32
     err_p, err_r = pose_error(T, dh_forward_kinematics(q))
     assert err_p < POSITION_TOL and err_r < ROTATION_TOL
+    # in float64 the URDF chain is the DH table to rounding (the URDF's 12-digit numbers)
+    psm = PSM("psm_lnd.urdf", dtype=torch.float64)
+    err_p, err_r = pose_error(psm.forward_kinematics(q), dh_forward_kinematics(q))
+    assert err_p < 1e-9 and err_r < 1e-9
 
 
 def test_yourdfpy_fk_equals_dh():
@@ -103,7 +99,7 @@ def test_yourdfpy_fk_equals_dh():
     q = random_q(PSM("psm_lnd.urdf"), N, seed=1)
     T = []
     for qi in q.tolist():
-        urdf.update_cfg(dict(zip(PSM_JOINT_NAMES, qi)))
+        urdf.update_cfg(dict(zip(PSM_JOINTS, qi)))
         T.append(urdf.get_transform(TIP_LINK, BASE_LINK))
     err_p, err_r = pose_error(np.stack(T), dh_forward_kinematics(q))
     assert err_p < POSITION_TOL and err_r < ROTATION_TOL
@@ -128,6 +124,29 @@ def test_fk_batch_shapes(lnd):
     assert lnd.forward_kinematics(torch.zeros(2, 3, 6)).shape == (2, 3, 4, 4)
     with pytest.raises(ValueError):
         lnd.forward_kinematics(torch.zeros(5, 7))
+
+
+@pytest.mark.parametrize("name", ["psm_lnd.urdf", "psm_suction.urdf"])
+def test_interface_kinematics_equal_dh(name):
+    """ArmKinematics (what the twin publishes) over the 6-joint interface: FK equals the DH table to
+    1e-9, the Jacobian equals the DH frames' (joint i about or along z of frame i); a wrist-less
+    tool's wrist columns are 0 and its values are ignored."""
+    psm = PSM(name, dtype=torch.float64)
+    kin = ArmKinematics(psm, "cpu")
+    q = torch.zeros(N, 6, dtype=torch.float64)
+    q[:, : psm.dof] = random_q(psm, N, seed=5)
+    noise = q.clone()
+    noise[:, psm.dof:] = 0.3  # joints the tool lacks
+    err_p, err_r = pose_error(kin.forward(noise), dh_forward_kinematics(q))
+    assert err_p < 1e-9 and err_r < 1e-9
+    J, T = kin.jacobian(noise)
+    F = dh_forward_kinematics(q, all_frames=True)
+    z, lever = F[..., :3, 2], T[:, None, :3, 3] - F[..., :3, 3]
+    prismatic = torch.tensor([r.type == "prismatic" for r in PSM_DH])[None, :, None]
+    expected = torch.cat([torch.where(prismatic, z, torch.linalg.cross(z, lever, dim=-1)),
+                          torch.where(prismatic, torch.zeros_like(z), z)], -1).transpose(1, 2)
+    expected[..., psm.dof:] = 0
+    assert torch.allclose(J, expected, atol=1e-9)
 
 
 def test_jacobian_matches_finite_differences():
@@ -189,16 +208,16 @@ def test_limits_enforced(lnd):
 def test_old_and_new_joint_names(lnd):
     values = torch.arange(6, dtype=torch.float32) / 10
     order = [5, 0, 3, 1, 4, 2]
-    old = [PSM_OLD_JOINT_NAMES[i] for i in order]
+    old = [PSM_OLD_JOINTS[i] for i in order]
     assert torch.equal(lnd.joint_vector(values[order], names=old), values)
-    new = [PSM_JOINT_NAMES[i] for i in order]
+    new = [PSM_JOINTS[i] for i in order]
     assert torch.equal(lnd.joint_vector(values[order], names=new), values)
     assert torch.equal(lnd.joint_vector(dict(zip(old, values[order].tolist()))), values)
     assert canonical_joint_name("outer_wrist_yaw") == "wrist_yaw"
     with pytest.raises(ValueError):
         canonical_joint_name("elbow")
     with pytest.raises(ValueError):  # a joint missing
-        lnd.joint_vector(values[:5], names=PSM_JOINT_NAMES[:5])
+        lnd.joint_vector(values[:5], names=PSM_JOINTS[:5])
 
 
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA device")

@@ -7,8 +7,10 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 import torch
+import yourdfpy
 
 from cressim.robots import PSM
+from cressim.robots.dvrk import PSM_JOINTS
 from cressim.twin import JointCommand, StateReport
 
 
@@ -116,7 +118,7 @@ def test_servo_cv_moves_the_tip_along_the_twist(make_arms):
 
 
 def test_forward_kinematics_equals_the_urdf_model(make_arms):
-    """The FK the services answer, against the URDF chain (pytorch-kinematics) for 1,000 random
+    """The FK the services answer, against the URDF chain (cressim.robots.PSM) for 1,000 random
     joint vectors: position within 1 um, rotation within 1e-6 (issue: the tip's rotation was
     applied twice)."""
     arms = make_arms(cameras=False)
@@ -151,8 +153,8 @@ def test_stale_check_uses_the_arrival_time_in_the_stamps_clock():
 
 def test_link_bodies_follow_the_urdf_forward_kinematics_on_the_gpu(make_arms):
     """Every env's link bodies, posed by the GPU's FK pass (cressim.robots.link_poses), sit where
-    the URDF chain (pytorch-kinematics, float64) puts them for that env's joints: within 1e-5 m
-    and 1e-5 in rotation (float32), mimic jaw blades included."""
+    yourdfpy's FK of the URDF (float64, an implementation independent of ours) puts them for
+    that env's joints: within 1e-5 m and 1e-5 in rotation (float32), mimic jaw blades included."""
     arms = make_arms(cameras=False, num_envs=3)
     bodies, engine = arms.bodies, arms.bodies.engine
     rng = np.random.default_rng(3)
@@ -161,13 +163,17 @@ def test_link_bodies_follow_the_urdf_forward_kinematics_on_the_gpu(make_arms):
     bodies.write(q, jaw)
     engine.step_physics()
     engine.end_frame()
-    names, values = bodies.urdf_joints(q, jaw)
-    frames = bodies.chain.forward_kinematics(values)
+    urdf = yourdfpy.URDF.load(str(arms.psm.urdf_path), load_meshes=False)
+    frames = {}  # link -> (3, 4, 4) in PSM1_base
+    for env in range(3):
+        urdf.update_cfg({**dict(zip(PSM_JOINTS, q[env].tolist())), "jaw": float(jaw[env, 0])})
+        for link in bodies.body_names:
+            frames.setdefault(link, []).append(urdf.get_transform(link, urdf.base_link))
     positions = engine.buffer("rigid.positions").read()
     rotations = engine.buffer("rigid.rotations").read()
     rows = bodies.body_rows.cpu().numpy()
     for k, link in enumerate(bodies.body_names):
-        T = (bodies.base @ frames[link].get_matrix()).numpy()  # (3, 4, 4)
+        T = bodies.base.numpy() @ np.stack(frames[link])  # (3, 4, 4)
         for env in range(3):
             x, y, z, w = rotations[rows[env, k]].astype(np.float64)
             R = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],

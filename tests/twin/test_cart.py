@@ -110,24 +110,6 @@ def test_cart_scene_errors_name_the_field():
         parse_scene("cart:\n  PSM4: {}\n", "cart.yaml")
 
 
-def test_ecm_urdf_matches_the_dvrk_dh_table():
-    """Our ECM URDF's tip equals the DH table's (the dVRK's ecm.json) over random joint values."""
-    import pytorch_kinematics as pk
-
-    from cressim.robots.ecm import ECM_LOWER, ECM_UPPER
-    from cressim.twin.cart import ecm_urdf
-
-    chain = pk.build_chain_from_urdf(ecm_urdf().read_bytes()).to(dtype=torch.float64)
-    assert chain.get_joint_parameter_names() == ["yaw", "pitch", "insertion", "roll"]
-    gen = torch.Generator().manual_seed(0)
-    lo, hi = torch.as_tensor(ECM_LOWER), torch.as_tensor(ECM_UPPER)
-    q = lo + (hi - lo) * torch.rand(200, 4, generator=gen, dtype=torch.float64)
-    urdf_tip = chain.forward_kinematics(q)["ECM_roll_link"].get_matrix()
-    assert torch.allclose(urdf_tip, ecm_forward_kinematics(q), atol=1e-9)
-    # at zero the scope points straight down from its RCM, the tip 0.7 mm past it (0.3829 - 0.3822 m)
-    assert np.allclose(ecm_forward_kinematics(np.zeros(4))[:3, 2:], [[0, 0], [0, 0], [-1, -0.0007]], atol=1e-12)
-
-
 def test_setup_joints_place_the_bases():
     """cart.PSM1.setup_joints: the dVRK Classic SUJ's kinematics from the cart's origin; the column
     (the SUJ's prismatic first joint) lifts the base straight up by its travel."""
@@ -171,7 +153,7 @@ def test_scripted_operator_drives_the_mtm_in_the_tick(make_cart):
 def test_instruments_that_touch_are_reported(make_cart):
     """PSM2's jaws driven onto PSM1's shaft: a warning on both arms when they touch, a status when
     they part (the kinematic arms pass through each other in the engine)."""
-    from cressim.robots.dh import dh_forward_kinematics
+    from cressim.robots.dvrk_dh import dh_forward_kinematics
 
     cart = make_cart(load_scene("patient_cart.yaml"))
     home = torch.tensor([[0.0, 0.0, 0.12, 0.0, 0.0, 0.0]], dtype=torch.float64)

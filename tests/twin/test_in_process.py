@@ -67,7 +67,7 @@ def test_runtime_parameter_changes(make_node):
 
 def test_forward_kinematics_service_equals_the_urdf_model(make_node):
     """The forward_kinematics services over DDS, for 1,000 random joint vectors, against the URDF
-    chain (pytorch-kinematics); local/ is in the RCM frame, the other in the base frame."""
+    chain (cressim.robots.PSM); local/ is in the RCM frame, the other in the base frame."""
     import numpy as np
     import torch
     from crtk_msgs.srv import QueryForwardKinematics

@@ -81,6 +81,7 @@ import torch
 
 import cressim
 from cressim.passes.suction import FLOW_RATE, Suction
+from cressim.robots.dvrk import PSM_JOINTS
 from cressim.tet_mesh_file import boundary_triangles
 
 from .vector_env import VectorEnv, box, checked_number, tensor_view
@@ -98,7 +99,7 @@ BLOOD_RADIUS = 0.0015  # m
 BLOCK = (11, 11, 5)  # blood particles along x, y, z: 605
 TABLE_HALF = (0.15, 0.15, 0.01)  # m, top at z = 0; the camera sees no edge
 RCM = (0.0, 0.0, 0.15)  # m
-JOINTS = ("yaw", "pitch", "insertion", "roll")
+JOINTS = PSM_JOINTS[:4]  # a wrist-less tool
 START_Q = (0.0, 0.0, 0.115, 0.0)
 ACTION_SCALE = (0.01, 0.01, 0.001, 0.02)  # rad or m per step per unit action
 TASK_LIMITS = {"yaw": (-0.35, 0.35), "pitch": (-0.35, 0.35), "insertion": (0.08, 0.1395)}

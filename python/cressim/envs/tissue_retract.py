@@ -67,13 +67,14 @@ import numpy as np
 import cressim
 from cressim.passes.grasp import Grasp
 from cressim.twin_scene_file import load_scene
+from cressim.robots.dvrk import PSM_JOINTS
 
 from .vector_env import box, VectorEnv, checked_number, tensor_view
 
 SCENE = "psm_retraction.yaml"  # the twin's scene: its world, the arm's base and the grasp
 FLAP = "flap"  # the scene's entity whose free edge is grasped
 SKIPPED = ("camera", "light", "strand")  # what the task leaves out of the world (sensors, the thread)
-JOINTS = ("yaw", "pitch", "insertion", "roll", "wrist_pitch", "wrist_yaw")  # the dVRK's order, as ArmBodies
+JOINTS = PSM_JOINTS  # the dVRK's order, as ArmBodies
 ACTION_SCALE = (0.01, 0.01, 0.001, 0.02, 0.02, 0.02)  # rad or m per step per unit action
 JAW_OPEN, JAW_CLOSED = 0.6, 0.0  # rad
 LENGTH_SCALE = 0.1  # m: one unit of the paper's scene

@@ -11,13 +11,8 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-ARM_JOINTS = ("yaw", "pitch", "insertion", "roll", "wrist_pitch", "wrist_yaw")
-OLD_ARM_JOINTS = ("outer_yaw", "outer_pitch", "outer_insertion", "outer_roll", "outer_wrist_pitch",
-                  "outer_wrist_yaw")
-JAW_JOINTS = ("jaw",)
-JOINT_UNITS = {"yaw": "rad", "pitch": "rad", "insertion": "m", "roll": "rad", "wrist_pitch": "rad",
-               "wrist_yaw": "rad", "jaw": "rad"}
-_CANONICAL = {**dict(zip(OLD_ARM_JOINTS, ARM_JOINTS)), **{n: n for n in ARM_JOINTS + JAW_JOINTS}}
+from ..robots.dvrk import JAW_JOINTS, JOINT_UNITS, PSM_JOINTS as ARM_JOINTS, PSM_OLD_JOINTS as OLD_ARM_JOINTS
+from ..robots.dvrk import canonical_joint_name
 
 DEFAULT_NAMESPACE = "PSM1"
 BASE_FRAME = "{ns}_base"  # frame 0, at the remote centre of motion
@@ -267,10 +262,7 @@ def topics(ns: str = DEFAULT_NAMESPACE, roles=("state", "event", "command")) -> 
 
 def canonical_joint(name: str) -> str:
     """'outer_yaw' -> 'yaw' (dVRK 2.2 names); 2.3 names and 'jaw' pass through."""
-    try:
-        return _CANONICAL[name]
-    except KeyError:
-        raise ValueError(f"unknown PSM joint {name!r}") from None
+    return canonical_joint_name(name)
 
 
 def schema_markdown(ns: str = DEFAULT_NAMESPACE) -> str:

@@ -4,7 +4,12 @@
 first-order lag (time constant tau) sampled at 100 Hz. ``synthetic_session`` drives it with a
 smooth servo_jp trajectory inside the joint limits and returns what a recorder on the real
 arm would have seen: state commands, servo commands, setpoint/measured joint states, tool-tip
-poses (forward kinematics of the DH table) and tf, on the schema's topics, in time order.
+poses and tf, on the schema's topics, in time order.
+
+The poses are the real arm's own kinematics, the dVRK's DH table (cressim.robots.dvrk_dh), on
+purpose not the twin's URDF chain: a recording of the "real" arm by a model independent of ours,
+and numpy only (bit for bit the same on every machine: the committed sample bag is compared with
+a fresh one).
 """
 from __future__ import annotations
 
@@ -13,12 +18,10 @@ from typing import Iterator, NamedTuple
 
 import numpy as np
 
+from ..robots.dvrk_dh import dh_forward_kinematics
 from .schema import ARM_JOINTS, JAW_JOINTS
 from .types import stamp
 
-ARM_LIMITS = np.array([[-1.588, 1.588], [-0.925025, 0.925025], [0.0, 0.24], [-4.53786, 4.53786],
-                       [-1.39626, 1.39626], [-1.39626, 1.39626]])
-JAW_LIMITS = np.array([[-0.698132, 1.39626]])
 HOME = np.array([0.0, 0.0, 0.12, 0.0, 0.0, 0.0])  # insertion part-way in, as a homed tool sits
 JOINT_STATE = "sensor_msgs/msg/JointState"
 
@@ -84,29 +87,9 @@ def _pose(T: np.ndarray) -> dict:
             "orientation": {"x": x, "y": y, "z": z, "w": w}}
 
 
-# PSM modified DH (DVRK.md): (alpha, a, d, offset, prismatic); T_i = Rx(alpha) Tx(a) Rz(theta) Tz(d)
-_DH = ((math.pi / 2, 0.0, 0.0, math.pi / 2, False), (-math.pi / 2, 0.0, 0.0, -math.pi / 2, False),
-       (math.pi / 2, 0.0, 0.0, -0.4318, True), (0.0, 0.0, 0.4162, 0.0, False),
-       (-math.pi / 2, 0.0, 0.0, -math.pi / 2, False), (-math.pi / 2, 0.0091, 0.0, -math.pi / 2, False))
-_TOOL_TIP = np.array([[0.0, -1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [-1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
-
-
 def _forward_kinematics(q: np.ndarray) -> np.ndarray:
-    """Tool-tip poses (N, 4, 4) in {ns}_base of joint vectors (N, 6); numpy only, so that the
-    recorder does not pull in torch (tests compare it with cressim.robots.dh)."""
-    q = np.atleast_2d(np.asarray(q, dtype=np.float64))
-    T = np.broadcast_to(np.eye(4), (len(q), 4, 4)).copy()
-    for i, (alpha, a, d, offset, prismatic) in enumerate(_DH):
-        theta = np.zeros(len(q)) if prismatic else q[:, i] + offset
-        dd = q[:, i] + offset + d if prismatic else np.full(len(q), d)
-        ct, st, ca, sa = np.cos(theta), np.sin(theta), math.cos(alpha), math.sin(alpha)
-        Ti = np.zeros((len(q), 4, 4))
-        Ti[:, 0, 0], Ti[:, 0, 1], Ti[:, 0, 3] = ct, -st, a
-        Ti[:, 1, 0], Ti[:, 1, 1], Ti[:, 1, 2], Ti[:, 1, 3] = st * ca, ct * ca, -sa, -sa * dd
-        Ti[:, 2, 0], Ti[:, 2, 1], Ti[:, 2, 2], Ti[:, 2, 3] = st * sa, ct * sa, ca, ca * dd
-        Ti[:, 3, 3] = 1.0
-        T = T @ Ti
-    return T @ _TOOL_TIP
+    """Tool-tip poses (N, 4, 4) in {ns}_base of joint vectors (N, 6): the DH table's."""
+    return dh_forward_kinematics(np.atleast_2d(np.asarray(q, dtype=np.float64)))
 
 
 class Timed(NamedTuple):

@@ -1,26 +1,28 @@
-"""The PSM's links as rigid bodies in a cressim engine, one arm per env, kinematic or dynamic.
+"""An arm's URDF links as rigid bodies in a cressim engine, one arm per env, kinematic or dynamic.
 
 Kinematic (`arm.dynamics: kinematic`, the default). Each URDF link with collision geometry
 becomes one kinematic rigid body whose colliders are the link's collision primitives (cylinder
 -> capsule of the same radius and length, box, sphere). Every tick the twin writes all envs'
-link poses into the engine's body targets in one batched step: the full URDF chain's FK
-(pytorch-kinematics, mimic joints expanded by a matrix), times the arm's base pose, scattered
-into `control.body_target_positions/rotations` through a precomputed index. The engine bodies
+joint values, and the GPU's FK pass (link_poses.hlsl on the compiled URDF chain,
+cressim.robots.chain) poses every link body's target, times the arm's base pose. The engine bodies
 follow the twin's own joint state, so contacts see the arm's motion (and its speed: kinematic
 bodies cover their way in equal shares per substep) but never push it back.
 
-Dynamic (`arm.dynamics: dynamic`). The arm is the DH-equivalent serial chain of dynamic bodies
-connected by engine joints: yaw hinge (on the world: the base is fixed), pitch hinge about the
-RCM, insertion slider, roll hinge, wrist pitch and wrist yaw hinges, and one hinge per jaw
-blade (each blade at +-1/2 of the jaw angle, as the URDF's mimic joints). Which link rides on
-which body is found numerically: a link belongs to DH frame k when its pose relative to that
-frame is constant over random joint values (the parallelogram's pitch_front link turns about
-the RCM, so it is frame 2's). The links that belong to no DH frame (the parallelogram's back,
-top and bottom bars) and the mount stay kinematic and follow FK of the measured joints, one
-tick behind. Joint coordinates are the dVRK's joint values (the bodies are authored at q = 0
-and posed at the initial values by the engine's reset), so the engine's limits are the URDF
-limits, and measured values are `joint.positions` / `joint.velocities` gathered with one index
-tensor for all envs.
+Dynamic (`arm.dynamics: dynamic`), for any URDF whose arm joints (with limits) form a serial
+chain from the base to the tip link. The arm is that chain's equivalent serial chain of dynamic
+bodies connected by engine joints, one per arm joint (the PSM: yaw hinge on the world, the base
+being fixed; pitch hinge about the RCM; insertion slider; roll, wrist pitch and wrist yaw
+hinges), and one hinge per link hung off that way by the jaw (the PSM's blades, each at +-1/2 of
+the jaw angle, as the URDF's mimic joints). Body k carries the links that move rigidly with the
+last link that joint k moves on the way to the tip (its reference link), found numerically:
+a link's pose relative to it is constant over random joint values. Joint k's axis is the screw
+that takes reference link k - 1 to reference link k (the PSM's parallelogram of mimic joints
+turns the pitch_front link about the RCM: one hinge there), checked to be one fixed axis. The
+links that ride on no body (the parallelogram's back, top and bottom bars) and the mount stay
+kinematic and follow FK of the measured joints, one tick behind. Joint coordinates are the
+arm joints' values (the bodies are authored at q = 0 and posed at the initial values by the
+engine's reset), so the engine's limits are the URDF limits, and measured values are
+`joint.positions` / `joint.velocities` gathered with one index tensor for all envs.
 
 What the engine's XPBD solver (Gauss-Seidel over the joints, 1-4 iterations) needed, found by
 experiment (docs/twin.md, "Dynamic arm", has the numbers):
@@ -46,17 +48,15 @@ import math
 from pathlib import Path
 
 import numpy as np
-import pytorch_kinematics as pk
 import torch
-import yourdfpy
-from pytorch_kinematics.transforms import quaternion_to_matrix
 
 import cressim
 from .arm_visuals import ArmVisuals
-from .dh import PSM_DH, dh_forward_kinematics
-from .kinematics import matrix_to_pose7, rotation_xyzw
+from .chain import PRISMATIC, REVOLUTE, Chain, load_urdf, rotation_xyzw, screw_motion
+from .dvrk import JAW, PSM_JOINTS
+from .kinematics import matrix_to_pose7
 from .link_poses import LinkPoses
-from .psm import JAW_GRASP_POINT, JAW_LINK
+from .psm import JAW_GRASP_POINT, JAW_LINK, TIP_LINK
 from ..suture import needle_arrays, needle_body
 
 ARM_GROUP = 2  # collision group of arm links; they do not collide with each other (mask below)
@@ -64,7 +64,6 @@ COLLIDER_NO_PARTICLES = 0x80000000  # in a collider's group: particles pass thro
 NEEDLE_WIRE = 0.00035  # m: a 2-0 needle's wire radius (drawn, collided and weighed)
 NEEDLE_SEGMENTS = 6  # capsules along a needle's arc
 DYNAMICS = ("kinematic", "dynamic")
-INTERFACE_JOINTS = tuple(row.name for row in PSM_DH)
 
 # Position drives of the dynamic arm: (stiffness, damping, max force) per joint, SI units
 # (N m/rad, N m s/rad, N m for hinges; N/m, N s/m, N for the insertion slider; per jaw blade).
@@ -97,7 +96,10 @@ SOLVER_ITERATIONS = 2  # dynamic arm: XPBD iterations per substep (4 and more le
 # solver corrected gravity's pull on the wrist_yaw body (9 mm off the wrist pitch axis) by turning
 # the wrist pitch, which then sat 0.015 rad off its setpoint per 0.4 rad of wrist pitch
 MIN_MASS, MIN_INERTIA = 1e-3, 1e-6
-RIGID_TOLERANCE = 1e-6  # link pose relative to a DH frame constant within this: it rides on that frame
+RIGID_TOLERANCE = 1e-6  # link pose relative to a reference link constant within this: it rides on its body
+# drives of joints DRIVES does not name (another URDF): the same rules as DRIVES' from the URDF's
+# effort and velocity limits, with these saturation errors (rad, m)
+SATURATION = {REVOLUTE: 0.01, PRISMATIC: 0.001}
 
 
 def _shape(geometry, origin: np.ndarray):
@@ -122,17 +124,77 @@ def _link_shapes(link, frame=np.eye(4)):
     return out
 
 
+def _quat_matrices(q: torch.Tensor) -> torch.Tensor:
+    """(M, 4) xyzw (the engine's order) -> (M, 3, 3)."""
+    x, y, z, w = q.unbind(-1)
+    return torch.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w),
+                        2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w),
+                        2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1).reshape(-1, 3, 3)
+
+
 def _quat_matrix(x, y, z, w) -> np.ndarray:
     return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
                      [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
                      [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
 
 
+def _drive(name, kind, joint):
+    """(stiffness, damping, max force) of an arm joint: DRIVES', or for a joint it does not name the
+    same rules from the URDF's effort and velocity limits (stiffness = effort / saturation error,
+    damping = effort / (2 x velocity limit))."""
+    if name in DRIVES:
+        return DRIVES[name]
+    effort, velocity = float(joint.limit.effort), float(joint.limit.velocity)
+    if not (effort > 0 and velocity > 0):
+        raise ValueError(f"dynamic arm: joint {name} needs effort and velocity limits in the URDF")
+    return (effort / SATURATION[kind], effort / (2 * velocity), effort)
+
+
+def _nearest_on(line, other):
+    """The point of `line` ((direction, point, kind)) nearest `other`; None where they are parallel."""
+    a1, p1, _ = line
+    a2, p2, _ = other
+    n = np.cross(a1, a2)
+    if np.linalg.norm(n) < 1e-9:
+        return None
+    return p1 + a1 * (np.cross(p2 - p1, a2) @ n) / (n @ n)
+
+
+def _meeting_point(axes, i, fallback):
+    """Body i + 1's origin (see ArmBodies._plan_dynamic) for a hinge: on its axis where the next
+    hinge's (else the previous one's) comes nearest, else `fallback` projected on it; for a
+    slider `fallback`."""
+    a, p, kind = axes[i]
+    if kind != REVOLUTE:
+        return np.asarray(fallback, dtype=np.float64)
+    for j in (i + 1, i - 1):
+        x = _nearest_on(axes[i], axes[j]) if 0 <= j < len(axes) and axes[j][2] == REVOLUTE else None
+        if x is not None:
+            return x
+    return p + a * ((fallback - p) @ a)
+
+
+def _frame_along(T, axis) -> np.ndarray:
+    """T's rotation, turned the least way that puts its z on `axis` (the body frame's z is its
+    joint's axis: armature goes there)."""
+    out = np.array(T, dtype=np.float64)
+    z = out[:3, 2]
+    c = float(z @ axis)
+    n = np.cross(z, axis)
+    s = float(np.linalg.norm(n))
+    if s < 1e-9:  # along the axis already, or opposite it: a half turn about x
+        if c < 0:
+            out[:3, :3] = out[:3, :3] @ np.diag([1.0, -1.0, -1.0])
+        return out
+    out[:3, :3] = screw_motion(n / s, np.zeros(3), REVOLUTE, math.atan2(s, c))[:3, :3] @ out[:3, :3]
+    return out
+
+
 class _Body:
     """A body being authored: links, world pose at q = 0, mass properties."""
 
     def __init__(self, name, frame):
-        self.name, self.frame, self.links = name, frame, []  # frame: 0 base/kinematic, 1..dof DH, "jaw_*"
+        self.name, self.frame, self.links = name, frame, []  # frame: 0 kinematic, k arm joint k, "jaw:<joint>"
         self.pose = np.eye(4)
         self.mass, self.inertia = 0.0, (0.0, 0.0, 0.0)
 
@@ -140,16 +202,17 @@ class _Body:
 class ArmBodies:
     """num_envs arms (links as kinematic or dynamic bodies) in one engine.
 
-    Joint order everywhere: the 6 interface joints (a 4-dof tool ignores the wrist ones), then the
-    jaw. `write` poses the kinematic bodies; in dynamic mode `set_targets` drives the joints and
-    `read_joints` returns the simulated joint values.
+    Joint order everywhere: the arm joints (`joints`, default the PSM's first `dof` interface
+    joints: a 4-dof tool ignores the wrist ones), then the jaw (a column no joint reads for an arm
+    without one). `write` poses the kinematic bodies; in dynamic mode `set_targets` drives the
+    joints and `read_joints` returns the simulated joint values.
     """
 
     def __init__(self, urdf_path, num_envs: int, *, base_position, base_rotation, publish_rate: float,
                  physics_rate: float, initial_q: np.ndarray, initial_jaw: float, dof: int, device=None,
                  dynamics: str = "kinematic", gravity=(0.0, 0.0, -9.81), scenery=None,
                  world: cressim.World | None = None, needle: dict | None = None, particle_rate: float = 0.0,
-                 collision_group: int = ARM_GROUP, name: str = "arm"):
+                 collision_group: int = ARM_GROUP, name: str = "arm", arm_joints=None, tip_link: str = TIP_LINK):
         """`particle_rate`: the scenery's particles (tissue, blood, thread) substep at this rate
         (Hz; 0: physics_rate), the bodies at physics_rate. `world`: author the arm into this world (a task's, beside its own entities) instead of
         one of its own; the caller then creates the engine with its own physics settings (a dynamic
@@ -157,31 +220,25 @@ class ArmBodies:
         `needle`: a suture needle held in the jaws (twin scene's arm.needle), with its thread.
         `collision_group`: the arm's links collide with everything but this group (one bit); arms
         of one world in groups of their own collide with each other (cressim.twin.cart). `name`:
-        the prefix of the arm's shared buffers (one per arm of an engine)."""
+        the prefix of the arm's shared buffers (one per arm of an engine). `arm_joints`: the arm joints'
+        URDF names (another URDF than the dVRK's); `tip_link`: where the dynamic arm's serial chain
+        ends (the last link its arm joints move)."""
         if dynamics not in DYNAMICS:
             raise ValueError(f"dynamics {dynamics!r} is not one of {', '.join(DYNAMICS)}")
         if world is not None and scenery is not None:
             raise ValueError("scenery is authored into the arm's own world: pass either scenery or world")
         self.num_envs, self.dof, self.dynamics, self.name = num_envs, dof, dynamics, name
         self.dynamic = dynamics == "dynamic"
-        urdf = yourdfpy.URDF.load(str(urdf_path), build_scene_graph=False, load_meshes=False)
+        urdf = load_urdf(urdf_path)
         self.urdf, self.urdf_dir = urdf, Path(urdf_path).parent
         joints = {j.name: j for j in urdf.robot.joints}
-        self.chain = pk.build_chain_from_urdf(open(urdf_path, "rb").read()).to(dtype=torch.float64)
-        self.has_jaw = "jaw" in joints and joints["jaw"].type != "fixed"
-
-        # chain joint values = interface values @ expand.T + shift (mimic joints follow theirs)
-        # columns: the tool's arm joints, then the jaw (a column of zeros for a tool without one)
-        sources = list(INTERFACE_JOINTS[:dof]) + ["jaw"]
-        chain_joints = self.chain.get_joint_parameter_names()
-        expand = torch.zeros(len(chain_joints), dof + 1, dtype=torch.float64)
-        shift = torch.zeros(len(chain_joints), dtype=torch.float64)
-        for row, name in enumerate(chain_joints):
-            mimic = joints[name].mimic
-            source, gain = (mimic.joint, mimic.multiplier or 1.0) if mimic else (name, 1.0)
-            expand[row, sources.index(source)] = gain
-            shift[row] = (mimic.offset or 0.0) if mimic else 0.0
-        self._expand, self._shift = expand, shift
+        self.has_jaw = JAW in joints and joints[JAW].type != "fixed"
+        self.joints = tuple(arm_joints) if arm_joints is not None else PSM_JOINTS[:dof]
+        if len(self.joints) != dof:
+            raise ValueError(f"ArmBodies: {dof} arm joints expected, got {self.joints}")
+        self.tip_link = tip_link
+        # every link, from the arm joints' values and the jaw's (mimic joints follow theirs)
+        self.chain = Chain(urdf, sources=(*self.joints, JAW))
 
         base = np.eye(4)
         base[:3, :3] = _quat_matrix(*base_rotation)
@@ -376,9 +433,8 @@ class ArmBodies:
         row_of_entity = {int(e): row for row, e in enumerate(body_entity)}
         follower = [k for k, b in enumerate(bodies) if b.frame == 0]
         follower_rows = np.vectorize(row_of_entity.get, otypes=[np.int64])(body_ids[:, follower])
-        # the followers' poses: FK on the GPU from `joint_values` (interface joints, then the jaw)
-        self.link_poses = LinkPoses(engine, self.urdf, self.follower_links,
-                                    list(INTERFACE_JOINTS[:self.dof]) + ["jaw"], follower_rows.reshape(num_envs, -1),
+        # the followers' poses: FK on the GPU from `joint_values` (arm joints, then the jaw)
+        self.link_poses = LinkPoses(engine, self.chain, self.follower_links, follower_rows.reshape(num_envs, -1),
                                     self.base[:3, 3].tolist(), rotation_xyzw(self.base[:3, :3].numpy()),
                                     name=self.name)
         self.joint_values = torch.from_dlpack(self.link_poses.joint_values)  # (N, dof + 1) float32
@@ -402,8 +458,7 @@ class ArmBodies:
         # cost a GPU more in kernel launches and syncs than in math; only the engine's buffers
         # (targets in, joint values out) live on its device, one copy each way per frame
         self._on = dict(device=torch.device("cpu"), dtype=torch.float64)
-        self._expand, self._shift, self.base = (t.to(**self._on) for t in (self._expand, self._shift, self.base))
-        self.chain = self.chain.to(**self._on)
+        self.base = self.base.to(**self._on)
         if self.dynamic:
             self._init_dynamic(bodies, joint_specs, joint_ids, initial_q, initial_jaw)
 
@@ -412,16 +467,17 @@ class ArmBodies:
         """Bodies (kinematic followers and the chain's dynamic bodies) and joints of the dynamic arm."""
         dof = self.dof
         links = {link.name: link for link in urdf.robot.links}
-        # which DH frame each link rides on: its pose relative to that frame is constant
+        ref, axes = self._serial_chain(urdf)
+        # which body each link rides on: its pose relative to that body's reference link is constant
+        # over random joint values (the highest such body; 0 is the base)
         gen = torch.Generator().manual_seed(0)
         samples = 8
-        lower = torch.tensor([row.lower for row in PSM_DH[:dof]], dtype=torch.float64)
-        upper = torch.tensor([row.upper for row in PSM_DH[:dof]], dtype=torch.float64)
+        lower, upper = torch.as_tensor(self.chain.lower[:dof]), torch.as_tensor(self.chain.upper[:dof])
         q = lower + (upper - lower) * torch.rand(samples, dof, generator=gen, dtype=torch.float64)
         jaw = torch.rand(samples, 1, generator=gen, dtype=torch.float64)
         sampled = self._fk_links(q, jaw, all_links=True, with_base=False)
-        frames = torch.cat([torch.eye(4, dtype=torch.float64).expand(samples, 1, 4, 4),
-                            dh_forward_kinematics(q, all_frames=True)[:, :dof]], dim=1)  # (S, dof + 1, 4, 4)
+        eye = torch.eye(4, dtype=torch.float64).expand(samples, 4, 4)
+        frames = torch.stack([eye] + [sampled[name] for name in ref], dim=1)  # (S, dof + 1, 4, 4)
         frame_of = {}
         for name, T in sampled.items():
             for k in range(dof, -1, -1):
@@ -429,48 +485,60 @@ class ArmBodies:
                 if float((rel - rel[0]).abs().max()) < RIGID_TOLERANCE:
                     frame_of[name] = k
                     break
-        # the jaw blades: hinges on the body of their parent link, driven at multiplier x jaw
+        # the jaw blades: joints hung off the way to the tip and driven by the jaw, hinges on the
+        # body of their parent link at multiplier x jaw
+        way = set(self._way)
         blades = []
         for j in urdf.robot.joints:
             mimic = j.mimic
-            if j.type == "revolute" and mimic is not None and mimic.joint == "jaw" and _link_shapes(links[j.child]):
+            source = mimic.joint if mimic is not None else j.name
+            if (j.type in ("revolute", "continuous") and source == JAW and j.child not in way
+                    and _link_shapes(links[j.child])):
                 blades.append(j)
 
         base = self.base.numpy()
-        dh0 = base @ np.concatenate([np.eye(4)[None], dh_forward_kinematics(np.zeros(6), all_frames=True)])
+        ref0 = [base] + [poses[name] for name in ref]  # reference links at q = 0, in the world
         bodies = []
         for name in self.link_names:  # kinematic followers: the mount (frame 0) and the parallelogram bars
             if frame_of.get(name) in (None, 0) and all(b.child != name for b in blades):
                 b = _Body(name, 0)
                 b.links, b.pose = [links[name]], poses[name]
                 bodies.append(b)
-        # body origins: where the joints meet on the body's own axis (see _mass_properties): the
-        # RCM for yaw and pitch (frames 1, 2), the instrument's wrist (frame 4's origin, on the
-        # insertion axis) for the insertion carriage, frame k's origin for the rest
-        segment, origin = {}, {}
+        # body origins: where the joints meet on the body's own axis (see _mass_properties): for a
+        # hinge the point of its axis nearest the next hinge's (the previous one's when the next
+        # slides or is missing): the RCM for the PSM's yaw and pitch; for a slider the next hinge's
+        # (the PSM's instrument wrist, on the insertion axis)
+        world_axes = [(base[:3, :3] @ a, base[:3, :3] @ p + base[:3, 3], kind) for a, p, kind in axes]
+        origin = {k: _meeting_point(world_axes, k - 1, ref0[k][:3, 3]) for k in range(1, dof + 1)}
+        for k in range(dof, 0, -1):  # a slider's body: at the next hinge's origin
+            if world_axes[k - 1][2] == PRISMATIC and k < dof and world_axes[k][2] == REVOLUTE:
+                origin[k] = origin[k + 1]
+        segment = {}
         for k in range(1, dof + 1):
             members = [links[n] for n in self.link_names if frame_of.get(n) == k]
-            b = _Body(members[0].name if members else f"PSM_{INTERFACE_JOINTS[k - 1]}_body", k)
+            b = _Body(members[0].name if members else f"{self.name}_{self.joints[k - 1]}_body", k)
             b.links = members
-            prismatic = PSM_DH[k - 1].type == "prismatic"
-            origin[k] = dh0[k + 1 if prismatic and k < dof else k][:3, 3]
-            self._mass_properties(b, poses, dh0[k], origin[k], 0.0 if prismatic else ARMATURE[INTERFACE_JOINTS[k - 1]])
+            prismatic = world_axes[k - 1][2] == PRISMATIC
+            self._mass_properties(b, poses, _frame_along(ref0[k], world_axes[k - 1][0]), origin[k],
+                                  0.0 if prismatic else ARMATURE.get(self.joints[k - 1], 0.0))
             segment[k] = len(bodies)
             bodies.append(b)
         joint_specs = []
         for k in range(1, dof + 1):
-            row = PSM_DH[k - 1]
-            name = row.name
+            name, kind = self.joints[k - 1], world_axes[k - 1][2]
+            lo, hi = float(self.chain.lower[k - 1]), float(self.chain.upper[k - 1])
+            if not (np.isfinite(lo) and np.isfinite(hi)):
+                raise ValueError(f"dynamic arm: joint {name} needs limits in the URDF")
             joint_specs.append(dict(
-                name=name, kind="hinge" if row.type == "revolute" else "slider",
+                name=name, kind="hinge" if kind == REVOLUTE else "slider",
                 parent=None if k == 1 else segment[k - 1], child=segment[k],
-                anchor=tuple(float(v) for v in origin[k]), axis=tuple(float(v) for v in dh0[k][:3, 2]),
-                limits=(row.lower, row.upper), drive=DRIVES[name], gain=1.0, frame=k,
+                anchor=tuple(float(v) for v in origin[k]), axis=tuple(float(v) for v in world_axes[k - 1][0]),
+                limits=(lo, hi), drive=_drive(name, kind, joints[name]), gain=1.0, frame=k,
                 speed=float(joints[name].limit.velocity)))
         for j in blades:
             parent = frame_of.get(j.parent)
             if parent is None or parent < 1:
-                raise ValueError(f"jaw blade joint {j.name}: its parent link {j.parent} rides on no DH frame")
+                raise ValueError(f"jaw blade joint {j.name}: its parent link {j.parent} rides on no body")
             b = _Body(j.child, f"jaw:{j.name}")
             b.links = [links[j.child]]
             T = poses[j.child]  # the blade's joint frame at jaw = 0
@@ -481,9 +549,80 @@ class ArmBodies:
             joint_specs.append(dict(
                 name=j.name, kind="hinge", parent=segment[parent], child=len(bodies) - 1,
                 anchor=tuple(float(v) for v in T[:3, 3]), axis=tuple(float(v) for v in axis),
-                limits=(lo, hi), drive=DRIVES["jaw"], gain=float(j.mimic.multiplier or 1.0), frame=parent,
-                speed=float(j.limit.velocity)))
+                limits=(lo, hi), drive=DRIVES["jaw"], gain=float(j.mimic.multiplier or 1.0) if j.mimic else 1.0,
+                frame=parent, speed=float(j.limit.velocity)))
+        self._ref_links = ref
         return bodies, joint_specs
+
+    def _serial_chain(self, urdf):
+        """The arm joints' serial chain along the URDF's way from the base to the tip link: each
+        joint's reference link (the last link it moves on that way) and its axis ((direction, a
+        point, type) at q = 0 in the base link), the screw that takes reference link k - 1 to
+        reference link k. Raises where the arm joints are not serial along that way, or where a
+        joint's links (a linkage of mimic joints) do not turn about, or slide along, one axis."""
+        dof, chain = self.dof, self.chain
+        parent_joint = {j.child: j for j in urdf.robot.joints}
+        way, name = [], self.tip_link
+        while name in parent_joint:
+            way.append(parent_joint[name])
+            name = parent_joint[name].parent
+        way.reverse()
+        self._way = [name] + [j.child for j in way]
+        index = {n: i for i, n in enumerate(chain.joint_names)}
+        moving = [index[j.name] for j in way if j.name in index]
+        columns = [chain.columns[i] for i in moving]
+        if sorted(set(columns)) != list(range(dof)) or columns != sorted(columns):
+            raise ValueError(f"dynamic arm: the joints from the base to {self.tip_link} are not the serial chain "
+                             f"{', '.join(self.joints)} (they follow {[chain.sources[c] for c in columns]})")
+        zero = torch.zeros(1, dof + 1, dtype=torch.float64)
+        poses = {n: chain.link_poses(zero)[0, chain.links.index(n)].numpy() for n in self._way}
+        ref, axes = [], []
+        for k in range(dof):
+            mine = [i for i, c in zip(moving, columns) if c == k]
+            ref.append(chain.joint_links[mine[-1]])
+            # the screw: the sum of each joint's twist at q = 0 (base-link axes), times its gain
+            w, v = np.zeros(3), np.zeros(3)
+            for i in mine:
+                T = poses[chain.joint_links[i]]
+                a, p = T[:3, :3] @ chain.axes[i], T[:3, 3]
+                if chain.joint_types[i] == REVOLUTE:
+                    w += chain.gains[i] * a
+                    v += chain.gains[i] * np.cross(p, a)  # -w x p
+                else:
+                    v += chain.gains[i] * a
+            if np.linalg.norm(w) > 1e-9:
+                rate, kind = np.linalg.norm(w), REVOLUTE
+                direction, point = w / rate, np.cross(w, v) / rate ** 2
+            else:
+                rate, kind = np.linalg.norm(v), PRISMATIC
+                direction, point = v / rate, poses[ref[-1]][:3, 3]
+            if abs(rate - 1.0) > 1e-6:
+                raise ValueError(f"dynamic arm: joint {self.joints[k]} moves its links at {rate:.6g} x its value")
+            axes.append((direction, point, kind))
+        self._check_screws(ref, axes)
+        return ref, axes
+
+    def _check_screws(self, ref, axes):
+        """Each reference link, over random joint values, where the one before and a turn about (or a
+        shift along) joint k's axis put it; else the engine's single joint cannot stand for the
+        URDF's joints between them."""
+        dof = self.dof
+        gen = torch.Generator().manual_seed(1)
+        lower, upper = torch.as_tensor(self.chain.lower[:dof]), torch.as_tensor(self.chain.upper[:dof])
+        q = lower + (upper - lower) * torch.rand(8, dof, generator=gen, dtype=torch.float64)
+        values = torch.cat([q, torch.zeros(8, 1, dtype=torch.float64)], 1)
+        F = self.chain.link_poses(torch.cat([torch.zeros(1, dof + 1, dtype=torch.float64), values])).numpy()
+        index = [self.chain.links.index(n) for n in ref]
+        for k in range(dof):
+            direction, point, kind = axes[k]
+            before0 = np.eye(4) if k == 0 else F[0, index[k - 1]]
+            for m in range(1, 9):
+                before = np.eye(4) if k == 0 else F[m, index[k - 1]]
+                motion = screw_motion(direction, point, kind, float(q[m - 1, k]))
+                expected = before @ np.linalg.solve(before0, motion @ F[0, index[k]])
+                if np.abs(expected - F[m, index[k]]).max() > 1e-6:
+                    raise ValueError(f"dynamic arm: the links joint {self.joints[k]} moves do not turn about "
+                                     f"(or slide along) one axis")
 
     @staticmethod
     def _mass_properties(b: _Body, poses, frame, origin, armature=0.0):
@@ -548,25 +687,32 @@ class ArmBodies:
         self._to_coord = to_coord
         # coordinates (N, J) -> jaw: the mean over blades of coordinate / gain
         self._jaw_of = (1.0 / gains / max(len(gains), 1))[:, None] if len(gains) else None
-        # gravity model: mass and local centre of mass of each dynamic body in its DH frame
+        # gravity model: mass and centre of mass (the body origin) of each dynamic body, and each arm
+        # joint's axis and anchor, in the frame of the reference link they move with
         dyn = [b for b in bodies if b.frame != 0]
         frame_index = {s["child"]: s["frame"] for s in joint_specs}  # blades: their parent's frame
         body_index = {id(b): k for k, b in enumerate(bodies)}
-        dh0 = self.base.cpu().numpy() @ np.concatenate(
-            [np.eye(4)[None], dh_forward_kinematics(np.zeros(6), all_frames=True)])
+        self._ref_chain = Chain(self.urdf, sources=self.chain.sources, links=self._ref_links)
+        zero = torch.zeros(1, self.dof + 1, dtype=torch.float64)
+        ref0 = self.base.cpu().numpy() @ np.concatenate([np.eye(4)[None], self._ref_chain.link_poses(zero)[0].numpy()])
         seg, mass, com = [], [], []
         for b in dyn:
             k = frame_index[body_index[id(b)]]
             seg.append(k)
             mass.append(b.mass)
-            com.append(np.linalg.solve(dh0[k], np.append(b.pose[:3, 3], 1.0))[:3])
+            com.append(np.linalg.solve(ref0[k], np.append(b.pose[:3, 3], 1.0))[:3])
         seg = torch.tensor(seg, device=dev)
         self._g_seg = seg
         self._g_force = torch.tensor(np.outer(mass, self.gravity), **self._on)  # (B, 3)
-        self._g_com = torch.tensor(np.array(com), **self._on)  # (B, 3) in the body's DH frame
+        self._g_com = torch.tensor(np.array(com), **self._on)  # (B, 3) in the body's reference frame
+        arm = joint_specs[: self.dof]
+        axes = [ref0[k + 1][:3, :3].T @ np.asarray(s["axis"]) for k, s in enumerate(arm)]
+        self._g_axis = torch.tensor(np.array(axes), **self._on)  # (dof, 3)
+        self._g_anchor = torch.tensor(np.array([np.linalg.solve(ref0[k + 1], np.append(s["anchor"], 1.0))[:3]
+                                                for k, s in enumerate(arm)]), **self._on)
         # carried[i, b]: arm joint i (0-based) moves body b
         self._g_carried = (seg[None, :] >= torch.arange(1, self.dof + 1, device=dev)[:, None]).to(torch.float64)
-        self._prismatic = torch.tensor([row.type == "prismatic" for row in PSM_DH[: self.dof]], device=dev)
+        self._prismatic = torch.tensor([s["kind"] == "slider" for s in arm], device=dev)
         # start: every env posed at the initial joint values by the engine's reset
         q0 = torch.as_tensor(np.asarray(initial_q, dtype=np.float64)[None, : self.dof], **self._on).repeat(N, 1)
         jaw0 = torch.full((N, 1), float(initial_jaw), **self._on)
@@ -581,29 +727,31 @@ class ArmBodies:
         self.engine.reset_envs(list(range(N)))
 
     # ------------------------------------------------------------------ kinematics
+    def _values(self, q, jaw):
+        return torch.cat([q[:, : self.dof].to(**self._on), jaw.to(**self._on)], dim=-1)
+
     def _fk_links(self, q, jaw, *, all_links=False, with_base=True):
         """(M, dof), (M, 1) float64 -> {link: (M, 4, 4)} (numpy (4, 4) for M = 1 unless all_links)."""
-        th = torch.cat([q[:, : self.dof], jaw], dim=-1) @ self._expand.T.to(q) + self._shift.to(q)
-        frames = self.chain.forward_kinematics(th)
-        base = self.base.to(q) if with_base else torch.eye(4, dtype=q.dtype, device=q.device)
+        F = self.chain.link_poses(torch.cat([q[:, : self.dof], jaw], dim=-1))  # (M, L, 4, 4)
+        if with_base:
+            F = self.base.to(q) @ F
         if all_links:
-            return {name: frame.get_matrix() for name, frame in frames.items()}
-        return {name: (base @ frames[name].get_matrix())[0].cpu().numpy() for name in frames}
+            return {name: F[:, k] for k, name in enumerate(self.chain.links)}
+        return {name: F[0, k].cpu().numpy() for k, name in enumerate(self.chain.links)}
 
     def urdf_joints(self, q: torch.Tensor, jaw: torch.Tensor) -> tuple[list[str], torch.Tensor]:
         """Every moving URDF joint's name and value ((M, J)), mimic joints included: what
         robot_state_publisher reads from /joint_states."""
-        th = torch.cat([q[:, : self.dof].to(**self._on), jaw.to(**self._on)], dim=-1) @ self._expand.T + self._shift
-        return self.chain.get_joint_parameter_names(), th
+        return list(self.chain.joint_names), self.chain.values(self._values(q, jaw))
 
     def link_transforms(self, q: torch.Tensor, jaw: torch.Tensor) -> tuple[list[tuple[str, str]], torch.Tensor]:
         """[(parent link, child link)] of every URDF joint and (M, J, 4, 4) child in parent:
         the transforms robot_state_publisher puts on /tf."""
-        th = torch.cat([q[:, : self.dof].to(**self._on), jaw.to(**self._on)], dim=-1) @ self._expand.T + self._shift
-        frames = self.chain.forward_kinematics(th)
-        pairs = [(j.parent, j.child) for j in self.urdf.robot.joints if j.parent in frames and j.child in frames]
-        parent = torch.stack([frames[a].get_matrix() for a, _ in pairs], dim=1)
-        child = torch.stack([frames[b].get_matrix() for _, b in pairs], dim=1)
+        F = self.chain.link_poses(self._values(q, jaw))
+        index = {name: k for k, name in enumerate(self.chain.links)}
+        pairs = [(j.parent, j.child) for j in self.urdf.robot.joints if j.parent in index and j.child in index]
+        parent = F[:, [index[a] for a, _ in pairs]]
+        child = F[:, [index[b] for _, b in pairs]]
         return pairs, torch.linalg.solve(parent, child)
 
     # ------------------------------------------------------------------ per tick
@@ -623,9 +771,10 @@ class ArmBodies:
         """(M, >= dof) -> (M, dof): generalized gravity force on each arm joint (N m or N) from the
         dynamic bodies it carries (jaw blades counted as rigid on the wrist)."""
         q = q[:, : self.dof].to(**self._on)
-        F = self.base @ dh_forward_kinematics(q, all_frames=True)[:, : self.dof]  # (M, dof, 4, 4)
+        F = self.base @ self._ref_chain.link_poses(torch.cat([q, torch.zeros_like(q[:, :1])], 1))  # (M, dof, 4, 4)
         frames = torch.cat([self.base.expand(q.shape[0], 1, 4, 4), F], dim=1)
-        z, o = F[..., :3, 2], F[..., :3, 3]  # joint axes and origins (M, dof, 3)
+        z = (F[..., :3, :3] @ self._g_axis[..., None])[..., 0]  # joint axes and anchors (M, dof, 3)
+        o = (F[..., :3, :3] @ self._g_anchor[..., None])[..., 0] + F[..., :3, 3]
         Tb = frames[:, self._g_seg]  # (M, B, 4, 4)
         com = (Tb[..., :3, :3] @ self._g_com[None, :, :, None]).squeeze(-1) + Tb[..., :3, 3]  # (M, B, 3)
         moments = torch.linalg.cross(com, self._g_force.expand_as(com), dim=-1)  # (M, B, 3)
@@ -721,7 +870,7 @@ class ArmBodies:
         p = torch.from_dlpack(self.engine.buffer("rigid.positions"))[rows, :3].to(torch.float64).cpu()
         q = torch.from_dlpack(self.engine.buffer("rigid.rotations"))[rows].to(torch.float64).cpu()
         T = torch.eye(4, dtype=torch.float64).repeat(len(rows), 1, 1)
-        T[:, :3, :3] = quaternion_to_matrix(q[:, [3, 0, 1, 2]])  # the engine's xyzw as w, x, y, z
+        T[:, :3, :3] = _quat_matrices(q)
         T[:, :3, 3] = p
         return T @ torch.as_tensor(np.linalg.inv(self._needle_frame_in_arc))
 

@@ -1,9 +1,8 @@
 """Batched kinematics the twin publishes: tool-tip FK, geometric Jacobian, IK, pose conversions.
 
-FK and the Jacobian come from the DH frames (cressim.robots.dh), which tests/robots check
-against the URDF to 1e-7 m: computing the Jacobian from the frames' z axes takes 0.3 ms for
-a batch where pytorch-kinematics' jacobian_tensor takes 17 ms on this CPU, and the twin does
-it every tick. IK is cressim.robots.PSM's closed form (limits and a reachable flag).
+FK and the Jacobian are the URDF chain's (cressim.robots.chain) over the 6-joint interface; the
+twin computes both every tick for a few arms, which the compiled chain does in about 0.1-0.2 ms.
+IK is cressim.robots.PSM's closed form (limits and a reachable flag).
 
 The twin always speaks the 6-joint dVRK interface; a 4-dof (wrist-less) tool has its wrist
 joints fixed at 0 (their limits are [0, 0]).
@@ -13,12 +12,11 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from pytorch_kinematics.transforms import matrix_to_quaternion
+from .chain import Chain, rotation_xyzw
+from .dvrk import PSM_JOINTS
+from .psm import BASE_LINK, PSM, SHAFT_LINK, TIP_LINK
 
-from .dh import PSM_DH, PSM_JOINT_NAMES, TOOL_TIP_OFFSET, dh_forward_kinematics
-from .psm import PSM
-
-INTERFACE_DOF = len(PSM_JOINT_NAMES)
+INTERFACE_DOF = len(PSM_JOINTS)
 
 
 class ArmKinematics:
@@ -31,29 +29,23 @@ class ArmKinematics:
         self.lower, self.upper = lower, upper
         self.lower_np, self.upper_np = lower.cpu().numpy(), upper.cpu().numpy()
         self.jaw_limits = psm.jaw_limits  # None for a tool without jaws
-        self.tip = torch.as_tensor(TOOL_TIP_OFFSET, **kw)
-        self.prismatic = torch.tensor([row.type == "prismatic" for row in PSM_DH], device=self.device)
+        # the 6 interface columns; a wrist-less tool's URDF has no wrist joints to read theirs
+        self.chain = Chain(psm.urdf, sources=PSM_JOINTS, base=BASE_LINK, tip=TIP_LINK, links=(SHAFT_LINK, TIP_LINK))
         self.present = torch.arange(INTERFACE_DOF, device=self.device) < self.dof  # joints this tool has
 
     def forward(self, q: torch.Tensor) -> torch.Tensor:
         """(M, 6) -> (M, 4, 4): tool tip in the RCM frame (PSM1_base)."""
-        return dh_forward_kinematics(q * self.present, tool_tip=None) @ self.tip
+        return self.chain.forward(q)
 
     def jacobian(self, q: torch.Tensor):
         """(M, 6) -> (J (M, 6, 6), T (M, 4, 4)): spatial Jacobian [v; w] of the tip in PSM1_base.
+        Joints the tool lacks get 0."""
+        return self.chain.jacobian(q)
 
-        Modified DH: joint i turns about (or slides along) z of frame i. Absent joints get 0.
-        """
-        frames = dh_forward_kinematics(q * self.present, all_frames=True)  # (M, 6, 4, 4)
-        z = frames[..., :3, 2]  # (M, 6, 3)
-        origins = frames[..., :3, 3]
-        tip = frames[:, -1] @ self.tip
-        lever = tip[:, None, :3, 3] - origins
-        revolute_v = torch.linalg.cross(z, lever, dim=-1)
-        v = torch.where(self.prismatic[None, :, None], z, revolute_v)
-        w = torch.where(self.prismatic[None, :, None], torch.zeros_like(z), z)
-        J = torch.cat([v, w], dim=-1).transpose(1, 2) * self.present  # (M, 6, 6)
-        return J, tip
+    def instrument(self, q: torch.Tensor) -> torch.Tensor:
+        """(M, 6) -> (M, 2, 3): where the instrument's shaft starts (the tool base, DH frame 3's
+        origin) and ends (the tip: the jaw pivot, or a straight tool's end) in PSM1_base."""
+        return self.chain.link_poses(q)[..., :3, 3]
 
     def inverse(self, T: torch.Tensor, seed: torch.Tensor):
         """(M, 4, 4), seed (M, 6) -> (q (M, 6), reachable (M,) bool)."""
@@ -98,12 +90,6 @@ def pose7_to_matrix(p: np.ndarray) -> np.ndarray:
                  [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]]
     T[:3, 3] = p[:3]
     return T
-
-
-def rotation_xyzw(R) -> tuple:
-    """x, y, z, w of a 3x3 rotation matrix (the engine's quaternion order)."""
-    q = matrix_to_quaternion(torch.as_tensor(np.asarray(R), dtype=torch.float64))  # w, x, y, z
-    return (float(q[1]), float(q[2]), float(q[3]), float(q[0]))
 
 
 __all__ = ["INTERFACE_DOF", "ArmKinematics", "body_jacobian", "matrix_to_pose7", "pose7_to_matrix", "rotation_xyzw"]

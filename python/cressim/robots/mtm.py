@@ -1,9 +1,10 @@
-"""The dVRK master tool manipulator (MTM): standard-DH tables, forward kinematics, Jacobian, IK.
+"""The dVRK master tool manipulator (MTM): FK and Jacobian of robots/dvrk_mtm/mtml.urdf and
+mtmr.urdf on the one kinematics (cressim.robots.chain), and a numerical IK.
 
-Facts from the dVRK's own kinematics files (sawIntuitiveResearchKit share/kinematic/mtml.json and
-mtmr.json: 7 revolute joints, standard DH, T_i = Rz(theta) Tz(d) Tx(a) Rx(alpha) with theta =
-q + offset; MTML and MTMR differ only in the outer yaw's and the wrist platform's limits); the
-code is ours. Frame 0 is the MTM's DH base, frame 7 the grip (the dVRK's local/measured_cp).
+The URDFs are the dVRK's standard-DH tables (mtml.json, mtmr.json: 7 revolute joints; MTML and
+MTMR differ only in the outer yaw's and the wrist platform's limits), written by
+robots/dvrk_mtm/tools from cressim.robots.dvrk_dh, which tests/robots check them against. Frame 0
+is the MTM's DH base (`<side>_base`), frame 7 the grip (the dVRK's local/measured_cp).
 
 The arm has one joint more than the grip's pose needs (the wrist platform), so the inverse
 (`mtm_inverse_kinematics`) is numerical: damped least squares from a seed (the last joints),
@@ -11,88 +12,54 @@ clamped to the limits, the redundancy resolved by the smallest joint motion.
 """
 from __future__ import annotations
 
+import functools
 import math
-from typing import NamedTuple
+from pathlib import Path
 
 import numpy as np
 
+from .chain import Chain
+from .dvrk import MTM_JOINTS
+from .psm import robot_dir
 
-class MtmRow(NamedTuple):
-    name: str
-    alpha: float
-    a: float
-    d: float
-    offset: float
-    lower: float
-    upper: float
-
-
-def _table(yaw_limits, platform_limits):
-    h = math.pi / 2
-    return (MtmRow("outer_yaw", h, 0.0, 0.0, -h, *yaw_limits),
-            MtmRow("shoulder_pitch", 0.0, 0.2794, 0.0, -h, -0.261799, 0.872665),
-            MtmRow("elbow_pitch", -h, 0.3645, 0.0, h, -0.872665, 0.610865),
-            MtmRow("wrist_platform", h, 0.0, 0.1506, 0.0, *platform_limits),
-            MtmRow("wrist_pitch", -h, 0.0, 0.0, 0.0, -1.5708, 3.14159),
-            MtmRow("wrist_yaw", h, 0.0, 0.0, -h, -0.785398, 0.785398),
-            MtmRow("wrist_roll", 0.0, 0.0, 0.0, h, -8.37758, 7.85398))
-
-
-MTM_DH = {"MTML": _table((-0.698132, 1.13446), (-3.49066, 1.5708)),
-          "MTMR": _table((-1.13446, 0.698132), (-1.22173, 4.01426))}
-MTM_JOINT_NAMES = tuple(r.name for r in MTM_DH["MTMR"])
+MTM_JOINT_NAMES = MTM_JOINTS
 MTM_HOME = np.zeros(7)  # where the dVRK homes an MTM
 
 
-def mtm_table(name: str):
-    """The DH table of MTML or MTMR (an MTM named otherwise, `MTMR2` say, by its side's letter)."""
-    side = "MTML" if name.upper().startswith("MTML") else "MTMR"
-    return MTM_DH[side]
+def mtm_side(name: str) -> str:
+    """MTML or MTMR (an MTM named otherwise, `MTMR2` say, by its side's letter)."""
+    return "MTML" if name.upper().startswith("MTML") else "MTMR"
+
+
+def mtm_urdf(name: str) -> Path:
+    return robot_dir().parent / "dvrk_mtm" / f"{mtm_side(name).lower()}.urdf"
+
+
+@functools.cache
+def _chain(side: str) -> Chain:
+    frames = tuple(f"{side}_{joint}_link" for joint in MTM_JOINTS)  # DH frames 1..7
+    return Chain(mtm_urdf(side), sources=MTM_JOINTS, base=f"{side}_base", tip=frames[-1], links=frames)
+
+
+def mtm_chain(name: str) -> Chain:
+    return _chain(mtm_side(name))
 
 
 def mtm_limits(name: str) -> tuple[np.ndarray, np.ndarray]:
-    table = mtm_table(name)
-    return np.array([r.lower for r in table]), np.array([r.upper for r in table])
-
-
-def _columns(name: str):
-    """The table as arrays (alpha's cosine and sine, a, d, offset), made once per side."""
-    table = mtm_table(name)
-    if table not in _COLUMNS:
-        alpha = np.array([r.alpha for r in table])
-        _COLUMNS[table] = (np.cos(alpha), np.sin(alpha), np.array([r.a for r in table]), np.array([r.d for r in table]),
-                           np.array([r.offset for r in table]))
-    return _COLUMNS[table]
-
-
-_COLUMNS = {}
+    chain = mtm_chain(name)
+    return chain.lower.copy(), chain.upper.copy()
 
 
 def mtm_forward_kinematics(name: str, q, *, all_frames: bool = False) -> np.ndarray:
-    """(7,) joint values -> (4, 4) grip (frame 7) in the MTM's DH base, or (7, 4, 4) frames 1..7.
-    Every link's Rz(theta) Tz(d) Tx(a) Rx(alpha) at once, then the product down the chain (the IK
-    calls this a few times a tick)."""
-    ca, sa, a, d, offset = _columns(name)
-    theta = np.asarray(q, dtype=np.float64) + offset
-    ct, st = np.cos(theta), np.sin(theta)
-    L = np.zeros((7, 4, 4))
-    L[:, 0, 0], L[:, 0, 1], L[:, 0, 2], L[:, 0, 3] = ct, -st * ca, st * sa, a * ct
-    L[:, 1, 0], L[:, 1, 1], L[:, 1, 2], L[:, 1, 3] = st, ct * ca, -ct * sa, a * st
-    L[:, 2, 1], L[:, 2, 2], L[:, 2, 3], L[:, 3, 3] = sa, ca, d, 1.0
-    for i in range(1, 7):
-        L[i] = L[i - 1] @ L[i]
-    return L if all_frames else L[-1]
+    """(7,) joint values -> (4, 4) grip (frame 7) in the MTM's DH base, or (7, 4, 4) frames 1..7."""
+    chain = mtm_chain(name)
+    q = np.asarray(q, dtype=np.float64)
+    return chain.link_poses(q) if all_frames else chain.forward(q)
 
 
 def mtm_jacobian(name: str, q) -> tuple[np.ndarray, np.ndarray]:
     """(6, 7) geometric Jacobian of the grip (linear, angular; base axes) and the grip (4, 4)."""
-    F = mtm_forward_kinematics(name, q, all_frames=True)
-    J = np.empty((6, 7))
-    z, r = J[3:], np.empty((3, 7))  # joint i turns about frame i-1's z, at frame i-1's origin
-    z[:, 0], z[:, 1:] = (0.0, 0.0, 1.0), F[:-1, :3, 2].T
-    r[:, 0], r[:, 1:] = F[-1, :3, 3], F[-1, :3, 3, None] - F[:-1, :3, 3].T  # to the grip
-    J[0], J[1], J[2] = z[1] * r[2] - z[2] * r[1], z[2] * r[0] - z[0] * r[2], z[0] * r[1] - z[1] * r[0]
-    return J, F[-1]
+    return mtm_chain(name).jacobian(np.asarray(q, dtype=np.float64))
 
 
 def _rotation_error(R_goal, R):
@@ -129,5 +96,5 @@ def mtm_inverse_kinematics(name: str, T_goal: np.ndarray, seed, *, iterations: i
     return q, False
 
 
-__all__ = ["MTM_DH", "MTM_HOME", "MTM_JOINT_NAMES", "mtm_forward_kinematics", "mtm_inverse_kinematics",
-           "mtm_jacobian", "mtm_limits", "mtm_table"]
+__all__ = ["MTM_HOME", "MTM_JOINT_NAMES", "mtm_chain", "mtm_forward_kinematics", "mtm_inverse_kinematics",
+           "mtm_jacobian", "mtm_limits", "mtm_side", "mtm_urdf"]

@@ -5,38 +5,33 @@
     J = psm.jacobian(q)                       # (N, 6, 6), [v; w] of the tip in PSM1_base
     q, ok = psm.inverse_kinematics(T, seed=q)  # closed form; ok[i] False: pose i unreachable
 
-FK and Jacobians run the URDF through pytorch-kinematics, so the meshes/links the engine
-shows and the poses the twin reports come from one model. The IK is closed form on the DH
-table (dh.py); tests/robots check that the URDF and the DH table agree.
+FK and Jacobians are the URDF's (cressim.robots.chain), so the links the engine shows and the
+poses the twin reports come from one model. The IK is closed form on the frames of the URDF's
+insertion and wrist_yaw links, which are the dVRK's DH frames 3 and 6 (tests/robots check the
+URDF against the DH table); the tool's lengths it needs are read off the chain at q = 0.
 """
 from __future__ import annotations
 
 import math
 import os
+
+import numpy as np
 from pathlib import Path
 from typing import Mapping, NamedTuple, Sequence
 
-import pytorch_kinematics as pk
 import torch
-import yourdfpy
 
-from .dh import PSM_DH, PSM_JOINT_NAMES, PSM_OLD_JOINT_NAMES, TOOL_TIP_OFFSET, dh_forward_kinematics
+from .chain import Chain, load_urdf
+from .dvrk import JAW, PSM_JOINTS, canonical_joint_name
 
 BASE_LINK = "PSM1_base"  # the remote centre of motion, DH frame 0
 TIP_LINK = "PSM1_tool_tip_link"  # DH frame 6 times the tool-tip offset
-JAW_LINK = "PSM1_wrist_yaw_link"  # the jaws' pivot; its +y runs along the 10 mm jaws
+JAW_LINK = "PSM1_wrist_yaw_link"  # the jaws' pivot, DH frame 6; its +y runs along the 10 mm jaws
+SHAFT_LINK = "PSM1_insertion_link"  # DH frame 3: its z runs along the shaft, through the RCM
+WRIST_LINK = "PSM1_wrist_pitch_link"  # DH frame 5: its origin is the wrist point (on the shaft)
 JAW_GRASP_POINT = (0.0, 0.006, 0.0)  # m, in JAW_LINK: between the jaws, where they hold what they grasp
 ROBOT_DIR_ENV = "CRESSIM_ROBOT_DIR"  # overrides where robots/dvrk_psm is
 
-# dVRK 2.2 and earlier names -> 2.3 names; the new names map to themselves
-_CANONICAL = {**dict(zip(PSM_OLD_JOINT_NAMES, PSM_JOINT_NAMES)), **{n: n for n in PSM_JOINT_NAMES}}
-
-# distances along the tool axis from the DH table: the tool base is `_INSERTION_ZERO` behind
-# the RCM at q3 = 0, the wrist pitch axis `_SHAFT` beyond the tool base, the jaw pivot `_WRIST`
-# beyond the wrist pitch axis (with the wrist straight)
-_INSERTION_ZERO = -PSM_DH[2].offset
-_SHAFT = PSM_DH[3].d
-_WRIST = PSM_DH[5].a
 
 
 def robot_dir() -> Path:
@@ -57,14 +52,6 @@ def robot_dir() -> Path:
     )
 
 
-def canonical_joint_name(name: str) -> str:
-    """'outer_yaw' -> 'yaw' (dVRK 2.2 names); new names pass through. Raises on others."""
-    try:
-        return _CANONICAL[name]
-    except KeyError:
-        raise ValueError(f"unknown PSM joint {name!r}; expected one of {PSM_JOINT_NAMES}") from None
-
-
 class IKResult(NamedTuple):
     q: torch.Tensor  # (N, dof), always within the joint limits
     reachable: torch.Tensor  # (N,) bool; False: q is only the nearest in-limit guess
@@ -78,40 +65,29 @@ class PSM:
         if not path.is_file():
             path = robot_dir() / urdf
         self.urdf_path = path
-        self.urdf = yourdfpy.URDF.load(str(path), build_scene_graph=False, load_meshes=False)
+        self.urdf = load_urdf(path)
         self.device, self.dtype = torch.device(device), dtype
 
         joints = {j.name: j for j in self.urdf.robot.joints}
         actuated = set(self.urdf.actuated_joint_names)
         # the arm joints this instrument has, in dVRK order (a wrist-less tool has 4)
-        self.joint_names = tuple(n for n in PSM_JOINT_NAMES if n in actuated)
+        self.joint_names = tuple(n for n in PSM_JOINTS if n in actuated)
         self.dof = len(self.joint_names)
-        if self.joint_names != PSM_JOINT_NAMES[: self.dof] or self.dof < 4:
-            raise ValueError(f"{path}: arm joints {self.joint_names} are not a prefix of {PSM_JOINT_NAMES}")
+        if self.joint_names != PSM_JOINTS[: self.dof] or self.dof < 4:
+            raise ValueError(f"{path}: arm joints {self.joint_names} are not a prefix of {PSM_JOINTS}")
         limit = [joints[n].limit for n in self.joint_names]
         self.lower = torch.tensor([lim.lower for lim in limit], device=self.device, dtype=dtype)
         self.upper = torch.tensor([lim.upper for lim in limit], device=self.device, dtype=dtype)
         self.effort = torch.tensor([lim.effort for lim in limit], device=self.device, dtype=dtype)
-        self.has_jaw = "jaw" in actuated
-        self.jaw_limits = (joints["jaw"].limit.lower, joints["jaw"].limit.upper) if self.has_jaw else None
+        self.has_jaw = JAW in actuated
+        self.jaw_limits = (joints[JAW].limit.lower, joints[JAW].limit.upper) if self.has_jaw else None
 
-        # pytorch-kinematics ignores <mimic>: its chain has one value per moving joint. We keep a
-        # map from our actuated joints to the chain's (parallelogram joints follow `pitch`).
-        chain = pk.build_chain_from_urdf(path.read_bytes())
-        self.chain = pk.SerialChain(chain, TIP_LINK, BASE_LINK).to(dtype=dtype, device=self.device)
-        chain_joints = self.chain.get_joint_parameter_names()
-        expand = torch.zeros(len(chain_joints), self.dof, dtype=torch.float64)
-        shift = torch.zeros(len(chain_joints), dtype=torch.float64)
-        for row, name in enumerate(chain_joints):
-            mimic = joints[name].mimic
-            source, gain = (mimic.joint, mimic.multiplier or 1.0) if mimic else (name, 1.0)
-            if source not in self.joint_names:
-                raise ValueError(f"{path}: chain joint {name!r} is not driven by an arm joint")
-            expand[row, self.joint_names.index(source)] = gain
-            shift[row] = (mimic.offset or 0.0) if mimic else 0.0
-        self._expand = expand.to(device=self.device, dtype=dtype)
-        self._shift = shift.to(device=self.device, dtype=dtype)
-        self._tip_index = int(self.chain.get_frame_indices(TIP_LINK)[0])
+        # the links from the base to the tool tip (the jaw blades, off that way, need no jaw value)
+        # the DH frames' links the IK reads, and the tip (the parallelogram's bars not asked for, its
+        # three mimic joints compile to one hinge about the RCM)
+        self.chain = Chain(self.urdf, sources=self.joint_names, base=BASE_LINK, tip=TIP_LINK,
+                           links=[n for n in (SHAFT_LINK, WRIST_LINK, JAW_LINK, TIP_LINK) if n in self.urdf.link_map])
+        self._shaft = _shaft_facts(self.chain, self.dof)
 
     def __repr__(self):
         return f"PSM({self.urdf_path.name!r}, dof={self.dof}, device={self.device})"
@@ -153,22 +129,18 @@ class PSM:
             raise ValueError(f"expected (..., {self.dof}) joint values {self.joint_names}, got {tuple(q.shape)}")
         return q
 
-    def _chain_values(self, q):
-        q = self._check_width(torch.as_tensor(q, device=self.device, dtype=self.dtype))
-        return q.reshape(-1, self.dof) @ self._expand.T + self._shift, q.shape[:-1]
+    def _q(self, q):
+        return self._check_width(torch.as_tensor(q, device=self.device, dtype=self.dtype))
 
     # ------------------------------------------------------------------ kinematics
     def forward_kinematics(self, q) -> torch.Tensor:
         """Tool-tip pose in PSM1_base: (..., dof) -> (..., 4, 4)."""
-        th, lead = self._chain_values(q)
-        T = self.chain.forward_kinematics_tensor(th)[self._tip_index]
-        return T.reshape(*lead, 4, 4)
+        return self.chain.forward(self._q(q))
 
     def link_pose(self, link: str, q) -> torch.Tensor:
-        """Pose of a link on the base-to-tip chain in PSM1_base: (..., dof) -> (..., 4, 4)."""
-        th, lead = self._chain_values(q)
-        index = self.chain.get_frame_indices(link)
-        return self.chain.forward_kinematics_tensor(th)[int(index[0])].reshape(*lead, 4, 4)
+        """Pose in PSM1_base of the insertion, wrist pitch, wrist yaw (JAW_LINK) or tip link:
+        (..., dof) -> (..., 4, 4)."""
+        return self.chain.link_pose(link, self._q(q))
 
     def jacobian(self, q, *, return_pose: bool = False):
         """Geometric Jacobian of the tool tip in PSM1_base: (..., dof) -> (..., 6, dof).
@@ -176,10 +148,8 @@ class PSM:
         Rows are [linear velocity of the tip point; angular velocity], both in PSM1_base
         (the dVRK's spatial Jacobian uses the same base frame). With return_pose also the tip pose.
         """
-        th, lead = self._chain_values(q)
-        J, T = self.chain.jacobian_tensor(th, ret_eef_pose=True)
-        J = (J @ self._expand).reshape(*lead, 6, self.dof)  # chain rule through the mimic joints
-        return (J, T.reshape(*lead, 4, 4)) if return_pose else J
+        J, T = self.chain.jacobian(self._q(q))
+        return (J, T) if return_pose else J
 
     def inverse_kinematics(self, pose, *, seed=None, strict: bool = False,
                            position_tol: float = 1e-5, rotation_tol: float = 1e-4) -> IKResult:
@@ -205,8 +175,8 @@ class PSM:
             reference = self._check_width(torch.as_tensor(seed, device=self.device)).to(torch.float64)
             reference = reference.reshape(-1, self.dof).expand(T.shape[0], self.dof)
         lower, upper = self.lower.double(), self.upper.double()
-        tip_rot = torch.as_tensor(TOOL_TIP_OFFSET[:3, :3], device=self.device, dtype=torch.float64)
-        R6 = T[:, :3, :3] @ tip_rot.T  # DH frame 6 (the tip offset is a pure rotation)
+        tip_rot = torch.as_tensor(self._shaft["tip_rotation"], device=self.device, dtype=torch.float64)
+        R6 = T[:, :3, :3] @ tip_rot.T  # DH frame 6 (4 without a wrist); the tip offset is a pure rotation
 
         best_q = best_cost = None
         for q in self._ik_candidates(R6, T[:, :3, 3]):
@@ -215,7 +185,7 @@ class PSM:
             q4 = torch.where(q4 < lower[3], q4 + 2 * math.pi, q4)  # reference, within limits
             q = torch.cat([q[:, :3], q4[:, None], q[:, 4:]], dim=-1)
             q = torch.nan_to_num(torch.maximum(torch.minimum(q, upper), lower))
-            err_p, err_r = _pose_error(dh_forward_kinematics(q), T)
+            err_p, err_r = _pose_error(self.chain.forward(q), T)
             exact = (err_p < position_tol) & (err_r < rotation_tol)
             # exact ones first, nearest the reference among them; others by their error
             cost = torch.where(exact, (q - reference).abs().sum(-1), 1e3 + err_p + err_r)
@@ -238,36 +208,55 @@ class PSM:
             z6 = R6[:, :, 2]
             n = torch.linalg.cross(z6, p)
             n = n / n.norm(dim=-1, keepdim=True).clamp_min(1e-12)
-            along = _INSERTION_ZERO - _SHAFT  # RCM to wrist point = (q3 - along) along the shaft
+            along, wrist = self._shaft["wrist_along"], self._shaft["wrist"]  # RCM to wrist point: q3 - along
             shafts = []
             for sign in (1.0, -1.0):
-                p5 = p - _WRIST * torch.linalg.cross(z6, sign * n)
+                p5 = p - wrist * torch.linalg.cross(z6, sign * n)
                 r = p5.norm(dim=-1, keepdim=True)
                 # the wrist point beyond the RCM (usual), or still behind it (q3 < along)
                 shafts += [(p5 / r.clamp_min(1e-12), along + r[:, 0]), (-p5 / r.clamp_min(1e-12), along - r[:, 0])]
         else:
-            # straight tool: the shaft runs along y6 (the tip's approach axis), and the tip lies on
-            # it (q3 - along) beyond the RCM; position-free, so exact even near the RCM
-            z3 = R6[:, :, 1]
-            along = _INSERTION_ZERO - _SHAFT - _WRIST
+            # straight tool: the shaft runs along z4, and the tip lies on it (q3 - along) beyond the
+            # RCM; position-free, so exact even near the RCM
+            z3 = R6[:, :, 2]
+            along = self._shaft["tip_along"]
             shafts = [(z3, along + (p * z3).sum(-1))]
         for z3, q3 in shafts:
-            # from the DH table, z3 = (sin q1 cos q2, -sin q2, -cos q1 cos q2)
+            # in DH frames, z3 = (sin q1 cos q2, -sin q2, -cos q1 cos q2)
             q2 = torch.atan2(-z3[:, 1], torch.hypot(z3[:, 0], z3[:, 2]))
             q1 = torch.atan2(z3[:, 0], -z3[:, 2])
-            R3 = dh_forward_kinematics(torch.stack([q1, q2, q3], dim=-1), all_frames=True)[:, 2, :3, :3]
+            q123 = torch.stack([q1, q2, q3, *[torch.zeros_like(q1)] * (self.dof - 3)], dim=-1)
+            R3 = self.chain.link_pose(SHAFT_LINK, q123)[:, :3, :3]
             M = R3.transpose(-1, -2) @ R6  # rotation from frame 3 to frame 6
             if self.dof == 6:
-                # from the DH table, M's third column is (cos q4 cos q5, sin q4 cos q5, -sin q5)
+                # in DH frames, M's third column is (cos q4 cos q5, sin q4 cos q5, -sin q5)
                 # and its third row starts (sin q6 cos q5, cos q6 cos q5); |q5| < pi/2 in limits
                 q4 = torch.atan2(M[:, 1, 2], M[:, 0, 2])
                 q5 = torch.atan2(-M[:, 2, 2], torch.hypot(M[:, 0, 2], M[:, 1, 2]))
                 q6 = torch.atan2(M[:, 2, 0], M[:, 2, 1])
                 rest = [q5, q6]
             else:
-                q4 = torch.atan2(-M[:, 0, 0], M[:, 1, 0])  # first column (-sin q4, cos q4, 0)
+                q4 = torch.atan2(M[:, 1, 0], M[:, 0, 0])  # M = Rz(q4)
                 rest = []
             yield torch.stack([q1, q2, q3, q4, *rest], dim=-1)
+
+
+def _shaft_facts(chain: Chain, dof: int) -> dict:
+    """The tool's lengths along its shaft at q = 0, from the chain (float64): where the wrist point
+    (the wrist pitch axis on the shaft; the tip for a wrist-less tool) sits along the shaft from
+    the RCM at insertion 0 (negative: behind it), the wrist pitch axis to the jaw pivot, and the
+    tip's rotation from DH frame 6 (the jaw pivot link)."""
+    zero = torch.zeros(1, dof, dtype=torch.float64)
+    poses = {n: chain.link_pose(n, zero)[0].numpy() for n in chain.links}
+    z3 = poses[SHAFT_LINK][:3, 2]
+    facts = {"tip_along": -float(poses[TIP_LINK][:3, 3] @ z3)}
+    if dof == 6:
+        facts["wrist_along"] = -float(poses[WRIST_LINK][:3, 3] @ z3)
+        facts["wrist"] = float(np.linalg.norm(poses[JAW_LINK][:3, 3] - poses[WRIST_LINK][:3, 3]))
+        facts["tip_rotation"] = poses[JAW_LINK][:3, :3].T @ poses[TIP_LINK][:3, :3]
+    else:  # a straight tool: from DH frame 4 (frame 3 turned by the roll) to the tip
+        facts["tip_rotation"] = poses[SHAFT_LINK][:3, :3].T @ poses[TIP_LINK][:3, :3]
+    return facts
 
 
 def _pose_error(A, B):
@@ -280,4 +269,5 @@ def _pose_error(A, B):
     return err_p, torch.atan2(sin.norm(dim=-1) / 2, cos)
 
 
-__all__ = ["BASE_LINK", "IKResult", "PSM", "TIP_LINK", "canonical_joint_name", "robot_dir"]
+__all__ = ["BASE_LINK", "IKResult", "JAW_GRASP_POINT", "JAW_LINK", "PSM", "SHAFT_LINK", "TIP_LINK", "WRIST_LINK",
+           "canonical_joint_name", "robot_dir"]

@@ -43,7 +43,6 @@ import yourdfpy
 import cressim
 from cressim.robots import robot_dir
 from cressim.robots.arm_bodies import ArmBodies, _link_shapes
-from cressim.robots.dh import dh_forward_kinematics
 from cressim.robots.ecm import ecm_forward_kinematics, ecm_inverse_kinematics
 from cressim.robots.kinematics import matrix_to_pose7, pose7_to_matrix, rotation_xyzw
 from cressim.scene_file import add_scene
@@ -401,10 +400,12 @@ class Cart:
         """The PSMs' instruments and the ECM's scope that start or stop touching (arm_clearance):
         a warning, then a status, on each arm of the pair."""
         capsules = {}
-        for arms, rows in self.groups:  # every PSM's DH frames in one batched call
-            F = self.psm_bases[rows][:, None] @ dh_forward_kinematics(arms.measured, all_frames=True).numpy()
+        for arms, rows in self.groups:  # every PSM's instrument in one batched call
+            ends = arms.kin.instrument(arms.measured).numpy()  # (M, 2, 3): tool base, jaw pivot
+            B = self.psm_bases[rows]
+            F = B[:, None, :3, :3] @ ends[..., None] + B[:, None, :3, 3:]
             for r, k in enumerate(rows):
-                capsules[self.names[k]] = (F[r, 2, :3, 3], F[r, 5, :3, 3], INSTRUMENT_RADIUS)  # tool base to jaw pivot
+                capsules[self.names[k]] = (F[r, 0, :, 0], F[r, 1, :, 0], INSTRUMENT_RADIUS)
         F = self.ecm_base @ ecm_forward_kinematics(self.ecm.measured[0].numpy(), all_frames=True)
         capsules[self.ecm.name] = (F[2, :3, 3], F[3, :3, 3], SCOPE_RADIUS)
         onsets, partings = self.clearance.update(capsules)

@@ -1,26 +1,25 @@
 """Write robots/dvrk_ecm/ecm.urdf: CRESSim's own model of the dVRK ECM with a straight endoscope.
 
-Run from anywhere: `python robots/dvrk_ecm/tools/generate_ecm_urdf.py` (needs numpy, torch). The
+Run from anywhere: `python robots/dvrk_ecm/tools/generate_ecm_urdf.py` (needs numpy). The
 URDF is an output: change this script, run it, commit both.
 
 As robots/dvrk_psm/tools/generate_psm_urdf.py (whose shape, link and URDF writers this reuses):
 every joint frame and shape is placed in ECM_base coordinates at q = 0 and turned into URDF
-origins, the arm joints exactly on the DH frames of python/cressim/robots/ecm.py, so the URDF's
-forward kinematics equals the DH table's. The ECM is drawn without its parallelogram (the pitch
+origins, the arm joints exactly on the DH frames of python/cressim/robots/dvrk_dh.py (the dVRK's
+ecm.json, the tests' ground truth), so the URDF's forward kinematics equals the DH table's. The ECM is drawn without its parallelogram (the pitch
 link turns about the RCM directly); sizes and colours are our own rough choices.
 """
 from __future__ import annotations
 
 import importlib.util
 import sys
-import types
 from pathlib import Path
 
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
 ROBOT_DIR = HERE.parent
-ROBOTS_PY = ROBOT_DIR.parents[1] / "python" / "cressim" / "robots"
+DH_FILE = ROBOT_DIR.parents[1] / "python" / "cressim" / "robots" / "dvrk_dh.py"
 
 
 def _load(name, path):
@@ -32,10 +31,7 @@ def _load(name, path):
 
 
 # by file path, so that the compiled cressim package need not be importable here
-package = types.ModuleType("ecm_robots")
-package.__path__ = [str(ROBOTS_PY)]
-sys.modules["ecm_robots"] = package
-ecm = _load("ecm_robots.ecm", ROBOTS_PY / "ecm.py")
+ecm = _load("ecm_dh", DH_FILE)
 psm_gen = _load("psm_urdf_generator", ROBOT_DIR.parent / "dvrk_psm" / "tools" / "generate_psm_urdf.py")
 Joint, Link, box, cylinder, trans = psm_gen.Joint, psm_gen.Link, psm_gen.box, psm_gen.cylinder, psm_gen.trans
 

@@ -1,13 +1,13 @@
 """Write robots/dvrk_psm/psm_lnd.urdf, psm_suction.urdf and meshes/suction_nozzle.obj.
 
-Run from anywhere: `python robots/dvrk_psm/tools/generate_psm_urdf.py` (needs numpy, torch).
+Run from anywhere: `python robots/dvrk_psm/tools/generate_psm_urdf.py` (needs numpy).
 The URDFs are outputs: change this script, run it, commit both.
 
 How it works: every joint frame and every shape is placed in PSM1_base coordinates at the
 zero configuration (all joints 0); the script turns those world poses into URDF origins
 (parent -> child) and link-local shapes. The arm joints sit exactly on the DH frames of
-python/cressim/robots/dh.py, so the URDF's forward kinematics equals the DH table's for every
-joint vector. The dimensions of links, masses and colours are our own rough choices.
+python/cressim/robots/dvrk_dh.py (the dVRK's DH table, the tests' ground truth), so the URDF's forward
+kinematics equals the DH table's for every joint vector. The dimensions of links, masses and colours are our own rough choices.
 """
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 ROBOT_DIR = HERE.parent
-DH_FILE = ROBOT_DIR.parents[1] / "python" / "cressim" / "robots" / "dh.py"
+DH_FILE = ROBOT_DIR.parents[1] / "python" / "cressim" / "robots" / "dvrk_dh.py"
 
 
 def load_dh():
