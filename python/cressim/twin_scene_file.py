@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from cressim.config import Field, FieldError, parse, read_file
+from cressim.robots.dvrk import ARM_KINDS
 from cressim.scene_file import ENGINE_SECTIONS, TWIN_SECTIONS
 
 SCENE_DIR_ENV = "CRESSIM_SCENE_DIR"  # overrides where scenes/ is (an install outside the repo)
@@ -26,7 +27,7 @@ DYNAMICS = ("kinematic", "dynamic")  # arm.dynamics: the arm's links follow the 
 SENSORS = ("joints", "cartesian", "velocity", "wrench", "jacobian", "tf", "clock", "color", "depth", "segmentation", "ultrasound")
 
 
-CART_ARMS = {"ECM": "ecm", "PSM1": "psm", "PSM2": "psm", "PSM3": "psm", "MTML": "mtm", "MTMR": "mtm"}
+CART_ARMS = ARM_KINDS  # what a `cart:` may name, and its kind
 ECM_HOME = (0.0, 0.0, 0.05, 0.0)  # rad, m: the endoscope 5 cm in
 GRIPPER_LIMITS = (-0.35, 1.2)  # rad: the MTM gripper's range (about -20 to 70 degrees)
 

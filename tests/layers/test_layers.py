@@ -21,6 +21,7 @@ COMPILED = {"cressim._core"}  # the pybind11 module: no Python source to read
 # Bottom to top. A tier's layers are independent: none imports another of its tier. A module is
 # in the layer of the longest prefix that names it (`cressim` alone is the package's facade).
 LAYERS = (
+    {"dvrk facts": ("cressim.robots.dvrk", "cressim.robots.dvrk_dh")},  # names and DH tables: numpy at most
     {"engine": ("cressim", "cressim._core", "cressim.compute", "cressim.io", "cressim.tendons", "cressim.suture",
                 "cressim.tet_mesh_file", "cressim.sensors", "cressim.passes", "cressim.registration"),
      "record": ("cressim.record",),

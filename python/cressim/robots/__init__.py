@@ -23,16 +23,10 @@ _LAZY = {
     "ArmVisuals": "cressim.robots.arm_visuals",
 }
 
-# old spellings kept for callers not yet moved to cressim.robots.dvrk's names
-_ALIASES = {"PSM_JOINT_NAMES": "PSM_JOINTS"}
-
-
 def __getattr__(name):
-    if name in _ALIASES:
-        return getattr(importlib.import_module("cressim.robots.dvrk"), _ALIASES[name])
     if name in _LAZY:
         return getattr(importlib.import_module(_LAZY[name]), name)
     raise AttributeError(f"module 'cressim.robots' has no attribute {name!r}")
 
 
-__all__ = sorted(_LAZY)  # the aliases are left out on purpose
+__all__ = sorted(_LAZY)

@@ -31,7 +31,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import torch
 
-from cressim.robots import PSM, PSM_JOINT_NAMES, robot_dir
+from cressim.robots import PSM, robot_dir
+from cressim.robots.dvrk import PSM_JOINTS
 from cressim.robots.arm_bodies import ArmBodies, describe_health
 from cressim.robots.kinematics import INTERFACE_DOF, ArmKinematics, body_jacobian, matrix_to_pose7
 
@@ -94,7 +95,7 @@ class TwinArms(ArmModel):
         lower[:dof], upper[:dof] = self.psm.lower.numpy(), self.psm.upper.numpy()
         for what, rows in (("initial_jp", initial), ("home_jp", home)):
             for values in () if rows is None else rows[~np.isnan(rows).any(1)]:
-                problem = limit_refusal(values, PSM_JOINT_NAMES, lower, upper, what=what)
+                problem = limit_refusal(values, PSM_JOINTS, lower, upper, what=what)
                 if problem:
                     raise ConfigError(f"{scene.path}: arm.{what}: {problem}")
         camera = CameraSpec(width=config.value("camera_width"), height=config.value("camera_height"),
@@ -122,7 +123,7 @@ class TwinArms(ArmModel):
         jaw_v = (joints["jaw"].limit.velocity if self.psm.has_jaw else 1.0) * scene.velocity_ratio
         # the arms' state is (N, 6) rows and a few (N, 4, 4): kernel launches and syncs would cost a
         # GPU more than the math, so it lives on the CPU; the engine's buffers stay on its device
-        super().__init__(ArmKinematics(self.psm, "cpu"), PSM_JOINT_NAMES, num_envs=N, initial_q=initial,
+        super().__init__(ArmKinematics(self.psm, "cpu"), PSM_JOINTS, num_envs=N, initial_q=initial,
                          home_q=home, v_limit=v_limit, a_limit=v_limit * scene.acceleration_ratio, period_ns=0,
                          name=self.arm, names=names, measured_lag=scene.measured_lag, jaw_limits=self.psm.jaw_limits,
                          initial_jaw=jaw0, jaw_v_limit=jaw_v, jaw_a_limit=jaw_v * scene.acceleration_ratio)

@@ -43,6 +43,7 @@ import yourdfpy
 import cressim
 from cressim.robots import robot_dir
 from cressim.robots.arm_bodies import ArmBodies, _link_shapes
+from cressim.robots.ecm import ecm_urdf
 from cressim.robots.ecm import ecm_forward_kinematics, ecm_inverse_kinematics
 from cressim.robots.kinematics import matrix_to_pose7, pose7_to_matrix, rotation_xyzw
 from cressim.scene_file import add_scene
@@ -61,10 +62,6 @@ from .sensor_loop import process_threads
 EYES = ("left", "right")
 FIRST_GROUP_BIT = 8  # arm k's links are collision group 1 << (8 + k): clear of the scene files' groups
 IDS_PER_ARM = 32  # segmentation ids: arm k's bodies from 1 + 32 k; the scenery's after every arm's
-
-
-def ecm_urdf():
-    return robot_dir().parent / "dvrk_ecm" / "ecm.urdf"
 
 
 def _geometry_links(urdf_path) -> int:
@@ -471,4 +468,4 @@ MOTION_COMMANDS = ("servo_jp", "move_jp", "servo_cp", "move_cp", "servo_cv", "ja
 ROW_COMMANDS = ("state_command", "servo_jp", "move_jp", "servo_cp", "move_cp", "servo_cv", "jaw_servo_jp",
                 "jaw_move_jp", "instrument_command", "hold", "set_ratio", "ratio_events", "set_flag")
 
-__all__ = ["Cart", "CartScenery", "EYES", "ecm_urdf", "pairs"]
+__all__ = ["Cart", "CartScenery", "EYES", "pairs"]

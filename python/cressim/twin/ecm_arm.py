@@ -19,7 +19,7 @@ import numpy as np
 import torch
 
 from cressim.robots.ecm import (ECM_JOINT_NAMES, ECM_LOWER, ECM_UPPER, ECM_VELOCITY, ecm_forward_kinematics,
-                                ecm_inverse_kinematics)
+                                ecm_inverse_kinematics, ecm_jacobian)
 
 from .arm_model import ArmModel
 
@@ -36,6 +36,9 @@ class EcmKinematics:
 
     def forward(self, q: torch.Tensor) -> torch.Tensor:
         return ecm_forward_kinematics(q)
+
+    def jacobian(self, q: torch.Tensor):
+        return ecm_jacobian(q)
 
     def inverse(self, T: torch.Tensor, seed: torch.Tensor):
         """(M, 4, 4) goals -> (q (M, 4), reachable (M,)): each goal re-aligned to the scope's line

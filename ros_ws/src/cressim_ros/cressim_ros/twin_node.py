@@ -49,10 +49,11 @@ from tf2_msgs.msg import TFMessage
 from crtk_msgs.msg import OperatingState
 from crtk_msgs.srv import QueryForwardKinematics, QueryInverseKinematics, TriggerOperatingState
 
-from cressim.robots import PSM_JOINT_NAMES
+from cressim.robots.dvrk import PSM_JOINTS
 from cressim.robots.kinematics import matrix_to_pose7
 from cressim.twin import ConfigError, Sensor, SensorLoop, StateReport, TwinArms, TwinConfig
-from cressim.twin.cart import EYES, Cart, ecm_urdf, pairs
+from cressim.robots.ecm import ecm_urdf
+from cressim.twin.cart import EYES, Cart, pairs
 from cressim.twin.command_checks import stale_refusal
 from cressim.twin.sensor_loop import process_threads
 from cressim.twin_scene_file import DEFAULT_SCENE, SceneError, load_scene
@@ -704,7 +705,7 @@ class TwinNode(Node):
         stamp_ns = stamp.sec * 1_000_000_000 + stamp.nanosec
         snap = arms.snapshot(cartesian=bool(groups & {"cartesian", "velocity", "tf", "wrench"}),
                              jacobian="jacobian" in groups)
-        names, jaw_names = list(PSM_JOINT_NAMES), ["jaw"]
+        names, jaw_names = list(PSM_JOINTS), ["jaw"]
         zeros6, zeros1 = array("d", [0.0] * 6), array("d", [0.0])
         publish_tf = "tf" in groups and arms.sim_ns >= self._next_tf_ns
         if publish_tf:
