@@ -154,7 +154,7 @@ def test_scene_file_particles_render(tmp_path):
     seg = io.read_png(tmp_path / "env0_camera_segmentation.png")[..., :3]
     assert len(np.unique(seg.reshape(-1, 3), axis=0)) == 4  # background, tissue, blood, thread
     scene.write_text(PARTICLE_SCENE.replace(", cells: [2, 2, 2]", ""))
-    with pytest.raises(ValueError, match=r"particles.yaml:8: entities\[1\].soft_body.box: box needs 'cells'"):
+    with pytest.raises(ValueError, match=r"particles.yaml:8:22: entities\[1\].soft_body.box: box needs 'cells'"):
         load_scene(scene)
 
 
